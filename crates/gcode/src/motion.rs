@@ -1,0 +1,228 @@
+//! The machine-motion vocabulary shared by every crate: [`Motion`] and [`MotionSink`].
+
+use std::borrow::Cow;
+
+use nalgebra::{Isometry3, Point3};
+
+/// Active arc plane (G17 / G18 / G19).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Plane {
+    /// G17: arcs in XY, helix along Z.
+    #[default]
+    XY,
+    /// G18: arcs in ZX, helix along Y.
+    ZX,
+    /// G19: arcs in YZ, helix along X.
+    YZ,
+}
+
+/// Arc direction seen from the positive end of the plane's normal axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ArcDirection {
+    /// G2.
+    Clockwise,
+    /// G3.
+    CounterClockwise,
+}
+
+/// Spindle state (M3 / M4 / M5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SpindleDirection {
+    /// M3.
+    Clockwise,
+    /// M4.
+    CounterClockwise,
+    /// M5.
+    Off,
+}
+
+/// Coolant state (M7 / M8 / M9).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Coolant {
+    /// M7.
+    Mist,
+    /// M8.
+    Flood,
+    /// M9.
+    Off,
+}
+
+/// One machine event. Positions are in millimetres in the program's work frame
+/// (after units, offsets and incremental mode are resolved); feeds in mm/min.
+///
+/// The programmed point of a cutting tool is its tip (the lowest point of the
+/// cutter along the tool axis).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Motion<'a> {
+    /// G0: traverse at the machine's rapid rate to `to`.
+    Rapid {
+        /// End point.
+        to: Point3<f64>,
+    },
+    /// G1: straight feed move to `to`.
+    Linear {
+        /// End point.
+        to: Point3<f64>,
+        /// Feed rate in mm/min.
+        feed: f64,
+        /// Filament pushed during the move, in mm of filament (relative, after
+        /// M82/M83 and `G92 E` are resolved); `None` on machines without an E axis.
+        /// Negative values are retractions.
+        extrude: Option<f64>,
+    },
+    /// G2 / G3: circular or helical feed move.
+    Arc {
+        /// End point (the helix axis coordinate may differ from the start).
+        to: Point3<f64>,
+        /// Absolute arc centre; its coordinate along the plane normal is the start's.
+        center: Point3<f64>,
+        /// Arc plane.
+        plane: Plane,
+        /// Direction.
+        direction: ArcDirection,
+        /// Extra full turns beyond the first partial or full revolution (LinuxCNC `P` minus one).
+        turns: u32,
+        /// Feed rate in mm/min.
+        feed: f64,
+        /// Filament pushed during the move, as for [`Motion::Linear`].
+        extrude: Option<f64>,
+    },
+    /// M6 (with the preceding T word): the active tool becomes `tool`.
+    ToolChange {
+        /// Tool number.
+        tool: u32,
+    },
+    /// Spindle speed and direction.
+    Spindle {
+        /// Revolutions per minute.
+        rpm: f64,
+        /// Direction, or off.
+        direction: SpindleDirection,
+    },
+    /// Coolant change.
+    Coolant(Coolant),
+    /// G4: pause.
+    Dwell {
+        /// Seconds.
+        seconds: f64,
+    },
+    /// A program comment, without its delimiters.
+    Comment(Cow<'a, str>),
+    /// A slicer annotation: layer change (`;LAYER:n`, `;LAYER_CHANGE`, `;Z:`) or feature type (`;TYPE:`).
+    Marker(Marker<'a>),
+    /// A new setup: from now on, program coordinates map to the part frame through
+    /// `frame` (so the tool axis in the part frame is `frame * +Z`). Emitted by the
+    /// planner for each orientation and by the parser for rotary-axis words under a
+    /// machine kinematics.
+    Setup {
+        /// Program frame to part frame.
+        frame: Isometry3<f64>,
+        /// Rotary axis values (A, B, C in degrees) that realise `frame`, when known.
+        rotary: [Option<f64>; 3],
+    },
+    /// M2 / M30: end of program.
+    End,
+}
+
+/// Slicer annotations surfaced by the parser.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Marker<'a> {
+    /// A new layer begins; `index` when the slicer numbered it.
+    Layer {
+        /// Zero-based layer index, if stated.
+        index: Option<i64>,
+        /// Layer height (Z) if stated.
+        z: Option<f64>,
+    },
+    /// A new feature type (`;TYPE:WALL-OUTER`, `;TYPE:Perimeter`, ...).
+    Type(Cow<'a, str>),
+}
+
+/// A consumer of motions: the G-code writers, the simulator, statistics, user code.
+///
+/// Only [`MotionSink::motion`] is required. The parser also reports the source line
+/// of the motions that follow through [`MotionSink::source_line`], so that sinks can
+/// name the offending line in their reports.
+pub trait MotionSink {
+    /// What the sink can fail with.
+    type Error;
+
+    /// Receives one motion.
+    fn motion(&mut self, motion: &Motion<'_>) -> Result<(), Self::Error>;
+
+    /// The 1-based source line that the following motions come from. Default: ignored.
+    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
+        let _ = line;
+        Ok(())
+    }
+
+    /// No more motions follow. Default: nothing to do.
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
+
+impl<S: MotionSink + ?Sized> MotionSink for &mut S {
+    type Error = S::Error;
+    fn motion(&mut self, motion: &Motion<'_>) -> Result<(), Self::Error> {
+        (**self).motion(motion)
+    }
+    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
+        (**self).source_line(line)
+    }
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        (**self).finish()
+    }
+}
+
+/// Collects owned motions (with their source lines); handy in tests and small tools.
+#[derive(Debug, Clone, Default)]
+pub struct MotionRecorder {
+    /// `(source line, motion)` pairs in order; the line is 0 when none was reported.
+    pub motions: Vec<(u64, Motion<'static>)>,
+    line: u64,
+}
+
+impl Motion<'_> {
+    /// A copy that owns its text.
+    pub fn into_owned(self) -> Motion<'static> {
+        match self {
+            Motion::Comment(c) => Motion::Comment(Cow::Owned(c.into_owned())),
+            Motion::Marker(Marker::Type(t)) => Motion::Marker(Marker::Type(Cow::Owned(t.into_owned()))),
+            Motion::Marker(Marker::Layer { index, z }) => Motion::Marker(Marker::Layer { index, z }),
+            Motion::Rapid { to } => Motion::Rapid { to },
+            Motion::Linear { to, feed, extrude } => Motion::Linear { to, feed, extrude },
+            Motion::Arc { to, center, plane, direction, turns, feed, extrude } => {
+                Motion::Arc { to, center, plane, direction, turns, feed, extrude }
+            }
+            Motion::ToolChange { tool } => Motion::ToolChange { tool },
+            Motion::Spindle { rpm, direction } => Motion::Spindle { rpm, direction },
+            Motion::Coolant(c) => Motion::Coolant(c),
+            Motion::Dwell { seconds } => Motion::Dwell { seconds },
+            Motion::Setup { frame, rotary } => Motion::Setup { frame, rotary },
+            Motion::End => Motion::End,
+        }
+    }
+
+    /// The end point of a move (rapid, linear or arc), if this is one.
+    pub fn end_point(&self) -> Option<Point3<f64>> {
+        match self {
+            Motion::Rapid { to } | Motion::Linear { to, .. } | Motion::Arc { to, .. } => Some(*to),
+            _ => None,
+        }
+    }
+}
+
+impl MotionSink for MotionRecorder {
+    type Error = std::convert::Infallible;
+    fn motion(&mut self, motion: &Motion<'_>) -> Result<(), Self::Error> {
+        self.motions.push((self.line, motion.clone().into_owned()));
+        Ok(())
+    }
+    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
+        self.line = line;
+        Ok(())
+    }
+}

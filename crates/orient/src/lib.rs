@@ -1,0 +1,1 @@
+//! `s2g-orient`: see the crate description.

@@ -1,0 +1,1 @@
+//! `s2g-toolpath`: see the crate description.

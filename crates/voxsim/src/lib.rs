@@ -1,0 +1,1 @@
+//! `s2g-voxsim`: see the crate description.
