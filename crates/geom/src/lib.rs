@@ -9,6 +9,7 @@ mod error;
 mod math;
 mod mesh;
 mod sdf;
+mod setup;
 mod voxel;
 
 pub use crate::aabb::Aabb;
@@ -16,4 +17,5 @@ pub use crate::error::{GeomError, Result};
 pub use crate::math::{Isometry3, Point3, Real, Rotation3, Similarity3, UnitVector3, Vector3};
 pub use crate::mesh::Mesh;
 pub use crate::sdf::{BoxShape, SignedDistance, Sphere};
+pub use crate::setup::Setup;
 pub use crate::voxel::{BRICK, Brick, GridSpec, VoxelGrid};
