@@ -8,3 +8,17 @@ pub use s2g_geom as geom;
 pub use s2g_orient as orient;
 pub use s2g_toolpath as toolpath;
 pub use s2g_voxsim as voxsim;
+
+mod pipeline;
+mod policy;
+mod render;
+mod report;
+
+pub use crate::policy::{
+    Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,
+    StrategyKind,
+};
+pub use crate::pipeline::{
+    MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds, mill,
+};
+pub use crate::render::{Image, PathTrace, render_machining};

@@ -7,7 +7,11 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod gcode;
 mod inspect;
+mod mill;
+mod orient;
+mod simulate;
 
 /// Shape2Gcode: 3-D shapes to machine programs and machine programs back to shapes.
 #[derive(Debug, Parser)]
@@ -19,14 +23,26 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Mill a mesh: orientations, toolpaths, G-code, then simulate the written G-code and score it.
+    Mill(mill::Args),
+    /// Parse a G-code program: `check` errors, `stats`, or `motions` as JSON lines.
+    Gcode(gcode::Args),
     /// Load a mesh and print its checks (closed, manifold, volume, bounding box, ...).
     Inspect(inspect::Args),
+    /// Choose tool orientations by visibility; optionally write each setup's reconstruction.
+    Orient(orient::Args),
+    /// Simulate a G-code program on a voxel stock: removed volume, gouges, collisions, time.
+    Simulate(simulate::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Mill(args) => mill::run(args),
+        Command::Gcode(args) => gcode::run(args),
         Command::Inspect(args) => inspect::run(args),
+        Command::Orient(args) => orient::run(args),
+        Command::Simulate(args) => simulate::run(args),
     };
     match result {
         Ok(code) => code,

@@ -4,8 +4,26 @@
 //! The parser pushes into any sink, the dialect writers *are* sinks, and so are the
 //! simulator and any user code.
 
+mod arc;
+mod error;
+mod expr;
 mod motion;
+mod parser;
+mod spine;
+mod stats;
+mod writer;
 
+pub use crate::arc::{
+    ArcError, ArcFitOptions, ArcFitter, ArcSpec, MAX_ARC_SEGMENTS, arc_length, linearize_arc, plane_axes,
+    sweep_angle,
+};
+pub use crate::error::{GcodeError, GcodeErrorKind, ParseError};
 pub use crate::motion::{
     ArcDirection, Coolant, Marker, Motion, MotionRecorder, MotionSink, Plane, SpindleDirection,
+};
+pub use crate::parser::{ParseDialect, ParseOptions, ParseSummary, parse_file, parse_reader, parse_str};
+pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};
+pub use crate::stats::{Stats, StatsOptions};
+pub use crate::writer::{
+    Dialect, ExtrusionMode, FooterRetract, GcodeWriter, RotaryAxes, WriteError, WriterOptions, write_program,
 };

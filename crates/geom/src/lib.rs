@@ -5,17 +5,46 @@
 //! inside this crate only.
 
 mod aabb;
+mod atomic;
+mod check;
 mod error;
+mod io;
+mod marching_cubes;
 mod math;
 mod mesh;
+mod metrics;
+mod normalize;
+mod query;
+mod sample;
 mod sdf;
 mod setup;
+mod smooth;
 mod voxel;
+mod voxelize;
+mod winding;
 
 pub use crate::aabb::Aabb;
+pub use crate::atomic::{write_atomic, write_bytes_atomic};
+pub use crate::check::{
+    MeshReport, ReportOptions, drop_degenerate, merge_vertices, remove_unused_vertices, report, report_with,
+};
 pub use crate::error::{GeomError, Result};
+pub use crate::io::{
+    LoadOptions, MeshFormat, detect_format, load_mesh, load_mesh_with, read_gltf, read_mesh, read_obj,
+    read_ply, read_stl, read_stl_with, save_mesh, save_mesh_as, write_obj, write_ply, write_stl,
+};
+pub use crate::marching_cubes::{
+    McOptions, marching_cubes, marching_cubes_opt, marching_cubes_samples, marching_cubes_samples_opt,
+    marching_cubes_voxels, marching_cubes_voxels_opt,
+};
 pub use crate::math::{Isometry3, Point3, Real, Rotation3, Similarity3, UnitVector3, Vector3};
 pub use crate::mesh::Mesh;
+pub use crate::metrics::{MetricOptions, ShapeMetrics, chamfer_and_normals, compare, occupancy_iou};
+pub use crate::normalize::{Normalization, normalize_unit_cube, unit_cube_normalization};
+pub use crate::query::{ClosestPoint, MeshIndex, RayHit};
+pub use crate::sample::{SurfaceSamples, sample_surface};
 pub use crate::sdf::{BoxShape, SignedDistance, Sphere};
 pub use crate::setup::Setup;
+pub use crate::smooth::{TAUBIN_LAMBDA, TAUBIN_MU, laplacian_smooth, taubin_smooth};
 pub use crate::voxel::{BRICK, Brick, GridSpec, VoxelGrid};
+pub use crate::voxelize::{VoxelizeOptions, voxelize, voxelize_opt};

@@ -1,0 +1,179 @@
+//! `s2g mill`: mesh to checked, simulated, scored G-code.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use shape2gcode::gcode::Dialect;
+use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
+use shape2gcode::{
+    Action, FixedPolicy, HeuristicPolicy, MillOptions, Policy, Preset, RandomPolicy, SetupCount, Stage,
+    StrategyKind, mill, render_machining,
+};
+
+/// The bundled sample mesh.
+pub const DEFAULT_MESH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/stanford_bunny.stl");
+
+/// Arguments of `s2g mill`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The mesh to mill (STL, OBJ, glTF/GLB, PLY). Default: the bundled Stanford bunny.
+    mesh: Option<PathBuf>,
+    /// Program path; with several setups, `NAME.N.EXT` per setup. Default: out/<mesh stem>.ngc.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Units and action space: `paper` (unit cube) or `shop` (mm, shop tools).
+    #[arg(long, default_value = "paper")]
+    preset: String,
+    /// Number of setups: `auto` or a count.
+    #[arg(long, default_value = "auto")]
+    setups: String,
+    /// Policy: `heuristic`, `random`, or `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral).
+    #[arg(long, default_value = "heuristic")]
+    policy: String,
+    /// Controller dialect: linuxcnc, grbl or fanuc.
+    #[arg(long, default_value = "linuxcnc")]
+    dialect: String,
+    /// Simulation resolution (voxels along the stock's longest axis).
+    #[arg(long, default_value_t = 256)]
+    res: usize,
+    /// Seed of every random choice.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Write the JSON report here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Write the residual stock mesh here (STL, OBJ or PLY by extension).
+    #[arg(long)]
+    residual: Option<PathBuf>,
+    /// Write a PNG of the simulated part and one setup's toolpath here.
+    #[arg(long)]
+    render: Option<PathBuf>,
+    /// Print the JSON report on stdout instead of the summary.
+    #[arg(long)]
+    json: bool,
+    /// Leave wall-clock timings out of the report, so that two runs give identical bytes.
+    #[arg(long)]
+    reproducible: bool,
+}
+
+fn parse_policy(spec: &str, seed: u64) -> anyhow::Result<Box<dyn Policy>> {
+    Ok(match spec {
+        "heuristic" => Box::new(HeuristicPolicy::default()),
+        "random" => Box::new(RandomPolicy::new(seed)),
+        s if s.starts_with("fixed:") => {
+            let parts: Vec<&str> = s["fixed:".len()..].split(',').collect();
+            let [r, h, st] = parts[..] else { bail!("--policy fixed:RADIUS,LAYER,STRATEGY, got {s:?}") };
+            let strategy = StrategyKind::from_name(st).with_context(|| format!("unknown strategy {st:?}"))?;
+            let tool_radius: f64 = r.parse().with_context(|| format!("bad radius {r:?}"))?;
+            let layer_height: f64 = h.parse().with_context(|| format!("bad layer height {h:?}"))?;
+            Box::new(FixedPolicy(Action { tool_radius, layer_height, strategy }))
+        }
+        other => bail!("unknown policy {other:?} (learned policies come with the rl crate; use heuristic, random or fixed:R,H,S)"),
+    })
+}
+
+fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
+    if n == 1 {
+        return vec![output.to_path_buf()];
+    }
+    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "program".into());
+    let ext = output.extension().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "ngc".into());
+    (1..=n).map(|i| output.with_file_name(format!("{stem}.{i}.{ext}"))).collect()
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
+    let mesh = load_mesh(&mesh_path)?;
+    let preset = match args.preset.as_str() {
+        "paper" => Preset::Paper,
+        "shop" => Preset::Shop,
+        p => bail!("unknown preset {p:?} (paper or shop)"),
+    };
+    let setups = match args.setups.as_str() {
+        "auto" => SetupCount::Auto,
+        n => SetupCount::Exactly(n.parse().with_context(|| format!("--setups auto|N, got {n:?}"))?),
+    };
+    let dialect = match args.dialect.as_str() {
+        "linuxcnc" => Dialect::LinuxCnc,
+        "grbl" => Dialect::Grbl,
+        "fanuc" => Dialect::Fanuc,
+        d => bail!("unknown dialect {d:?} (linuxcnc, grbl or fanuc)"),
+    };
+    let mut policy = parse_policy(&args.policy, args.seed)?;
+    let opts = MillOptions { preset, setups, dialect, resolution: args.res, seed: args.seed, ..MillOptions::default() };
+
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()));
+    bar.enable_steady_tick(Duration::from_millis(120));
+    let t0 = std::time::Instant::now();
+    let mut progress = |stage: Stage| {
+        if std::env::var_os("S2G_TRACE").is_some() {
+            eprintln!("[{:8.2}s] {stage:?}", t0.elapsed().as_secs_f64());
+        }
+        bar.set_message(match stage {
+            Stage::Orientation => "choosing tool orientations",
+            Stage::ActionSelection => "choosing tool, layer height and strategy",
+            Stage::GcodeTranslation => "planning toolpaths and writing G-code",
+            Stage::Simulation => "re-reading the G-code and simulating it",
+            Stage::Scoring => "scoring the residual stock",
+        });
+    };
+    let milled = mill(&mesh, policy.as_mut(), &opts, &mut progress)
+        .with_context(|| format!("milling {}", mesh_path.display()))?;
+    bar.finish_and_clear();
+
+    let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "part".into());
+    let output = args.output.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.ngc")));
+    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let paths = program_paths(&output, milled.programs.len());
+    for (path, text) in paths.iter().zip(&milled.programs) {
+        write_bytes_atomic(path, text.as_bytes())?;
+    }
+    let mut report = milled.report_json(!args.reproducible);
+    report["input"] = serde_json::json!(mesh_path.display().to_string());
+    report["programs"] = serde_json::json!(paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>());
+    if let Some(p) = &args.residual {
+        save_mesh(p, &milled.residual)?;
+        report["residual"] = serde_json::json!(p.display().to_string());
+    }
+    if let Some(p) = &args.render {
+        let img = render_machining(&milled.residual, &milled.stock, Some((&milled.trace, milled.trace_axis)), 480);
+        write_bytes_atomic(p, &img.to_png())?;
+        report["render"] = serde_json::json!(p.display().to_string());
+    }
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    if let Some(p) = &args.report {
+        write_bytes_atomic(p, text.as_bytes())?;
+    }
+    if args.json {
+        print!("{text}");
+    } else {
+        let m = &milled.metrics;
+        let s = &milled.simulation;
+        println!("{}: {} setup(s), policy {}", mesh_path.display(), milled.setups.len(), milled.policy);
+        for (i, sp) in milled.setups.iter().enumerate() {
+            let a = sp.setup.tool_axis();
+            println!(
+                "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}), radius {}, layer {:.6}, {}, {} layers -> {}",
+                i + 1, a.x, a.y, a.z, sp.action.tool_radius, sp.action.layer_height,
+                sp.action.strategy.name(), sp.plan.layers, paths.get(i).unwrap_or(&paths[0]).display()
+            );
+        }
+        println!(
+            "IoU {:.4}  F1 {:.4}  CD x1000 {:.4}  NC {:.4}  time {:.1} s",
+            m.iou, m.f1, m.chamfer_x1000, m.normal_consistency, s.machining_time_s
+        );
+        println!("gouges {} voxels, rapid collisions {}", s.gouge_voxels, milled.rapid_collisions());
+        let t = &milled.stage_seconds;
+        println!(
+            "stages: orientation {:.2} s, actions {:.3} s, G-code {:.2} s, simulation {:.2} s, scoring {:.2} s",
+            t.orientation, t.action_selection, t.gcode_translation, t.simulation, t.scoring
+        );
+    }
+    Ok(if milled.is_safe() { ExitCode::SUCCESS } else { ExitCode::from(2) })
+}

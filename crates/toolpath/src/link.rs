@@ -1,0 +1,238 @@
+//! Linking and emission: turns layer plans into motions with safe retracts and entries.
+//!
+//! Safety argument (why rapids never meet material): the keep-out grows downward, so the
+//! free region at a layer lies inside the free region of every layer above, where the
+//! contour and clearing passes (or the absence of material) have already removed the
+//! material down to that layer's level. So a rapid straight down at a path start is safe to
+//! `z_above + gap`; below that the tool feeds in (helix, ramp or plunge). Horizontal rapids
+//! run only on the clearance plane above the stock.
+
+use std::f64::consts::PI;
+
+use s2g_gcode::{ArcDirection, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use s2g_geom::{Aabb, Point3, Setup};
+
+use crate::error::ToolpathError;
+use crate::plan::{Ctx, LayerPlan, PlanOptions};
+use crate::region::{Point2, Polyline2, RegionIndex};
+use crate::tool::Tool;
+
+pub(crate) struct LinkParams {
+    pub clear_z: f64,
+    pub gap: f64,
+    pub max_link: f64,
+    pub stock: Aabb,
+}
+
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct Stats {
+    pub cutting_length: f64,
+    pub rapid_length: f64,
+    pub time_s: f64,
+    pub retracts: usize,
+    pub helix: usize,
+    pub ramp: usize,
+    pub plunge: usize,
+}
+
+pub(crate) struct Emitter<'s, S: MotionSink> {
+    sink: &'s mut S,
+    tool: Tool,
+    rapid_feed: f64,
+    ramp_tan: f64,
+    helix_radius: f64,
+    min_ramp: f64,
+    p: LinkParams,
+    pos: Option<Point3>,
+    stats: Stats,
+}
+
+impl<'s, S: MotionSink> Emitter<'s, S> {
+    pub fn new(sink: &'s mut S, tool: &Tool, opts: &PlanOptions, p: LinkParams) -> Self {
+        Self {
+            sink,
+            tool: *tool,
+            rapid_feed: opts.rapid_feed,
+            ramp_tan: opts.ramp.angle_deg.to_radians().tan().max(1e-6),
+            helix_radius: opts.ramp.helix_radius.unwrap_or(0.5 * tool.radius),
+            min_ramp: opts.ramp.min_ramp_length.unwrap_or(tool.radius),
+            p,
+            pos: None,
+            stats: Stats::default(),
+        }
+    }
+
+    pub fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    fn send(&mut self, m: Motion<'_>) -> Result<(), ToolpathError<S::Error>> {
+        self.sink.motion(&m).map_err(ToolpathError::Sink)
+    }
+
+    fn rapid(&mut self, to: Point3) -> Result<(), ToolpathError<S::Error>> {
+        if let Some(p) = self.pos {
+            if p == to {
+                return Ok(());
+            }
+            let l = (to - p).norm();
+            self.stats.rapid_length += l;
+            self.stats.time_s += l / self.rapid_feed * 60.0;
+        }
+        self.pos = Some(to);
+        self.send(Motion::Rapid { to })
+    }
+
+    fn feed(&mut self, to: Point3, feed: f64) -> Result<(), ToolpathError<S::Error>> {
+        if let Some(p) = self.pos {
+            if p == to {
+                return Ok(());
+            }
+            let l = (to - p).norm();
+            self.stats.cutting_length += l;
+            self.stats.time_s += l / feed * 60.0;
+        }
+        self.pos = Some(to);
+        self.send(Motion::Linear { to, feed, extrude: None })
+    }
+
+    pub fn begin(&mut self, setup: &Setup, start: &Point3, strategy: &str) -> Result<(), ToolpathError<S::Error>> {
+        self.send(Motion::Setup { frame: setup.frame, rotary: [None; 3] })?;
+        let c = format!(
+            "s2g-toolpath: tool {} radius {} strategy {}",
+            self.tool.number, self.tool.radius, strategy
+        );
+        self.send(Motion::Comment(c.into()))?;
+        self.send(Motion::ToolChange { tool: self.tool.number })?;
+        self.send(Motion::Spindle { rpm: self.tool.spindle_rpm, direction: SpindleDirection::Clockwise })?;
+        // Eq. (4) of the Shape2Gcode paper: G0 to the start position at a safe height.
+        self.rapid(Point3::new(start.x, start.y, self.p.clear_z.max(start.z)))
+    }
+
+    fn retract(&mut self) -> Result<(), ToolpathError<S::Error>> {
+        if let Some(p) = self.pos
+            && p.z < self.p.clear_z
+        {
+            self.stats.retracts += 1;
+            self.rapid(Point3::new(p.x, p.y, self.p.clear_z))?;
+        }
+        Ok(())
+    }
+
+    pub fn finish(&mut self) -> Result<(), ToolpathError<S::Error>> {
+        self.retract()?;
+        self.send(Motion::Spindle { rpm: 0.0, direction: SpindleDirection::Off })
+    }
+
+    fn outside_stock(&self, q: &Point2) -> bool {
+        let s = &self.p.stock;
+        let dx = (s.min.x - q.x).max(q.x - s.max.x).max(0.0);
+        let dy = (s.min.y - q.y).max(q.y - s.max.y).max(0.0);
+        (dx * dx + dy * dy).sqrt() >= self.tool.radius * (1.0 - 1e-9)
+    }
+
+    pub fn layer(&mut self, plan: &LayerPlan, ctx: &Ctx<'_>) -> Result<(), ToolpathError<S::Error>> {
+        self.send(Motion::Marker(Marker::Layer { index: Some(plan.index as i64), z: Some(plan.z) }))?;
+        let index = plan.free.index();
+        let tol = 1e-7 * self.tool.radius;
+        let z = plan.z;
+        for path in plan.contour.iter().chain(&plan.clearing) {
+            let Some(s) = path.start() else { continue };
+            let here = self.pos.filter(|p| (p.z - z).abs() <= tol);
+            let stay = here.is_some_and(|p| {
+                let a = Point2::new(p.x, p.y);
+                (s - a).norm() <= self.p.max_link && (a == s || index.segment_inside(&a, &s, tol))
+            });
+            if stay {
+                self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
+            } else {
+                self.retract()?;
+                let top = (plan.z_above + self.p.gap).min(self.p.clear_z);
+                self.rapid(Point3::new(s.x, s.y, self.p.clear_z))?;
+                self.rapid(Point3::new(s.x, s.y, top))?;
+                self.enter(path, &index, plan, ctx, top)?;
+            }
+            for q in path.points.iter().skip(1) {
+                self.feed(Point3::new(q.x, q.y, z), self.tool.feed)?;
+            }
+            if path.closed {
+                self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Feeds from `top` down to the layer at the path's start: straight in air, else by
+    /// helix (when its circle fits in the free region), else by a zigzag ramp along the
+    /// first segment, else by a straight plunge.
+    fn enter(
+        &mut self,
+        path: &Polyline2,
+        index: &RegionIndex,
+        plan: &LayerPlan,
+        ctx: &Ctx<'_>,
+        top: f64,
+    ) -> Result<(), ToolpathError<S::Error>> {
+        let Some(s) = path.start() else { return Ok(()) };
+        let z = plan.z;
+        let depth = top - z;
+        let plunge = self.tool.plunge_feed;
+        let air = self.outside_stock(&s) || ctx.rest.is_some_and(|rest| {
+            let r = self.tool.radius;
+            !rest.any_in_box(&Point3::new(s.x - r, s.y - r, z), &Point3::new(s.x + r, s.y + r, top))
+        });
+        if depth <= 0.0 || air {
+            if !air {
+                self.stats.plunge += 1;
+            }
+            return self.feed(Point3::new(s.x, s.y, z), plunge);
+        }
+        // Helix.
+        let rh = self.helix_radius;
+        if rh > 0.0 {
+            let pitch = 2.0 * PI * rh * self.ramp_tan;
+            for k in 0..8 {
+                let a = k as f64 * PI / 4.0;
+                let c = Point2::new(s.x + rh * a.cos(), s.y + rh * a.sin());
+                if index.contains(&c) && index.boundary_distance(&c, 2.0 * rh) >= rh * (1.0 + 1e-6) {
+                    let revs = (depth / pitch).ceil().max(1.0);
+                    let l = revs * ((2.0 * PI * rh).powi(2) + (depth / revs).powi(2)).sqrt();
+                    self.stats.cutting_length += l;
+                    self.stats.time_s += l / plunge * 60.0;
+                    self.stats.helix += 1;
+                    let to = Point3::new(s.x, s.y, z);
+                    self.pos = Some(to);
+                    return self.send(Motion::Arc {
+                        to,
+                        center: Point3::new(c.x, c.y, top),
+                        plane: Plane::XY,
+                        direction: ArcDirection::CounterClockwise,
+                        turns: revs as u32 - 1,
+                        feed: plunge,
+                        extrude: None,
+                    });
+                }
+            }
+        }
+        // Ramp back and forth along the first segment.
+        if let Some(&q) = path.points.get(1) {
+            let seg = q - s;
+            let len = seg.norm();
+            if len >= self.min_ramp && len > 0.0 {
+                let u = seg / len;
+                let l = len.min(depth / self.ramp_tan).max(self.min_ramp.min(len));
+                let legs = (depth / (l * self.ramp_tan)).ceil().max(1.0) as usize;
+                let far = s + u * l;
+                self.stats.ramp += 1;
+                for k in 1..=legs {
+                    let zk = top - depth * k as f64 / legs as f64;
+                    let xy = if k % 2 == 1 { far } else { s };
+                    self.feed(Point3::new(xy.x, xy.y, zk), plunge)?;
+                }
+                return self.feed(Point3::new(s.x, s.y, z), self.tool.feed);
+            }
+        }
+        self.stats.plunge += 1;
+        self.feed(Point3::new(s.x, s.y, z), plunge)
+    }
+}

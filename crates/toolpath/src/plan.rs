@@ -1,0 +1,510 @@
+//! Planning a setup: slicing, per-layer regions, contour and clearing paths, and the
+//! streaming of motions into a [`MotionSink`] (seed 000 §3.3).
+
+use rayon::prelude::*;
+use s2g_gcode::MotionSink;
+use s2g_geom::{Aabb, Mesh, Point3, Setup};
+
+use crate::error::ToolpathError;
+use crate::link::{Emitter, LinkParams};
+use crate::region::{Point2, Polyline2, Region2, nearest_index};
+use crate::rest::RemainingMaterial;
+use crate::slice::{flat_levels, keepouts, layer_levels, setup_triangles};
+use crate::strategy::Strategy;
+use crate::tool::Tool;
+
+/// Default radians per arc segment in offsets (about 63 segments per full circle).
+pub const DEFAULT_ARC_STEP: f64 = 0.1;
+
+/// How the tool enters material below the previous level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RampOptions {
+    /// Descent angle of ramps and helices, degrees from horizontal. Default 3.
+    pub angle_deg: f64,
+    /// Radius of the helix the tool centre follows; `None` (default) means half the tool radius.
+    pub helix_radius: Option<f64>,
+    /// Shortest usable ramp; `None` (default) means the tool radius. Where neither a helix
+    /// nor a ramp fits, the tool plunges straight at the plunge feed.
+    pub min_ramp_length: Option<f64>,
+}
+
+impl Default for RampOptions {
+    fn default() -> Self {
+        Self { angle_deg: 3.0, helix_radius: None, min_ramp_length: None }
+    }
+}
+
+/// Planning options. Distances are in part units, in the setup frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanOptions {
+    /// Largest depth of cut per layer. Default 1/64 (the paper's coarsest, normalised units).
+    pub layer_height: f64,
+    /// Distance between neighbouring clearing passes as a fraction of the tool diameter,
+    /// in (0, 1]. Default 0.5.
+    pub stepover: f64,
+    /// Clearing strategy. Default zigzag along X.
+    pub strategy: Strategy,
+    /// Material left on the part's walls for a finishing pass. Default 0.
+    pub finishing_allowance: f64,
+    /// Climb milling (with a clockwise spindle) rather than conventional. Default true.
+    pub climb: bool,
+    /// Height of the clearance plane above the stock top (Appendix A.1: 0.1 in normalised
+    /// units). Default 0.1.
+    pub clearance_height: f64,
+    /// Rapid descents stop this far above the previous level before feeding in; `None`
+    /// (default) means half the layer height.
+    pub retract_gap: Option<f64>,
+    /// The stock box in the setup frame; `None` (default) means the part's bounding box in
+    /// the setup frame grown by `stock_margin`.
+    pub stock: Option<Aabb>,
+    /// Margin around the part for the default stock. Default 0.
+    pub stock_margin: f64,
+    /// The start position (Eq. 4) in the setup frame; `None` (default) means above the
+    /// stock's minimum corner (outside it by the tool radius) at the clearance plane.
+    pub safe_start: Option<Point3>,
+    /// Entry moves.
+    pub ramp: RampOptions,
+    /// Radians per arc segment in offsets (chord tolerance: the sagitta is
+    /// `radius * (1 - cos(arc_step / 2))`). Default [`DEFAULT_ARC_STEP`].
+    pub arc_step: f64,
+    /// Keep-out vertices closer than `offset_eps * tool radius` are merged before offsetting
+    /// (the offset grows by as much, so it stays conservative). Default 1e-3.
+    pub offset_eps: f64,
+    /// Put a layer exactly on every horizontal face's level. Default true.
+    pub snap_to_flats: bool,
+    /// A face is horizontal when `|n_z| >= 1 - flat_tolerance`. Default 1e-6.
+    pub flat_tolerance: f64,
+    /// Faces within this distance above a level do not block the tool there (its tip may
+    /// rest on them); also the merge distance of flat levels. Default 1e-7.
+    pub level_tolerance: f64,
+    /// Lowest level to cut (setup frame z); `None` (default) means the part's lowest point
+    /// (never below the stock bottom, nor deeper than the flute length below the stock top).
+    pub bottom: Option<f64>,
+    /// Longest link cut at feed without retracting (it must also stay in the free region);
+    /// `None` (default) means two tool diameters.
+    pub max_stay_down_link: Option<f64>,
+    /// Rapid traverse rate for time estimates, units per minute. Default 5000.
+    pub rapid_feed: f64,
+    /// Cell size of the remaining-material map in rest machining; `None` (default) means
+    /// the larger of half the step-over and 1/256 of the stock's larger side.
+    pub rest_cell: Option<f64>,
+    /// Layers planned concurrently before their motions are streamed (bounds memory).
+    /// Default 32.
+    pub layers_per_batch: usize,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        Self {
+            layer_height: 1.0 / 64.0,
+            stepover: 0.5,
+            strategy: Strategy::default(),
+            finishing_allowance: 0.0,
+            climb: true,
+            clearance_height: 0.1,
+            retract_gap: None,
+            stock: None,
+            stock_margin: 0.0,
+            safe_start: None,
+            ramp: RampOptions::default(),
+            arc_step: DEFAULT_ARC_STEP,
+            offset_eps: 1e-3,
+            snap_to_flats: true,
+            flat_tolerance: 1e-6,
+            level_tolerance: 1e-7,
+            bottom: None,
+            max_stay_down_link: None,
+            rapid_feed: 5000.0,
+            rest_cell: None,
+            layers_per_batch: 32,
+        }
+    }
+}
+
+impl PlanOptions {
+    fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be positive and finite, got {v}")) }
+        };
+        let nonneg = |name: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be finite and >= 0, got {v}")) }
+        };
+        pos("layer_height", self.layer_height)?;
+        if !(self.stepover > 0.0 && self.stepover <= 1.0) {
+            return Err(format!("stepover must be in (0, 1] (fraction of the diameter), got {}", self.stepover));
+        }
+        nonneg("finishing_allowance", self.finishing_allowance)?;
+        nonneg("clearance_height", self.clearance_height)?;
+        nonneg("stock_margin", self.stock_margin)?;
+        pos("arc_step", self.arc_step)?;
+        nonneg("flat_tolerance", self.flat_tolerance)?;
+        nonneg("offset_eps", self.offset_eps)?;
+        nonneg("level_tolerance", self.level_tolerance)?;
+        pos("rapid_feed", self.rapid_feed)?;
+        if !(self.ramp.angle_deg > 0.0 && self.ramp.angle_deg <= 90.0) {
+            return Err(format!("ramp angle must be in (0, 90] degrees, got {}", self.ramp.angle_deg));
+        }
+        for (name, v) in [
+            ("retract_gap", self.retract_gap),
+            ("ramp.helix_radius", self.ramp.helix_radius),
+            ("ramp.min_ramp_length", self.ramp.min_ramp_length),
+            ("max_stay_down_link", self.max_stay_down_link),
+            ("bottom", self.bottom.map(f64::abs)),
+        ] {
+            if let Some(v) = v {
+                nonneg(name, v)?;
+            }
+        }
+        if let Some(c) = self.rest_cell {
+            pos("rest_cell", c)?;
+        }
+        if let Strategy::Zigzag { angle_deg } = self.strategy
+            && !angle_deg.is_finite()
+        {
+            return Err("zigzag angle must be finite".into());
+        }
+        if let Some(p) = self.safe_start
+            && !p.iter().all(|c| c.is_finite())
+        {
+            return Err("safe_start must be finite".into());
+        }
+        Ok(())
+    }
+}
+
+/// What a planned setup amounts to.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PlanSummary {
+    /// Number of layers.
+    pub layers: usize,
+    /// Layers with nothing to cut (no remaining material).
+    pub skipped_layers: usize,
+    /// Length of feed moves (cuts, links, ramps, helices, plunges).
+    pub cutting_length: f64,
+    /// Length of rapid moves.
+    pub rapid_length: f64,
+    /// Machining time estimate: feed moves at their feed, rapids at `rapid_feed`, seconds.
+    pub estimated_time_s: f64,
+    /// Fraction of the contour and clearing length along which the central half of the
+    /// cutter (a square of half-side r/2 over the layer's slab) meets no remaining
+    /// material; `None` without rest information.
+    pub air_cut_fraction: Option<f64>,
+    /// Retracts to the clearance plane.
+    pub retracts: usize,
+    /// Entries by helix, by ramp and by straight plunge (in material or in air).
+    pub helix_entries: usize,
+    /// Entries by zigzag ramp.
+    pub ramp_entries: usize,
+    /// Straight plunges.
+    pub plunge_entries: usize,
+    /// The stock box used (setup frame).
+    pub stock: Option<Aabb>,
+}
+
+/// The slicing of a part for one setup.
+#[derive(Debug, Clone)]
+pub struct SetupSlices {
+    /// The stock box (setup frame).
+    pub stock: Aabb,
+    /// The part's bounding box in the setup frame.
+    pub part_bbox: Aabb,
+    /// Layer levels (setup-frame z), top down.
+    pub levels: Vec<f64>,
+    /// Per level: the exact keep-out region (XY projection of the part above the level).
+    pub keepouts: Vec<Region2>,
+}
+
+/// One layer's plan: its regions and paths (tool-centre XY at level `z`).
+#[derive(Debug, Clone)]
+pub struct LayerPlan {
+    /// Layer index from the top.
+    pub index: usize,
+    /// Level of the tool tip.
+    pub z: f64,
+    /// The level above (previous layer, or the stock top): material above it is gone.
+    pub z_above: f64,
+    /// Where the tool centre may go: stock outline grown by the radius, minus the keep-out
+    /// grown by radius + allowance.
+    pub free: Region2,
+    /// The region the clearing strategy fills (`free`, restricted to remaining material).
+    pub clearing_region: Region2,
+    /// Contour passes along the offset keep-out (closed loops, or pieces where clipped).
+    pub contour: Vec<Polyline2>,
+    /// Clearing passes, in order.
+    pub clearing: Vec<Polyline2>,
+    /// Cut and air length of contour + clearing (air only with rest information).
+    pub cut_air: (f64, f64),
+}
+
+fn check_tool_opts<E>(tool: &Tool, opts: &PlanOptions) -> Result<(), ToolpathError<E>> {
+    tool.validate().map_err(ToolpathError::InvalidTool)?;
+    opts.validate().map_err(ToolpathError::InvalidOptions)
+}
+
+/// Slices `part` (part frame) for `setup`: stock, levels and keep-out regions.
+pub fn slice_setup<E>(
+    part: &Mesh,
+    setup: &Setup,
+    tool: &Tool,
+    opts: &PlanOptions,
+) -> Result<SetupSlices, ToolpathError<E>> {
+    check_tool_opts(tool, opts)?;
+    if part.is_empty() {
+        return Err(ToolpathError::EmptyMesh);
+    }
+    let tris = setup_triangles(part, setup);
+    let part_bbox = Aabb::from_points(tris.iter().flatten()).ok_or(ToolpathError::EmptyMesh)?;
+    let stock = opts.stock.unwrap_or_else(|| part_bbox.inflated(opts.stock_margin));
+    if !stock.is_valid() || (0..3).any(|a| stock.extent()[a] <= 0.0) {
+        return Err(ToolpathError::InvalidStock(format!("{stock:?}")));
+    }
+    let top = stock.max.z;
+    let mut bottom = opts.bottom.unwrap_or(part_bbox.min.z).max(stock.min.z);
+    if tool.flute_length.is_finite() {
+        bottom = bottom.max(top - tool.flute_length);
+    }
+    let flats =
+        if opts.snap_to_flats { flat_levels(&tris, opts.flat_tolerance, opts.level_tolerance) } else { Vec::new() };
+    let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
+    let keepouts = keepouts(&tris, &levels, opts.level_tolerance);
+    Ok(SetupSlices { stock, part_bbox, levels, keepouts })
+}
+
+pub(crate) struct Ctx<'a> {
+    pub tool: &'a Tool,
+    pub opts: &'a PlanOptions,
+    pub stock: Aabb,
+    pub start: Point3,
+    pub rest: Option<&'a dyn RemainingMaterial>,
+}
+
+impl Ctx<'_> {
+    fn stepover(&self) -> f64 {
+        self.opts.stepover * self.tool.diameter()
+    }
+
+    fn centre_rect(&self) -> Region2 {
+        let r = self.tool.radius;
+        Region2::rect(
+            Point2::new(self.stock.min.x - r, self.stock.min.y - r),
+            Point2::new(self.stock.max.x + r, self.stock.max.y + r),
+        )
+    }
+
+    fn rest_cell(&self) -> f64 {
+        let e = self.stock.extent();
+        self.opts.rest_cell.unwrap_or_else(|| (0.5 * self.stepover()).max(e.x.max(e.y) / 256.0))
+    }
+
+    /// Tool-centre region near remaining material in the slab `[z, z_above]`: cells of the
+    /// material map grown by the tool radius.
+    fn material_reach(&self, rest: &dyn RemainingMaterial, z: f64, z_above: f64) -> Region2 {
+        let c = self.rest_cell();
+        let (lo, hi) = (self.stock.min, self.stock.max);
+        let nx = (((hi.x - lo.x) / c).ceil() as usize).max(1);
+        let ny = (((hi.y - lo.y) / c).ceil() as usize).max(1);
+        let mut rects: Vec<Vec<[f64; 2]>> = Vec::new();
+        for j in 0..ny {
+            let y0 = lo.y + j as f64 * c;
+            let y1 = (y0 + c).min(hi.y);
+            let mut run: Option<usize> = None;
+            for i in 0..=nx {
+                let has = i < nx && {
+                    let x0 = lo.x + i as f64 * c;
+                    let x1 = (x0 + c).min(hi.x);
+                    rest.any_in_box(&Point3::new(x0, y0, z), &Point3::new(x1, y1, z_above))
+                };
+                match (has, run) {
+                    (true, None) => run = Some(i),
+                    (false, Some(s)) => {
+                        let x0 = lo.x + s as f64 * c;
+                        let x1 = (lo.x + i as f64 * c).min(hi.x);
+                        rects.push(vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]);
+                        run = None;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        Region2::union_contours(rects).offset(self.tool.radius, self.opts.arc_step)
+    }
+
+    /// No remaining material under the central half of the cutter (the rim is left out:
+    /// next to the part it always touches the part itself).
+    fn is_air(&self, rest: &dyn RemainingMaterial, p: &Point2, z: f64, z_above: f64) -> bool {
+        let r = 0.5 * self.tool.radius;
+        !rest.any_in_box(&Point3::new(p.x - r, p.y - r, z), &Point3::new(p.x + r, p.y + r, z_above))
+    }
+
+    pub(crate) fn plan_layer(&self, index: usize, z: f64, z_above: f64, keepout: &Region2) -> LayerPlan {
+        let r = self.tool.radius;
+        let off = keepout.grown_safe(r + self.opts.finishing_allowance, self.opts.offset_eps * r, self.opts.arc_step);
+        let rect = self.centre_rect();
+        let free = rect.difference(&off);
+        let (clip, clearing_region) = match self.rest {
+            Some(rest) => {
+                let reach = self.material_reach(rest, z, z_above);
+                (rect.intersection(&reach), free.intersection(&reach))
+            }
+            None => (rect, free.clone()),
+        };
+        let start = Point2::new(self.start.x, self.start.y);
+        // Contour: the offset keep-out's boundary inside the stock outline; part on the
+        // right of travel for climb milling (its loops come part-on-the-left).
+        let mut pieces: Vec<Polyline2> = Vec::new();
+        for mut lp in off.loops() {
+            if self.opts.climb {
+                lp.reverse();
+            }
+            pieces.extend(clip.clip_polyline(&lp));
+        }
+        let mut contour = Vec::with_capacity(pieces.len());
+        let mut cur = start;
+        while !pieces.is_empty() {
+            let mut best = (f64::INFINITY, 0);
+            for (i, p) in pieces.iter().enumerate() {
+                let d = if p.closed {
+                    p.points.get(nearest_index(&p.points, &cur)).map_or(f64::INFINITY, |q| (q - cur).norm())
+                } else {
+                    p.start().map_or(f64::INFINITY, |q| (q - cur).norm())
+                };
+                if d < best.0 {
+                    best = (d, i);
+                }
+            }
+            let mut p = pieces.swap_remove(best.1);
+            p.rotate_to_nearest(&cur);
+            cur = p.end().unwrap_or(cur);
+            contour.push(p);
+        }
+        let clearing = self.opts.strategy.clear_with(
+            &clearing_region,
+            r,
+            self.stepover(),
+            cur,
+            self.opts.arc_step,
+            self.opts.climb,
+        );
+        let mut cut_air = (0.0, 0.0);
+        for p in contour.iter().chain(&clearing) {
+            cut_air.0 += p.length();
+            if let Some(rest) = self.rest {
+                for (a, b) in p.segments() {
+                    let len = (b - a).norm();
+                    let n = ((len / (0.5 * r)).ceil() as usize).max(1);
+                    let air = (0..n)
+                        .filter(|&k| self.is_air(rest, &(a + (b - a) * ((k as f64 + 0.5) / n as f64)), z, z_above))
+                        .count();
+                    cut_air.1 += len * air as f64 / n as f64;
+                }
+            }
+        }
+        LayerPlan { index, z, z_above, free, clearing_region, contour, clearing, cut_air }
+    }
+}
+
+/// Plans every layer of a setup (without emitting): for inspection and tests. Memory grows
+/// with the number of layers; [`plan_setup`] streams instead.
+pub fn plan_layers<E>(
+    part: &Mesh,
+    setup: &Setup,
+    tool: &Tool,
+    opts: &PlanOptions,
+    rest: Option<&dyn RemainingMaterial>,
+) -> Result<(SetupSlices, Vec<LayerPlan>), ToolpathError<E>> {
+    let slices = slice_setup(part, setup, tool, opts)?;
+    let ctx = make_ctx(&slices, tool, opts, rest);
+    let layers = (0..slices.levels.len())
+        .into_par_iter()
+        .map(|l| ctx.plan_layer(l, slices.levels[l], z_above(&slices, l), &slices.keepouts[l]))
+        .collect();
+    Ok((slices, layers))
+}
+
+fn z_above(slices: &SetupSlices, l: usize) -> f64 {
+    if l == 0 { slices.stock.max.z } else { slices.levels[l - 1] }
+}
+
+fn make_ctx<'a>(
+    slices: &SetupSlices,
+    tool: &'a Tool,
+    opts: &'a PlanOptions,
+    rest: Option<&'a dyn RemainingMaterial>,
+) -> Ctx<'a> {
+    let stock = slices.stock;
+    let clear_z = stock.max.z + opts.clearance_height;
+    let start = opts.safe_start.unwrap_or_else(|| {
+        Point3::new(stock.min.x - tool.radius, stock.min.y - tool.radius, clear_z)
+    });
+    Ctx { tool, opts, stock, start, rest }
+}
+
+/// Plans `part` (part frame) for `setup` and streams the program into `sink`:
+/// `Motion::Setup { frame }`, tool change, spindle on, the start position (Eq. 4), then per
+/// layer the contour and the clearing passes in SETUP-frame coordinates, and finally a
+/// retract to the clearance plane and spindle off (no program end: the caller may add
+/// further setups).
+pub fn plan_setup<S: MotionSink>(
+    part: &Mesh,
+    setup: &Setup,
+    tool: &Tool,
+    opts: &PlanOptions,
+    sink: &mut S,
+) -> Result<PlanSummary, ToolpathError<S::Error>> {
+    plan_setup_rest(part, setup, tool, opts, None, sink)
+}
+
+/// [`plan_setup`] with rest machining: areas where `rest` reports no material are skipped.
+pub fn plan_setup_rest<S: MotionSink>(
+    part: &Mesh,
+    setup: &Setup,
+    tool: &Tool,
+    opts: &PlanOptions,
+    rest: Option<&dyn RemainingMaterial>,
+    sink: &mut S,
+) -> Result<PlanSummary, ToolpathError<S::Error>> {
+    let slices = slice_setup(part, setup, tool, opts)?;
+    let ctx = make_ctx(&slices, tool, opts, rest);
+    let clear_z = slices.stock.max.z + opts.clearance_height;
+    let params = LinkParams {
+        clear_z: clear_z.max(ctx.start.z),
+        gap: opts.retract_gap.unwrap_or(0.5 * opts.layer_height),
+        max_link: opts.max_stay_down_link.unwrap_or(2.0 * tool.diameter()),
+        stock: slices.stock,
+    };
+    let mut em = Emitter::new(sink, tool, opts, params);
+    em.begin(setup, &ctx.start, opts.strategy.name())?;
+    let mut summary = PlanSummary { layers: slices.levels.len(), stock: Some(slices.stock), ..Default::default() };
+    let (mut cut, mut air) = (0.0, 0.0);
+    let batch = opts.layers_per_batch.max(1);
+    let n = slices.levels.len();
+    let mut l0 = 0;
+    while l0 < n {
+        let l1 = (l0 + batch).min(n);
+        let plans: Vec<LayerPlan> = (l0..l1)
+            .into_par_iter()
+            .map(|l| ctx.plan_layer(l, slices.levels[l], z_above(&slices, l), &slices.keepouts[l]))
+            .collect();
+        for plan in &plans {
+            if plan.contour.is_empty() && plan.clearing.is_empty() {
+                summary.skipped_layers += 1;
+                continue;
+            }
+            cut += plan.cut_air.0;
+            air += plan.cut_air.1;
+            em.layer(plan, &ctx)?;
+        }
+        l0 = l1;
+    }
+    em.finish()?;
+    let st = em.stats();
+    summary.cutting_length = st.cutting_length;
+    summary.rapid_length = st.rapid_length;
+    summary.estimated_time_s = st.time_s;
+    summary.retracts = st.retracts;
+    summary.helix_entries = st.helix;
+    summary.ramp_entries = st.ramp;
+    summary.plunge_entries = st.plunge;
+    summary.air_cut_fraction = rest.map(|_| if cut > 0.0 { air / cut } else { 0.0 });
+    Ok(summary)
+}

@@ -1,0 +1,629 @@
+//! [`Region2`]: a 2-D multipolygon (outer boundaries with holes) and [`Polyline2`], with
+//! booleans and offsets delegated to `i_overlay`.
+//!
+//! Orientation convention (that of `i_overlay`): outer boundaries counter-clockwise,
+//! holes clockwise, so the filled region is always on the left of a boundary.
+
+use i_overlay::core::fill_rule::FillRule;
+use i_overlay::core::overlay_rule::OverlayRule;
+use i_overlay::float::clip::FloatClip;
+use i_overlay::float::simplify::SimplifyShape;
+use i_overlay::float::single::SingleFloatOverlay;
+use i_overlay::mesh::float::outline::offset::OutlineOffset;
+use i_overlay::mesh::float::style::{LineJoin, OutlineStyle};
+use i_overlay::string::clip::ClipRule;
+
+/// A point in the plane.
+pub type Point2 = nalgebra::Point2<f64>;
+/// A vector in the plane.
+pub type Vector2 = nalgebra::Vector2<f64>;
+
+type Raw = [f64; 2];
+
+/// A polyline in the plane; `closed` loops return to their first point (which is not repeated).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Polyline2 {
+    /// Vertices in order.
+    pub points: Vec<Point2>,
+    /// Whether the last point connects back to the first.
+    pub closed: bool,
+}
+
+impl Polyline2 {
+    /// An open polyline.
+    pub fn open(points: Vec<Point2>) -> Self {
+        Self { points, closed: false }
+    }
+
+    /// A closed loop.
+    pub fn closed(points: Vec<Point2>) -> Self {
+        Self { points, closed: true }
+    }
+
+    /// Length, including the closing segment of a loop.
+    pub fn length(&self) -> f64 {
+        let mut l: f64 = self.points.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+        if self.closed && self.points.len() > 2 {
+            l += (self.points[0] - self.points[self.points.len() - 1]).norm();
+        }
+        l
+    }
+
+    /// The segments, including the closing one of a loop.
+    pub fn segments(&self) -> impl Iterator<Item = (Point2, Point2)> + '_ {
+        let n = self.points.len();
+        let m = if self.closed && n > 2 { n } else { n.saturating_sub(1) };
+        (0..m).map(move |i| (self.points[i], self.points[(i + 1) % n]))
+    }
+
+    /// The first point, if any.
+    pub fn start(&self) -> Option<Point2> {
+        self.points.first().copied()
+    }
+
+    /// The point where the path ends (the start again for a loop).
+    pub fn end(&self) -> Option<Point2> {
+        if self.closed { self.points.first().copied() } else { self.points.last().copied() }
+    }
+
+    /// Signed area of the loop (positive when counter-clockwise).
+    pub fn signed_area(&self) -> f64 {
+        signed_area(self.points.iter().map(|p| [p.x, p.y]))
+    }
+
+    /// For a loop: rotates the vertex order so that it starts at the vertex nearest `p`.
+    pub fn rotate_to_nearest(&mut self, p: &Point2) {
+        if !self.closed || self.points.is_empty() {
+            return;
+        }
+        let i = nearest_index(&self.points, p);
+        self.points.rotate_left(i);
+    }
+
+    /// Reverses the direction of travel (a loop keeps its start point).
+    pub fn reverse(&mut self) {
+        if self.closed && self.points.len() > 1 {
+            self.points[1..].reverse();
+        } else {
+            self.points.reverse();
+        }
+    }
+}
+
+pub(crate) fn nearest_index(points: &[Point2], p: &Point2) -> usize {
+    let mut best = (f64::INFINITY, 0);
+    for (i, q) in points.iter().enumerate() {
+        let d = (q - p).norm_squared();
+        if d < best.0 {
+            best = (d, i);
+        }
+    }
+    best.1
+}
+
+fn signed_area(pts: impl Iterator<Item = Raw> + Clone) -> f64 {
+    let v: Vec<Raw> = pts.collect();
+    let n = v.len();
+    if n < 3 {
+        return 0.0;
+    }
+    let mut a = 0.0;
+    for i in 0..n {
+        let p = v[i];
+        let q = v[(i + 1) % n];
+        a += p[0] * q[1] - q[0] * p[1];
+    }
+    0.5 * a
+}
+
+/// A filled 2-D region: a set of shapes, each an outer boundary (counter-clockwise)
+/// followed by its holes (clockwise). Produced only by this module's operations, so
+/// its boundaries never cross.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Region2 {
+    shapes: Vec<Vec<Vec<Raw>>>,
+}
+
+impl Region2 {
+    /// The empty region.
+    pub fn empty() -> Self {
+        Self::default()
+    }
+
+    /// Whether the region has no shape.
+    pub fn is_empty(&self) -> bool {
+        self.shapes.is_empty()
+    }
+
+    /// The axis-aligned rectangle `[min, max]` (empty when degenerate or not finite).
+    pub fn rect(min: Point2, max: Point2) -> Self {
+        if !(min.x < max.x && min.y < max.y) || !(min.coords.iter().chain(max.coords.iter()).all(|c| c.is_finite())) {
+            return Self::empty();
+        }
+        Self { shapes: vec![vec![vec![[min.x, min.y], [max.x, min.y], [max.x, max.y], [min.x, max.y]]]] }
+    }
+
+    /// The union of simple polygons given by their vertices, each in either orientation.
+    /// Polygons with fewer than three vertices, non-finite coordinates or no area are skipped.
+    pub fn from_polygons<'a>(polygons: impl IntoIterator<Item = &'a [Point2]>) -> Self {
+        let contours: Vec<Vec<Raw>> = polygons
+            .into_iter()
+            .filter_map(|poly| {
+                let c: Vec<Raw> = poly.iter().map(|p| [p.x, p.y]).collect();
+                ccw_contour(c)
+            })
+            .collect();
+        Self::union_contours(contours)
+    }
+
+    /// Union of counter-clockwise contours (non-zero fill).
+    pub(crate) fn union_contours(contours: Vec<Vec<Raw>>) -> Self {
+        if contours.is_empty() {
+            return Self::empty();
+        }
+        Self { shapes: contours.simplify_shape(FillRule::NonZero) }
+    }
+
+    /// The shapes: for each, the outer boundary then the holes, as point lists.
+    pub fn shapes(&self) -> impl Iterator<Item = Vec<Vec<Point2>>> + '_ {
+        self.shapes.iter().map(|s| s.iter().map(|c| c.iter().map(|p| Point2::new(p[0], p[1])).collect()).collect())
+    }
+
+    /// Number of shapes (connected components).
+    pub fn shape_count(&self) -> usize {
+        self.shapes.len()
+    }
+
+    /// Total number of boundary vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.shapes.iter().flatten().map(Vec::len).sum()
+    }
+
+    /// Every boundary loop as a closed polyline (outer counter-clockwise, holes clockwise).
+    pub fn loops(&self) -> Vec<Polyline2> {
+        self.shapes
+            .iter()
+            .flatten()
+            .map(|c| Polyline2::closed(c.iter().map(|p| Point2::new(p[0], p[1])).collect()))
+            .collect()
+    }
+
+    /// Each connected component as its own region.
+    pub fn components(&self) -> Vec<Region2> {
+        self.shapes.iter().map(|s| Region2 { shapes: vec![s.clone()] }).collect()
+    }
+
+    /// Area.
+    pub fn area(&self) -> f64 {
+        self.shapes.iter().flatten().map(|c| signed_area(c.iter().copied())).sum()
+    }
+
+    /// Bounding box `(min, max)`; `None` when empty.
+    pub fn bbox(&self) -> Option<(Point2, Point2)> {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for p in self.shapes.iter().flatten().flatten() {
+            for a in 0..2 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        (lo[0] <= hi[0]).then(|| (Point2::new(lo[0], lo[1]), Point2::new(hi[0], hi[1])))
+    }
+
+    fn boolean(&self, other: &Region2, rule: OverlayRule) -> Region2 {
+        Region2 { shapes: self.shapes.overlay(&other.shapes, rule, FillRule::NonZero) }
+    }
+
+    /// `self ∪ other`.
+    pub fn union(&self, other: &Region2) -> Region2 {
+        if other.is_empty() {
+            return self.clone();
+        }
+        if self.is_empty() {
+            return other.clone();
+        }
+        self.boolean(other, OverlayRule::Union)
+    }
+
+    /// `self ∖ other`.
+    pub fn difference(&self, other: &Region2) -> Region2 {
+        if self.is_empty() || other.is_empty() {
+            return self.clone();
+        }
+        self.boolean(other, OverlayRule::Difference)
+    }
+
+    /// `self ∩ other`.
+    pub fn intersection(&self, other: &Region2) -> Region2 {
+        if self.is_empty() || other.is_empty() {
+            return Region2::empty();
+        }
+        self.boolean(other, OverlayRule::Intersect)
+    }
+
+    /// The region grown (`distance > 0`) or shrunk (`distance < 0`) with round joins.
+    ///
+    /// Arcs are polygons with at most `arc_step` radians per segment (clamped by
+    /// `i_overlay` to `[0.01π, 0.25π]`). The distance is scaled by `1 / cos(arc_step / 2)`
+    /// so that every chord lies outside the exact arc: a grown region always contains the
+    /// exact Minkowski sum and a shrunk one is always inside the exact erosion.
+    pub fn offset(&self, distance: f64, arc_step: f64) -> Region2 {
+        if self.is_empty() || distance == 0.0 || !distance.is_finite() {
+            return self.clone();
+        }
+        let step = arc_step.clamp(0.01 * std::f64::consts::PI, 0.25 * std::f64::consts::PI);
+        let d = distance / (0.5 * step).cos();
+        let style = OutlineStyle::new(d).line_join(LineJoin::Round(step));
+        Region2 { shapes: self.shapes.outline(&style) }
+    }
+
+    /// The region with every vertex closer than `eps` to the previously kept vertex of its
+    /// loop removed (loops left with fewer than three vertices vanish). The boundary moves
+    /// by less than `eps`.
+    pub fn simplified(&self, eps: f64) -> Region2 {
+        let contours: Vec<Vec<Vec<Raw>>> = self
+            .shapes
+            .iter()
+            .map(|s| {
+                s.iter()
+                    .filter_map(|c| {
+                        let mut out: Vec<Raw> = Vec::with_capacity(c.len());
+                        for p in c {
+                            if out.last().is_none_or(|q: &Raw| (p[0] - q[0]).hypot(p[1] - q[1]) >= eps) {
+                                out.push(*p);
+                            }
+                        }
+                        while out.len() > 1 && {
+                            let (a, b) = (out[0], out[out.len() - 1]);
+                            (a[0] - b[0]).hypot(a[1] - b[1]) < eps
+                        } {
+                            out.pop();
+                        }
+                        (out.len() >= 3).then_some(out)
+                    })
+                    .collect()
+            })
+            .filter(|s: &Vec<Vec<Raw>>| !s.is_empty())
+            .collect();
+        Region2 { shapes: contours }.cleaned()
+    }
+
+    /// Re-runs the region through a union so that its boundaries are valid again.
+    fn cleaned(self) -> Region2 {
+        if self.is_empty() {
+            return self;
+        }
+        Region2 { shapes: self.shapes.simplify_shape(FillRule::NonZero) }
+    }
+
+    /// A grown region that is guaranteed to contain every point within `distance` of this
+    /// region (the exact Minkowski sum with a disc), for tool-centre keep-outs.
+    ///
+    /// The region is first simplified at `eps` and grown by `distance + eps` with
+    /// [`Region2::offset`]; then every vertex and edge midpoint of the result is checked
+    /// against this region's exact boundary, and where the offset came out too close
+    /// (numerical notches of the offset engine) the capsules of the nearby edges are
+    /// added.
+    pub fn grown_safe(&self, distance: f64, eps: f64, arc_step: f64) -> Region2 {
+        if self.is_empty() || !(distance > 0.0) {
+            return self.clone();
+        }
+        let eps = eps.max(0.0);
+        let mut off = self.simplified(eps).offset(distance + eps, arc_step);
+        let index = self.index();
+        let mut caps: Vec<Vec<Raw>> = Vec::new();
+        let mut seen = std::collections::BTreeSet::new();
+        for c in off.shapes.iter().flatten() {
+            let n = c.len();
+            for i in 0..n {
+                let a = c[i];
+                let b = c[(i + 1) % n];
+                for q in [Point2::new(a[0], a[1]), Point2::new(0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))] {
+                    if index.boundary_distance(&q, distance) < distance * (1.0 - 1e-9) && !index.contains(&q) {
+                        for e in index.edges_near(&q, distance + eps) {
+                            if seen.insert(e) {
+                                let [ax, ay, bx, by] = index.edges[e as usize];
+                                caps.push(capsule(ax, ay, bx, by, distance + eps, arc_step));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if !caps.is_empty() {
+            off = off.union(&Region2::union_contours(caps));
+        }
+        off
+    }
+
+    /// Clips a polyline to the region (boundary included); returns the inside pieces,
+    /// each in the original direction of travel. A loop that lies wholly inside comes back whole.
+    pub fn clip_polyline(&self, line: &Polyline2) -> Vec<Polyline2> {
+        if self.is_empty() || line.points.len() < 2 {
+            return Vec::new();
+        }
+        let mut raw: Vec<Raw> = line.points.iter().map(|p| [p.x, p.y]).collect();
+        if line.closed {
+            raw.push(raw[0]);
+        }
+        let rule = ClipRule { invert: false, boundary_included: true };
+        let pieces = raw.clip_by(&self.shapes, FillRule::NonZero, rule);
+        let total: f64 = line.length();
+        let out: Vec<Polyline2> = pieces
+            .into_iter()
+            .filter(|p| p.len() >= 2)
+            .map(|p| Polyline2::open(p.into_iter().map(|q| Point2::new(q[0], q[1])).collect()))
+            .collect();
+        let kept: f64 = out.iter().map(Polyline2::length).sum();
+        if line.closed && (total - kept).abs() <= 1e-9 * total.max(1e-300) {
+            // Wholly inside: keep the loop itself (and its start point).
+            return vec![line.clone()];
+        }
+        out
+    }
+
+    /// Builds the edge index used by point and segment queries.
+    pub fn index(&self) -> RegionIndex {
+        RegionIndex::new(self)
+    }
+}
+
+/// Orients a contour counter-clockwise; `None` if degenerate or not finite.
+pub(crate) fn ccw_contour(mut c: Vec<Raw>) -> Option<Vec<Raw>> {
+    if c.len() < 3 || !c.iter().flatten().all(|v| v.is_finite()) {
+        return None;
+    }
+    let a = signed_area(c.iter().copied());
+    if a == 0.0 || !a.is_finite() {
+        return None;
+    }
+    if a < 0.0 {
+        c.reverse();
+    }
+    Some(c)
+}
+
+/// A uniform grid over a region's boundary edges, for fast exact inside tests, segment
+/// containment and distance to the boundary.
+#[derive(Debug, Clone)]
+pub struct RegionIndex {
+    edges: Vec<[f64; 4]>,
+    origin: [f64; 2],
+    cell: f64,
+    dims: [usize; 2],
+    cells: Vec<Vec<u32>>,
+}
+
+impl RegionIndex {
+    fn new(region: &Region2) -> Self {
+        let mut edges = Vec::new();
+        for c in region.shapes.iter().flatten() {
+            let n = c.len();
+            for i in 0..n {
+                let a = c[i];
+                let b = c[(i + 1) % n];
+                if a != b {
+                    edges.push([a[0], a[1], b[0], b[1]]);
+                }
+            }
+        }
+        let (lo, hi) = match region.bbox() {
+            Some(b) => b,
+            None => (Point2::origin(), Point2::new(1.0, 1.0)),
+        };
+        let w = (hi.x - lo.x).max(1e-300);
+        let h = (hi.y - lo.y).max(1e-300);
+        // About two edges per cell on average.
+        let target = (edges.len() as f64 / 2.0).max(1.0);
+        let cell = ((w * h) / target).sqrt().max(w.max(h) / 4096.0).max(1e-300);
+        let dims = [((w / cell).ceil() as usize).clamp(1, 4096), ((h / cell).ceil() as usize).clamp(1, 4096)];
+        let mut cells = vec![Vec::new(); dims[0] * dims[1]];
+        let mut idx = Self { edges: Vec::new(), origin: [lo.x, lo.y], cell, dims, cells: Vec::new() };
+        for (e, ed) in edges.iter().enumerate() {
+            let (i0, j0) = idx.cell_of(ed[0].min(ed[2]), ed[1].min(ed[3]));
+            let (i1, j1) = idx.cell_of(ed[0].max(ed[2]), ed[1].max(ed[3]));
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    cells[j * dims[0] + i].push(e as u32);
+                }
+            }
+        }
+        idx.edges = edges;
+        idx.cells = cells;
+        idx
+    }
+
+    fn cell_of(&self, x: f64, y: f64) -> (usize, usize) {
+        let i = ((x - self.origin[0]) / self.cell).floor();
+        let j = ((y - self.origin[1]) / self.cell).floor();
+        let ci = if i.is_nan() { 0 } else { i.clamp(0.0, (self.dims[0] - 1) as f64) as usize };
+        let cj = if j.is_nan() { 0 } else { j.clamp(0.0, (self.dims[1] - 1) as f64) as usize };
+        (ci, cj)
+    }
+
+    /// Whether `p` is inside the region (even-odd over all boundary loops; points exactly
+    /// on the boundary may go either way).
+    pub fn contains(&self, p: &Point2) -> bool {
+        if self.edges.is_empty() {
+            return false;
+        }
+        let (ci, cj) = self.cell_of(p.x, p.y);
+        let y = p.y;
+        // Only this row's cells can hold edges spanning y; count each crossing once by
+        // accepting it only in the cell that holds its x.
+        let mut inside = false;
+        for i in ci..self.dims[0] {
+            let x0 = self.origin[0] + i as f64 * self.cell;
+            let x1 = if i + 1 == self.dims[0] { f64::INFINITY } else { x0 + self.cell };
+            let x0 = if i == 0 { f64::NEG_INFINITY } else { x0 };
+            for &e in &self.cells[cj * self.dims[0] + i] {
+                let [ax, ay, bx, by] = self.edges[e as usize];
+                if (ay > y) != (by > y) {
+                    let x = ax + (y - ay) / (by - ay) * (bx - ax);
+                    if x > p.x && x >= x0 && x < x1 {
+                        inside = !inside;
+                    }
+                }
+            }
+        }
+        inside
+    }
+
+    /// Distance from `p` to the nearest boundary edge, searching no farther than `max`
+    /// (returns `max` or more when nothing is nearer).
+    pub fn boundary_distance(&self, p: &Point2, max: f64) -> f64 {
+        let mut best = f64::INFINITY;
+        let (ci, cj) = self.cell_of(p.x, p.y);
+        let rings = ((max / self.cell).ceil().min(1e9) as usize).saturating_add(1).min(self.dims[0].max(self.dims[1]));
+        for ring in 0..=rings {
+            let i0 = ci.saturating_sub(ring);
+            let j0 = cj.saturating_sub(ring);
+            let i1 = (ci + ring).min(self.dims[0] - 1);
+            let j1 = (cj + ring).min(self.dims[1] - 1);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    if i.abs_diff(ci).max(j.abs_diff(cj)) != ring {
+                        continue;
+                    }
+                    for &e in &self.cells[j * self.dims[0] + i] {
+                        let [ax, ay, bx, by] = self.edges[e as usize];
+                        best = best.min(point_segment_distance(p, &Point2::new(ax, ay), &Point2::new(bx, by)));
+                    }
+                }
+            }
+            // Anything in later rings is at least `ring * cell` away.
+            if best <= ring as f64 * self.cell || ring as f64 * self.cell > max {
+                break;
+            }
+        }
+        best
+    }
+
+    /// Indices of the boundary edges within `d` of `p` (ascending).
+    fn edges_near(&self, p: &Point2, d: f64) -> Vec<u32> {
+        let (i0, j0) = self.cell_of(p.x - d, p.y - d);
+        let (i1, j1) = self.cell_of(p.x + d, p.y + d);
+        let mut out = Vec::new();
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                for &e in &self.cells[j * self.dims[0] + i] {
+                    let [ax, ay, bx, by] = self.edges[e as usize];
+                    if point_segment_distance(p, &Point2::new(ax, ay), &Point2::new(bx, by)) <= d {
+                        out.push(e);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Whether the closed segment `a`-`b` stays inside the region, with boundary contact
+    /// up to `tol` allowed: no boundary edge crosses it properly and sample points along it
+    /// are inside or within `tol` of the boundary.
+    pub fn segment_inside(&self, a: &Point2, b: &Point2, tol: f64) -> bool {
+        if self.edges.is_empty() {
+            return false;
+        }
+        let (i0, j0) = self.cell_of(a.x.min(b.x), a.y.min(b.y));
+        let (i1, j1) = self.cell_of(a.x.max(b.x), a.y.max(b.y));
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                for &e in &self.cells[j * self.dims[0] + i] {
+                    let [ax, ay, bx, by] = self.edges[e as usize];
+                    if proper_cross(a, b, &Point2::new(ax, ay), &Point2::new(bx, by), tol) {
+                        return false;
+                    }
+                }
+            }
+        }
+        let len = (b - a).norm();
+        let n = ((len / self.cell).ceil() as usize).clamp(2, 64);
+        (0..=n).all(|k| {
+            let p = a + (b - a) * (k as f64 / n as f64);
+            self.contains(&p) || self.boundary_distance(&p, tol) <= tol
+        })
+    }
+}
+
+/// A counter-clockwise polygon containing every point within `rho` of segment a-b
+/// (round ends circumscribed with at most `arc_step` radians per segment).
+fn capsule(ax: f64, ay: f64, bx: f64, by: f64, rho: f64, arc_step: f64) -> Vec<Raw> {
+    let step = arc_step.clamp(0.01 * std::f64::consts::PI, 0.25 * std::f64::consts::PI);
+    let n = (std::f64::consts::PI / step).ceil().max(2.0) as usize;
+    let rr = rho / (0.5 * std::f64::consts::PI / n as f64).cos();
+    let th = (by - ay).atan2(bx - ax);
+    let mut out = Vec::with_capacity(2 * n + 2);
+    for k in 0..=n {
+        let a = th - 0.5 * std::f64::consts::PI + std::f64::consts::PI * k as f64 / n as f64;
+        out.push([bx + rr * a.cos(), by + rr * a.sin()]);
+    }
+    for k in 0..=n {
+        let a = th + 0.5 * std::f64::consts::PI + std::f64::consts::PI * k as f64 / n as f64;
+        out.push([ax + rr * a.cos(), ay + rr * a.sin()]);
+    }
+    out
+}
+
+/// Distance from `p` to the segment `a`-`b`.
+pub fn point_segment_distance(p: &Point2, a: &Point2, b: &Point2) -> f64 {
+    let ab = b - a;
+    let l2 = ab.norm_squared();
+    let t = if l2 > 0.0 { ((p - a).dot(&ab) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + ab * t)).norm()
+}
+
+fn orient(a: &Point2, b: &Point2, c: &Point2) -> f64 {
+    (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)
+}
+
+/// Proper crossing of segments `p`-`q` and `a`-`b`: each strictly separates the other's
+/// endpoints by more than `tol` (so touching and collinear overlaps do not count).
+fn proper_cross(p: &Point2, q: &Point2, a: &Point2, b: &Point2, tol: f64) -> bool {
+    let lpq = (q - p).norm().max(1e-300);
+    let lab = (b - a).norm().max(1e-300);
+    let d1 = orient(p, q, a) / lpq;
+    let d2 = orient(p, q, b) / lpq;
+    let d3 = orient(a, b, p) / lab;
+    let d4 = orient(a, b, q) / lab;
+    ((d1 > tol && d2 < -tol) || (d1 < -tol && d2 > tol)) && ((d3 > tol && d4 < -tol) || (d3 < -tol && d4 > tol))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn square_minus_hole_area_offset_and_queries() {
+        let outer = Region2::rect(Point2::new(0.0, 0.0), Point2::new(4.0, 4.0));
+        let hole = Region2::rect(Point2::new(1.0, 1.0), Point2::new(3.0, 3.0));
+        let ring = outer.difference(&hole);
+        assert!((ring.area() - 12.0).abs() < 1e-6, "area {}", ring.area());
+        let grown = hole.offset(0.5, 0.05);
+        let exact = 4.0 + 4.0 * 2.0 * 0.5 + std::f64::consts::PI * 0.25;
+        assert!(grown.area() >= exact - 1e-6 && grown.area() < exact * 1.01, "grown {}", grown.area());
+        let shrunk = outer.offset(-0.5, 0.05);
+        // Erosion is conservative: never larger than exact (9), and within the chord tolerance.
+        assert!(shrunk.area() <= 9.0 + 1e-9 && shrunk.area() > 8.99, "shrunk {}", shrunk.area());
+        let idx = ring.index();
+        assert!(idx.contains(&Point2::new(0.5, 0.5)));
+        assert!(!idx.contains(&Point2::new(2.0, 2.0)));
+        assert!(!idx.contains(&Point2::new(5.0, 2.0)));
+        assert!((idx.boundary_distance(&Point2::new(0.5, 2.0), 10.0) - 0.5).abs() < 1e-9);
+        assert!(idx.segment_inside(&Point2::new(0.5, 0.5), &Point2::new(3.5, 0.5), 1e-9));
+        assert!(!idx.segment_inside(&Point2::new(0.5, 0.5), &Point2::new(3.5, 3.5), 1e-9));
+    }
+
+    #[test]
+    fn clip_keeps_direction_and_whole_loops() {
+        let r = Region2::rect(Point2::new(0.0, 0.0), Point2::new(2.0, 2.0));
+        let line = Polyline2::open(vec![Point2::new(-1.0, 1.0), Point2::new(3.0, 1.0)]);
+        let out = r.clip_polyline(&line);
+        assert_eq!(out.len(), 1);
+        assert!(out[0].points[0].x < out[0].points[1].x, "direction kept: {out:?}");
+        let lp = Polyline2::closed(vec![Point2::new(0.5, 0.5), Point2::new(1.5, 0.5), Point2::new(1.0, 1.5)]);
+        assert_eq!(r.clip_polyline(&lp), vec![lp.clone()]);
+    }
+}

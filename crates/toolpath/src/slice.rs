@@ -1,0 +1,172 @@
+//! Layer slicing in the setup frame: layer levels and the exact keep-out region per layer.
+//!
+//! The keep-out region at level `z` is the XY projection of the part's material above
+//! `z`, i.e. the union of all cross-sections at and above `z`: the cross-section of the
+//! part's visibility closure along the tool axis (seed 000 §3.2), which is exactly the
+//! set the tool body (a vertical cylinder from the tip upward) must stay out of. For a
+//! closed mesh it equals the union of the projections of the boundary triangles clipped
+//! to `z' >= z`, which is what is computed, incrementally from the top down.
+
+use rayon::prelude::*;
+use s2g_geom::{Mesh, Point3, Setup};
+
+use crate::region::{Point2, Region2, ccw_contour};
+
+/// Faces with `|n_z| <= VERTICAL_TOLERANCE * |n|` count as vertical: their projection (a
+/// sliver at most this relative width) is left out of the keep-out.
+pub(crate) const VERTICAL_TOLERANCE: f64 = 1e-9;
+
+/// The part's triangles in the setup frame.
+pub(crate) fn setup_triangles(part: &Mesh, setup: &Setup) -> Vec<[Point3; 3]> {
+    let inv = setup.frame.inverse();
+    part.triangle_points().map(|t| t.map(|p| inv * p)).collect()
+}
+
+/// The z values of horizontal faces (|n_z| >= 1 - `cos_tol`), descending, merged within `merge_tol`.
+pub(crate) fn flat_levels(tris: &[[Point3; 3]], cos_tol: f64, merge_tol: f64) -> Vec<f64> {
+    let mut zs: Vec<f64> = tris
+        .iter()
+        .filter_map(|[a, b, c]| {
+            let n = (b - a).cross(&(c - a));
+            let len = n.norm();
+            (len > 0.0 && n.z.abs() >= (1.0 - cos_tol) * len).then(|| a.z.max(b.z).max(c.z))
+        })
+        .collect();
+    zs.sort_by(|a, b| b.total_cmp(a));
+    let mut out: Vec<f64> = Vec::new();
+    for z in zs {
+        match out.last() {
+            Some(&last) if last - z <= merge_tol => {}
+            _ => out.push(z),
+        }
+    }
+    out
+}
+
+/// Layer levels from `top` (exclusive) down to `bottom` (inclusive), descending.
+///
+/// With `flats`, every flat level strictly between becomes a layer and the steps between
+/// consecutive targets are split evenly into steps of at most `h`; otherwise the levels are
+/// `top - h, top - 2h, ...` with the last one exactly at `bottom`.
+pub(crate) fn layer_levels(top: f64, bottom: f64, h: f64, flats: &[f64], tol: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    if !(top - bottom > tol) || !(h > 0.0) {
+        return out;
+    }
+    let mut targets: Vec<f64> = flats.iter().copied().filter(|&f| f > bottom + tol && f < top - tol).collect();
+    targets.push(bottom);
+    let mut prev = top;
+    for t in targets {
+        if prev - t <= tol {
+            continue;
+        }
+        let n = (((prev - t) / h) - 1e-9).ceil().max(1.0) as usize;
+        for k in 1..n {
+            out.push(prev - (prev - t) * k as f64 / n as f64);
+        }
+        out.push(t);
+        prev = t;
+    }
+    out
+}
+
+/// Keep-out regions (XY projection of material above each level + `tol`), one per level.
+pub(crate) fn keepouts(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Vec<Region2> {
+    let n = levels.len();
+    if n == 0 {
+        return Vec::new();
+    }
+    // Slab l spans [levels[l] + tol, levels[l-1] + tol] (the first one reaches +inf).
+    let lo = |l: usize| levels[l] + tol;
+    let hi = |l: usize| if l == 0 { f64::INFINITY } else { levels[l - 1] + tol };
+    let mut buckets: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, tri) in tris.iter().enumerate() {
+        let zmax = tri.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+        let zmin = tri.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+        // First slab whose lower bound is at or below zmax.
+        let a = levels.partition_point(|&z| z + tol > zmax);
+        // Slabs whose upper bound is at or above zmin: l == 0 or levels[l-1] + tol >= zmin.
+        let b = levels.partition_point(|&z| z + tol >= zmin); // l - 1 < b  <=>  l <= b
+        for bucket in buckets.iter_mut().take(b.min(n - 1) + 1).skip(a) {
+            bucket.push(t as u32);
+        }
+    }
+    let slabs: Vec<Region2> = buckets
+        .par_iter()
+        .enumerate()
+        .map(|(l, bucket)| {
+            let contours: Vec<Vec<[f64; 2]>> = bucket
+                .iter()
+                .filter_map(|&t| {
+                    let tri = &tris[t as usize];
+                    // Vertical (and numerically vertical) faces project to needles inside
+                    // their neighbours' projections; they only add noise to the union.
+                    let n = (tri[1] - tri[0]).cross(&(tri[2] - tri[0]));
+                    if n.z.abs() <= VERTICAL_TOLERANCE * n.norm() {
+                        return None;
+                    }
+                    let poly = clip_to_slab(tri, lo(l), hi(l));
+                    ccw_contour(poly)
+                })
+                .collect();
+            Region2::union_contours(contours)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(n);
+    let mut acc = Region2::empty();
+    for s in slabs {
+        acc = acc.union(&s);
+        out.push(acc.clone());
+    }
+    out
+}
+
+/// The XY projection of a triangle clipped to `lo <= z <= hi` (Sutherland-Hodgman).
+fn clip_to_slab(tri: &[Point3; 3], lo: f64, hi: f64) -> Vec<[f64; 2]> {
+    let mut poly: Vec<Point3> = tri.to_vec();
+    for (bound, keep_above) in [(lo, true), (hi, false)] {
+        if !bound.is_finite() || poly.is_empty() {
+            continue;
+        }
+        let inside = |p: &Point3| if keep_above { p.z >= bound } else { p.z <= bound };
+        let mut out = Vec::with_capacity(poly.len() + 2);
+        for i in 0..poly.len() {
+            let a = poly[i];
+            let b = poly[(i + 1) % poly.len()];
+            let (ia, ib) = (inside(&a), inside(&b));
+            if ia {
+                out.push(a);
+            }
+            if ia != ib {
+                let t = (bound - a.z) / (b.z - a.z);
+                let mut p = a + (b - a) * t;
+                p.z = bound;
+                out.push(p);
+            }
+        }
+        poly = out;
+    }
+    poly.iter().map(|p| [p.x, p.y]).collect()
+}
+
+/// Exact distance from a point to a region's boundary, negative inside (test helper and
+/// diagnostics): brute force over every edge.
+pub fn region_signed_distance(region: &Region2, p: &Point2) -> f64 {
+    let idx = region.index();
+    let d = idx.boundary_distance(p, f64::INFINITY);
+    if idx.contains(p) { -d } else { d }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_land_on_flats_and_floor() {
+        let lv = layer_levels(1.0, 0.0, 0.3, &[0.5], 1e-9);
+        assert!(lv.contains(&0.5) && *lv.last().unwrap() == 0.0, "{lv:?}");
+        assert!(lv.windows(2).all(|w| w[0] > w[1] && w[0] - w[1] <= 0.3 + 1e-12), "{lv:?}");
+        let top_gap = 1.0 - lv[0];
+        assert!(top_gap <= 0.3 + 1e-12);
+    }
+}

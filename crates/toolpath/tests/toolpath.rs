@@ -1,0 +1,286 @@
+//! Acceptance tests of the toolpath planner on analytic parts and bundled meshes.
+
+mod common;
+
+use common::{HeightField, cylinder, moves, samples, uncovered};
+use s2g_gcode::{Motion, MotionRecorder};
+use s2g_geom::{Aabb, Isometry3, Mesh, Point3, Rotation3, Setup, Vector3};
+use s2g_toolpath::{
+    PlanOptions, Point2, Polyline2, Strategy, Tool, ToolKind, ToolpathError, plan_layers, plan_setup, plan_setup_rest,
+    slice_setup,
+};
+
+const STRATEGIES: [Strategy; 4] =
+    [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Zigzag { angle_deg: 30.0 }, Strategy::Periphery, Strategy::Spiral];
+
+/// The analytic parts: (name, height field).
+fn analytic_parts() -> Vec<(&'static str, HeightField)> {
+    vec![
+        ("box", HeightField::new(4, 3, 0.25, |_, _| 0.4)),
+        ("stepped block", HeightField::new(8, 6, 0.125, |i, _| if i < 4 { 0.5 } else { 0.25 })),
+        ("box with pocket", HeightField::new(8, 8, 0.125, |i, j| if (2..6).contains(&i) && (2..6).contains(&j) { 0.2 } else { 0.5 })),
+        (
+            "stepped block with pocket",
+            HeightField::new(10, 8, 0.1, |i, j| {
+                if (1..4).contains(&i) && (2..6).contains(&j) {
+                    0.15
+                } else if i >= 6 {
+                    0.3
+                } else {
+                    0.5
+                }
+            }),
+        ),
+    ]
+}
+
+fn opts_for(strategy: Strategy, h: f64) -> PlanOptions {
+    PlanOptions { layer_height: h, strategy, stock_margin: 0.1, ..Default::default() }
+}
+
+/// Checks one analytic part with one strategy: distance to the exact closure, stock bounds,
+/// coverage and rapids.
+fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
+    let part = hf.mesh();
+    let tool = Tool::flat(0.04);
+    let r = tool.radius;
+    let opts = opts_for(strategy, 0.1);
+    let (slices, layers) = plan_layers::<()>(&part, &Setup::top(), &tool, &opts, None).expect("plans");
+    let stock = slices.stock;
+    // Floors land exactly on the flat levels.
+    for f in hf.h.iter() {
+        assert!(slices.levels.iter().any(|z| (z - f).abs() < 1e-12) || *f >= stock.max.z - 1e-9, "{name}: no layer at floor {f}: {:?}", slices.levels);
+    }
+    assert!((slices.levels.last().copied().unwrap_or(f64::NAN) - 0.0).abs() < 1e-12, "{name}: last level {:?}", slices.levels);
+    let lo = Point2::new(stock.min.x, stock.min.y);
+    let hi = Point2::new(stock.max.x, stock.max.y);
+    for (plan, keep) in layers.iter().zip(&slices.keepouts) {
+        let ki = keep.index();
+        for path in plan.contour.iter().chain(&plan.clearing) {
+            for p in samples(path, 0.25 * r) {
+                // Independent: exact horizontal distance to the material above the level.
+                let d = hf.distance_above(&p, plan.z, 1e-7);
+                assert!(d >= r - 1e-7, "{name}/{}: layer {} z {}: point {p:?} is {d} from the part (< r = {r})", strategy.name(), plan.index, plan.z);
+                // The planner's own exact keep-out agrees.
+                let dk = common::sd(&ki, &p);
+                assert!(dk >= r - 1e-7, "{name}/{}: keep-out distance {dk} at {p:?}", strategy.name());
+                assert!(p.x >= lo.x - r - 1e-9 && p.x <= hi.x + r + 1e-9 && p.y >= lo.y - r - 1e-9 && p.y <= hi.y + r + 1e-9, "{name}: {p:?} outside stock + r");
+            }
+        }
+        let miss = uncovered(plan, keep, lo, hi, r, 0.3 * r);
+        assert!(miss.is_empty(), "{name}/{}: layer {} z {}: {} uncovered material points, e.g. {:?}", strategy.name(), plan.index, plan.z, miss.len(), &miss[..miss.len().min(5)]);
+    }
+    // The program: cutting inside stock + r, rapids only above the stock or straight down
+    // onto levels already cleared.
+    let mut rec = MotionRecorder::default();
+    let summary = plan_setup(&part, &Setup::top(), &tool, &opts, &mut rec).expect("plan");
+    assert!(matches!(rec.motions[0].1, Motion::Setup { .. }), "{name}: first motion is the setup");
+    assert_eq!(summary.layers, slices.levels.len());
+    let top = stock.max.z;
+    for (rapid, a, b) in moves(&rec) {
+        if rapid {
+            let above = a.z >= top - 1e-12 && b.z >= top - 1e-12;
+            let vertical = (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12;
+            assert!(above || vertical, "{name}: horizontal rapid below the stock top {a:?} -> {b:?}");
+            if !above {
+                // Descending onto (x, y): no material above the lowest point within r.
+                let p = Point2::new(b.x, b.y);
+                let lowest = a.z.min(b.z);
+                let d = hf.distance_above(&p, lowest, 1e-9);
+                assert!(d >= r - 1e-7, "{name}: rapid down to {b:?} meets the part ({d})");
+            }
+        } else {
+            for p in [a, b] {
+                assert!(
+                    p.x >= stock.min.x - r - 1e-9 && p.x <= stock.max.x + r + 1e-9 && p.z >= stock.min.z - 1e-9,
+                    "{name}: cutting move outside the stock + r: {p:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn analytic_parts_keep_clear_stay_in_stock_and_leave_no_islands() {
+    for (name, hf) in analytic_parts() {
+        for s in STRATEGIES {
+            check_heightfield(name, &hf, s);
+        }
+    }
+}
+
+#[test]
+fn cylinder_contour_keeps_the_radius_and_covers() {
+    let part = cylinder(0.5, 0.5, 0.3, 0.4, 48);
+    let tool = Tool::flat(0.03);
+    let r = tool.radius;
+    for s in STRATEGIES {
+        let opts = opts_for(s, 0.1);
+        let (slices, layers) = plan_layers::<()>(&part, &Setup::top(), &tool, &opts, None).expect("plans");
+        let lo = Point2::new(slices.stock.min.x, slices.stock.min.y);
+        let hi = Point2::new(slices.stock.max.x, slices.stock.max.y);
+        for (plan, keep) in layers.iter().zip(&slices.keepouts) {
+            let ki = keep.index();
+            for path in plan.contour.iter().chain(&plan.clearing) {
+                for p in samples(path, 0.25 * r) {
+                    // The prism is inside the circle: distance to the circle is a lower bound.
+                    // Nothing is above the top level (the tip may rest on the top face).
+                    let d = if plan.z < 0.4 - 1e-9 { ((p - Point2::new(0.5, 0.5)).norm() - 0.3).max(0.0) } else { f64::INFINITY };
+                    let dk = common::sd(&ki, &p);
+                    assert!(dk >= r - 1e-7 && d >= r - 1e-7 - 0.3 * (1.0 - (std::f64::consts::PI / 48.0).cos()), "cylinder/{}: {p:?} d {d} dk {dk}", s.name());
+                }
+            }
+            let miss = uncovered(plan, keep, lo, hi, r, 0.3 * r);
+            assert!(miss.is_empty(), "cylinder/{}: {} uncovered, e.g. {:?}", s.name(), miss.len(), miss.first());
+        }
+    }
+}
+
+fn bunny() -> Mesh {
+    let m = s2g_geom::load_mesh(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/meshes/classic/stanford_bunny.stl"))
+        .expect("bundled bunny");
+    s2g_geom::normalize_unit_cube(&m).expect("normalise").0
+}
+
+fn openscad(name: &str) -> Mesh {
+    let p = format!("{}/../../tests/data/meshes/openscad/{name}", env!("CARGO_MANIFEST_DIR"));
+    let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
+    s2g_geom::normalize_unit_cube(&m).expect("normalise").0
+}
+
+/// Exact checks on a bundled mesh: every path point is at least r from the keep-out (the
+/// projection of the part above the level), verified brute force against the part's
+/// triangles clipped above the level.
+fn check_mesh(name: &str, part: &Mesh, setup: &Setup) {
+    let tool = Tool::flat(0.02);
+    let r = tool.radius;
+    let opts = PlanOptions { layer_height: 1.0 / 16.0, stock_margin: 0.05, ..Default::default() };
+    let (slices, layers) = plan_layers::<()>(part, setup, &tool, &opts, None).expect("plans");
+    assert!(!layers.is_empty());
+    let inv = setup.frame.inverse();
+    let tris: Vec<[Point3; 3]> = part.triangle_points().map(|t| t.map(|p| inv * p)).collect();
+    for plan in layers.iter().step_by(3) {
+        // Independent of the planner's regions: part vertices above the level, bucketed;
+        // no path point may be within r of one (a necessary condition, exact for vertices).
+        let above: Vec<Polyline2> = tris
+            .iter()
+            .flatten()
+            .filter(|v| v.z > plan.z + 1e-6)
+            .map(|v| Polyline2::open(vec![Point2::new(v.x, v.y)]))
+            .collect();
+        let refs: Vec<&Polyline2> = above.iter().collect();
+        let grid = common::PathGrid::new(&refs, Point2::new(-1.0, -1.0), Point2::new(1.0, 1.0), r);
+        let ki = slices.keepouts[plan.index].index();
+        for path in plan.contour.iter().chain(&plan.clearing) {
+            for p in samples(path, 0.5 * r) {
+                assert!(!grid.within(&p, r - 1e-7), "{name}: layer {} point {p:?} is within r of a part vertex above", plan.index);
+                let dk = common::sd(&ki, &p);
+                assert!(dk >= r - 1e-7, "{name}: layer {} point {p:?} keep-out distance {dk}", plan.index);
+            }
+        }
+    }
+    let _ = slices;
+}
+
+#[test]
+fn bundled_meshes_keep_the_tool_radius() {
+    check_mesh("bunny", &bunny(), &Setup::top());
+    check_mesh("example001 from +X", &openscad("openscad_Old_example001.stl"), &Setup::six_axes()[2]);
+}
+
+#[test]
+fn flipped_and_rotated_parts_give_the_same_keepouts() {
+    let part = openscad("openscad_Old_example002.stl");
+    let tool = Tool::flat(0.02);
+    let opts = PlanOptions { layer_height: 1.0 / 16.0, ..Default::default() };
+    let base = slice_setup::<()>(&part, &Setup::top(), &tool, &opts).expect("slices");
+    let flipped = slice_setup::<()>(&part.flipped(), &Setup::top(), &tool, &opts).expect("slices");
+    assert_eq!(base.levels, flipped.levels);
+    for (l, (a, b)) in base.keepouts.iter().zip(&flipped.keepouts).enumerate() {
+        assert!((a.area() - b.area()).abs() <= 1e-9, "flipped: layer {l} area {} vs {}", a.area(), b.area());
+    }
+    // Rotate the part by R and the setup with it: the setup-frame geometry is unchanged.
+    let rot = Rotation3::from_euler_angles(0.3, -0.7, 1.1);
+    let iso = Isometry3::from_parts(nalgebra::Translation3::new(0.2, -0.1, 0.05), rot);
+    let moved = part.transformed(&s2g_geom::Similarity3::from_isometry(iso, 1.0));
+    let setup = Setup { frame: iso * Setup::top().frame };
+    let rotated = slice_setup::<()>(&moved, &setup, &tool, &opts).expect("slices");
+    assert_eq!(base.levels.len(), rotated.levels.len());
+    for (l, (a, b)) in base.keepouts.iter().zip(&rotated.keepouts).enumerate() {
+        let rel = (a.area() - b.area()).abs() / a.area().max(1e-12);
+        assert!(rel <= 1e-6, "rotated: layer {l} area {} vs {}", a.area(), b.area());
+    }
+    // And the planned programs agree in length.
+    let mut r1 = MotionRecorder::default();
+    let mut r2 = MotionRecorder::default();
+    let s1 = plan_setup(&part, &Setup::top(), &tool, &opts, &mut r1).expect("plan");
+    let s2 = plan_setup(&part.flipped(), &Setup::top(), &tool, &opts, &mut r2).expect("plan");
+    assert!((s1.cutting_length - s2.cutting_length).abs() <= 1e-6 * s1.cutting_length, "{s1:?} vs {s2:?}");
+    let _ = Vector3::z();
+}
+
+#[test]
+fn impossible_inputs_are_typed_errors() {
+    let part = HeightField::new(2, 2, 0.5, |_, _| 0.3).mesh();
+    let top = Setup::top();
+    let mut rec = MotionRecorder::default();
+    let bad_tools = [
+        Tool::flat(0.0),
+        Tool::flat(f64::NAN),
+        Tool { feed: 0.0, ..Tool::flat(0.1) },
+        Tool { kind: ToolKind::BullNose { corner: 0.2 }, ..Tool::flat(0.1) },
+        Tool { flute_length: -1.0, ..Tool::flat(0.1) },
+    ];
+    for t in bad_tools {
+        let e = plan_setup(&part, &top, &t, &PlanOptions::default(), &mut rec);
+        assert!(matches!(e, Err(ToolpathError::InvalidTool(_))), "{t:?}: {e:?}");
+    }
+    let bad_opts = [
+        PlanOptions { layer_height: 0.0, ..Default::default() },
+        PlanOptions { stepover: 1.5, ..Default::default() },
+        PlanOptions { stepover: f64::NAN, ..Default::default() },
+        PlanOptions { strategy: Strategy::Zigzag { angle_deg: f64::INFINITY }, ..Default::default() },
+        PlanOptions { arc_step: -1.0, ..Default::default() },
+    ];
+    for o in bad_opts {
+        let e = plan_setup(&part, &top, &Tool::flat(0.1), &o, &mut rec);
+        assert!(matches!(e, Err(ToolpathError::InvalidOptions(_))), "{o:?}: {e:?}");
+    }
+    let e = plan_setup(&Mesh::default(), &top, &Tool::flat(0.1), &PlanOptions::default(), &mut rec);
+    assert!(matches!(e, Err(ToolpathError::EmptyMesh)), "{e:?}");
+    let stock = Aabb::new(Point3::new(1.0, 0.0, 0.0), Point3::new(0.0, 1.0, 1.0));
+    let e = plan_setup(&part, &top, &Tool::flat(0.1), &PlanOptions { stock: Some(stock), ..Default::default() }, &mut rec);
+    assert!(matches!(e, Err(ToolpathError::InvalidStock(_))), "{e:?}");
+    // A tool far larger than the part is fine: nothing but air around it.
+    let s = plan_setup(&part, &top, &Tool::flat(5.0), &PlanOptions { layer_height: 0.1, ..Default::default() }, &mut rec)
+        .expect("huge tool plans");
+    assert!(s.layers > 0);
+}
+
+#[test]
+fn rest_machining_skips_material_already_removed() {
+    let hf = HeightField::new(8, 8, 0.125, |i, j| if (2..6).contains(&i) && (2..6).contains(&j) { 0.2 } else { 0.5 });
+    let part = hf.mesh();
+    let tool = Tool::flat(0.04);
+    let opts = opts_for(Strategy::Zigzag { angle_deg: 0.0 }, 0.1);
+    let mut full = MotionRecorder::default();
+    let s_full = plan_setup(&part, &Setup::top(), &tool, &opts, &mut full).expect("plan");
+    // An earlier setup removed everything above z = 0.35 and everything outside the part's
+    // footprint: only the pocket remains to be cut.
+    let rest = |min: &Point3, max: &Point3| {
+        let pocket = min.x < 0.75 && max.x > 0.25 && min.y < 0.75 && max.y > 0.25;
+        min.z < 0.35 && pocket && max.z > 0.2
+    };
+    let mut part_rec = MotionRecorder::default();
+    let s_rest = plan_setup_rest(&part, &Setup::top(), &tool, &opts, Some(&rest), &mut part_rec).expect("plan");
+    assert!(s_rest.cutting_length < 0.5 * s_full.cutting_length, "rest {} vs full {}", s_rest.cutting_length, s_full.cutting_length);
+    assert!(s_rest.skipped_layers >= 1, "{s_rest:?}");
+    let air = s_rest.air_cut_fraction.expect("air fraction with rest info");
+    assert!((0.0..=1.0).contains(&air), "{air}");
+    // No cutting above 0.35 except straight entries.
+    for (rapid, a, b) in moves(&part_rec) {
+        if !rapid && a.z == b.z {
+            assert!(b.z < 0.35 + 1e-9, "cut at {b:?} where nothing remains");
+        }
+    }
+}

@@ -1,0 +1,39 @@
+//! Fuzz target: the G-code parser must never panic, whatever the bytes.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, parse_reader, parse_str};
+
+/// Counts motions and checks that move end points are finite.
+struct Count(u64);
+
+impl MotionSink for Count {
+    type Error = std::convert::Infallible;
+    fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
+        if let Some(p) = m.end_point() {
+            assert!(p.iter().all(|v| v.is_finite()), "non-finite end point {m:?}");
+        }
+        self.0 += 1;
+        Ok(())
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let text = String::from_utf8_lossy(data);
+    let dialect = match data.first().map(|b| b % 3) {
+        Some(0) => ParseDialect::Cnc,
+        Some(1) => ParseDialect::Fdm,
+        _ => ParseDialect::Auto,
+    };
+    let opts = ParseOptions { dialect, stop_at_program_end: false, ..ParseOptions::default() };
+    let mut a = Count(0);
+    let sa = parse_str(&text, &opts, &mut a).expect("infallible sink");
+    // The streaming reader over the raw bytes must see the same number of lines.
+    let mut b = Count(0);
+    let sb =
+        parse_reader(std::io::BufReader::with_capacity(16, data), &opts, &mut b).expect("infallible sink");
+    if text.as_bytes() == data {
+        assert_eq!(sa.lines, sb.lines);
+        assert_eq!(a.0, b.0);
+    }
+});

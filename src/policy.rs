@@ -1,0 +1,282 @@
+//! The action space of seed 000 §3.5 and the policies that choose in it.
+//!
+//! An [`Action`] is one setup's machining parameters: tool radius, layer height and
+//! clearing strategy (contour always runs). A [`Policy`] picks one action per setup
+//! from what it knows of the setup; the learned DQN policy plugs in here too.
+
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+/// The clearing strategies of seed 000 §3.3.2-3.3.4.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum StrategyKind {
+    /// Parallel back-and-forth passes.
+    Zigzag,
+    /// Rings offset inward from the boundary.
+    Periphery,
+    /// One continuous spiral.
+    Spiral,
+}
+
+impl StrategyKind {
+    /// All strategies, in a fixed order.
+    pub const ALL: [StrategyKind; 3] = [StrategyKind::Zigzag, StrategyKind::Periphery, StrategyKind::Spiral];
+
+    /// The lower-case name (`zigzag`, `periphery`, `spiral`).
+    pub fn name(self) -> &'static str {
+        match self {
+            StrategyKind::Zigzag => "zigzag",
+            StrategyKind::Periphery => "periphery",
+            StrategyKind::Spiral => "spiral",
+        }
+    }
+
+    /// Parses a lower-case name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name.to_ascii_lowercase())
+    }
+}
+
+/// One setup's machining parameters, in the units of the part being planned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Action {
+    /// Tool radius.
+    pub tool_radius: f64,
+    /// Layer height (depth of cut per layer).
+    pub layer_height: f64,
+    /// Clearing strategy run after the contour of each layer.
+    pub strategy: StrategyKind,
+}
+
+/// A discrete action space: every combination of its radii, layer heights and strategies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActionSpace {
+    /// Tool radii, ascending.
+    pub radii: Vec<f64>,
+    /// Layer heights, ascending.
+    pub layer_heights: Vec<f64>,
+    /// Clearing strategies.
+    pub strategies: Vec<StrategyKind>,
+}
+
+impl ActionSpace {
+    /// The paper's space in normalised units (the part's max extent is 1): tool radius
+    /// 0.001-0.01 and layer height 1/512-1/64 (seed 000 §3.5), all three strategies.
+    pub fn paper() -> Self {
+        Self {
+            radii: vec![0.001, 0.0025, 0.005, 0.01],
+            layer_heights: vec![1.0 / 512.0, 1.0 / 256.0, 1.0 / 128.0, 1.0 / 64.0],
+            strategies: StrategyKind::ALL.to_vec(),
+        }
+    }
+
+    /// A shop tool library in millimetres: end mills of 1-12 mm diameter and depths of
+    /// cut of 0.25-2 mm.
+    pub fn shop() -> Self {
+        Self {
+            radii: vec![0.5, 1.0, 1.5, 3.0, 6.0],
+            layer_heights: vec![0.25, 0.5, 1.0, 2.0],
+            strategies: StrategyKind::ALL.to_vec(),
+        }
+    }
+
+    /// The space with every length multiplied by `k` (e.g. normalised units to mm).
+    pub fn scaled(&self, k: f64) -> Self {
+        Self {
+            radii: self.radii.iter().map(|r| r * k).collect(),
+            layer_heights: self.layer_heights.iter().map(|h| h * k).collect(),
+            strategies: self.strategies.clone(),
+        }
+    }
+
+    /// Number of actions.
+    pub fn len(&self) -> usize {
+        self.radii.len() * self.layer_heights.len() * self.strategies.len()
+    }
+
+    /// Whether the space has no action.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The action with index `i` (radius slowest, strategy fastest); `None` out of range.
+    pub fn action(&self, i: usize) -> Option<Action> {
+        if i >= self.len() {
+            return None;
+        }
+        let ns = self.strategies.len();
+        let nh = self.layer_heights.len();
+        Some(Action {
+            tool_radius: self.radii[i / (ns * nh)],
+            layer_height: self.layer_heights[(i / ns) % nh],
+            strategy: self.strategies[i % ns],
+        })
+    }
+
+    /// The index of an action of this space (exact match), if any.
+    pub fn index_of(&self, a: &Action) -> Option<usize> {
+        let r = self.radii.iter().position(|&r| r == a.tool_radius)?;
+        let h = self.layer_heights.iter().position(|&h| h == a.layer_height)?;
+        let s = self.strategies.iter().position(|&s| s == a.strategy)?;
+        Some((r * self.layer_heights.len() + h) * self.strategies.len() + s)
+    }
+}
+
+/// What a policy may look at when it chooses a setup's action.
+#[derive(Debug, Clone, Copy)]
+pub struct SetupContext<'a> {
+    /// Index of the setup in machining order.
+    pub index: usize,
+    /// The action space to choose from.
+    pub space: &'a ActionSpace,
+    /// Geometric features of the setup (see [`SetupFeatures`]).
+    pub features: &'a SetupFeatures,
+}
+
+/// Cheap geometric facts about one setup's manufacturable shape, for the heuristic
+/// policy and as the learned policy's encoder input.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SetupFeatures {
+    /// For each radius of the action space, the fraction of the setup's visible surface
+    /// samples that a ball of that radius can touch (1 = the radius loses nothing).
+    pub reach_by_radius: Vec<f64>,
+    /// Depth of the setup (extent along the tool axis), part units.
+    pub depth: f64,
+    /// Fraction of the stock volume this setup still has to remove.
+    pub removal_fraction: f64,
+    /// Edge length of the simulation's voxels, part units: detail finer than this is
+    /// not seen by the score.
+    pub voxel: f64,
+}
+
+/// Chooses an action for each setup.
+pub trait Policy {
+    /// The action for the setup described by `ctx`.
+    fn choose(&mut self, ctx: &SetupContext<'_>) -> Action;
+
+    /// A short name for reports (`fixed`, `random`, `heuristic`, ...).
+    fn name(&self) -> String;
+}
+
+/// Always the same action.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedPolicy(pub Action);
+
+impl Policy for FixedPolicy {
+    fn choose(&mut self, _: &SetupContext<'_>) -> Action {
+        self.0
+    }
+    fn name(&self) -> String {
+        format!("fixed:{},{},{}", self.0.tool_radius, self.0.layer_height, self.0.strategy.name())
+    }
+}
+
+/// Uniformly random actions from a seeded generator (the paper's "Random" row of Table 3).
+#[derive(Debug)]
+pub struct RandomPolicy {
+    rng: StdRng,
+}
+
+impl RandomPolicy {
+    /// A random policy with the given seed.
+    pub fn new(seed: u64) -> Self {
+        Self { rng: StdRng::seed_from_u64(seed) }
+    }
+}
+
+impl Policy for RandomPolicy {
+    fn choose(&mut self, ctx: &SetupContext<'_>) -> Action {
+        let i = self.rng.random_range(0..ctx.space.len().max(1));
+        ctx.space.action(i).unwrap_or(Action {
+            tool_radius: 0.0,
+            layer_height: 0.0,
+            strategy: StrategyKind::Zigzag,
+        })
+    }
+    fn name(&self) -> String {
+        "random".into()
+    }
+}
+
+/// A geometric heuristic: the largest tool that still reaches (almost) every visible
+/// surface point of the setup, the finest layer height not below the simulation's voxel
+/// size (finer layers change nothing the score can see), and zigzag clearing (the
+/// shortest paths on open stock).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeuristicPolicy {
+    /// A radius is acceptable when it reaches at least this fraction of what the
+    /// smallest radius reaches. Default 0.985.
+    pub reach_ratio: f64,
+}
+
+impl Default for HeuristicPolicy {
+    fn default() -> Self {
+        Self { reach_ratio: 0.985 }
+    }
+}
+
+impl Policy for HeuristicPolicy {
+    fn choose(&mut self, ctx: &SetupContext<'_>) -> Action {
+        let space = ctx.space;
+        let reach = &ctx.features.reach_by_radius;
+        let best = reach.first().copied().unwrap_or(1.0);
+        let radius_index = (0..space.radii.len())
+            .rev()
+            .find(|&i| reach.get(i).is_some_and(|&r| r >= self.reach_ratio * best))
+            .unwrap_or(0);
+        let layer_height = space
+            .layer_heights
+            .iter()
+            .copied()
+            .find(|&h| h >= ctx.features.voxel * (1.0 - 1e-9))
+            .or_else(|| space.layer_heights.last().copied())
+            .unwrap_or(ctx.features.voxel);
+        Action {
+            tool_radius: space.radii.get(radius_index).copied().unwrap_or(0.0),
+            layer_height,
+            strategy: space.strategies.first().copied().unwrap_or(StrategyKind::Zigzag),
+        }
+    }
+    fn name(&self) -> String {
+        "heuristic".into()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn action_indices_round_trip() {
+        for space in [ActionSpace::paper(), ActionSpace::shop()] {
+            for i in 0..space.len() {
+                let a = space.action(i).unwrap();
+                assert_eq!(space.index_of(&a), Some(i), "action {i} of {space:?}");
+            }
+            assert_eq!(space.action(space.len()), None);
+        }
+    }
+
+    #[test]
+    fn heuristic_takes_the_largest_radius_that_keeps_reach() {
+        let space = ActionSpace::paper();
+        let features =
+            SetupFeatures { reach_by_radius: vec![0.99, 0.989, 0.95, 0.90], voxel: 1.0 / 256.0, ..Default::default() };
+        let ctx = SetupContext { index: 0, space: &space, features: &features };
+        let a = HeuristicPolicy::default().choose(&ctx);
+        assert_eq!(a.tool_radius, 0.0025, "0.95 / 0.99 is below the 0.985 ratio");
+        assert_eq!(a.layer_height, 1.0 / 256.0);
+    }
+
+    #[test]
+    fn random_policy_is_reproducible() {
+        let space = ActionSpace::paper();
+        let f = SetupFeatures::default();
+        let ctx = SetupContext { index: 0, space: &space, features: &f };
+        let mut a = RandomPolicy::new(7);
+        let mut b = RandomPolicy::new(7);
+        for _ in 0..20 {
+            assert_eq!(a.choose(&ctx), b.choose(&ctx));
+        }
+    }
+}

@@ -1,0 +1,85 @@
+//! The JSON report of a [`Milled`] run.
+
+use serde_json::{Value, json};
+
+use crate::pipeline::{Milled, Preset};
+
+fn round(x: f64, decimals: i32) -> f64 {
+    let s = 10f64.powi(decimals);
+    let r = (x * s).round() / s;
+    if r == 0.0 { 0.0 } else { r }
+}
+
+fn v3(v: &crate::geom::Vector3) -> Value {
+    json!([round(v.x, 6), round(v.y, 6), round(v.z, 6)])
+}
+
+impl Milled {
+    /// The run as JSON: metrics, safety counts, per-setup parameters, orientation
+    /// coverage and rewards. With `timings`, also `stage_seconds` (wall times differ
+    /// between runs; without them the report is byte-identical for the same input and seed).
+    pub fn report_json(&self, timings: bool) -> Value {
+        let sim = &self.simulation;
+        let setups: Vec<Value> = self
+            .setups
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                json!({
+                    "index": i + 1,
+                    "tool_axis": v3(&s.setup.tool_axis().into_inner()),
+                    "tool_radius": s.action.tool_radius,
+                    "layer_height": s.action.layer_height,
+                    "strategy": s.action.strategy.name(),
+                    "layers": s.plan.layers,
+                    "cutting_length": round(s.plan.cutting_length, 6),
+                    "rapid_length": round(s.plan.rapid_length, 6),
+                    "program_lines": s.text.lines().count(),
+                    "gouge_voxels": s.gouge_voxels,
+                    "rapid_collision_lines": s.rapid_collision_lines,
+                })
+            })
+            .collect();
+        let o = &self.orientation;
+        let mut report = json!({
+            "preset": match self.preset { Preset::Paper => "paper", Preset::Shop => "shop" },
+            "policy": self.policy,
+            "iou": round(self.metrics.iou, 6),
+            "f1": round(self.metrics.f1, 6),
+            "chamfer_x1000": round(self.metrics.chamfer_x1000, 6),
+            "normal_consistency": round(self.metrics.normal_consistency, 6),
+            "machining_time_s": round(sim.machining_time_s, 3),
+            "gouge_voxels": sim.gouge_voxels,
+            "rapid_collisions": self.rapid_collisions(),
+            "holder_collisions": sim.holder_collisions.len(),
+            "removed_volume": round(sim.removed_volume_mm3, 9),
+            "removed_voxels": sim.removed_voxels,
+            "rewards": {
+                "preservation": round(self.rewards.preservation, 6),
+                "final_iou": round(self.rewards.final_iou, 6),
+                "mrr": round(self.rewards.mrr, 6),
+                "total": round(self.rewards.total, 6),
+            },
+            "orientation": {
+                "coverage": o.coverage.iter().map(|c| round(*c, 6)).collect::<Vec<_>>(),
+                "upper_bound": round(o.upper_bound, 6),
+                "six_axes": round(o.baselines.six_axes, 6),
+                "random5": round(o.baselines.random5, 6),
+                "random6": round(o.baselines.random6, 6),
+                "plain_greedy": round(o.baselines.plain_greedy, 6),
+            },
+            "setups": setups,
+        });
+        if timings {
+            let t = &self.stage_seconds;
+            report["stage_seconds"] = json!({
+                "orientation": round(t.orientation, 4),
+                "action_selection": round(t.action_selection, 4),
+                "gcode_translation": round(t.gcode_translation, 4),
+                "simulation": round(t.simulation, 4),
+                "scoring": round(t.scoring, 4),
+            });
+        }
+        report
+    }
+}
