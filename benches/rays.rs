@@ -24,8 +24,8 @@ use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 use rayon::prelude::*;
 use shape2gcode::geom::{
-    GridSpec, Mesh, MeshIndex, Point3, Vector3, VoxelGrid, VoxelizeOptions, load_mesh, sample_surface, voxelize,
-    voxelize_opt,
+    GridSpec, Mesh, MeshIndex, Point3, Vector3, VoxelGrid, VoxelizeOptions, load_mesh, sample_surface,
+    voxelize, voxelize_opt,
 };
 
 const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/stanford_bunny.stl");
@@ -38,7 +38,8 @@ fn bumpy_torus(nu: usize, nv: usize) -> Mesh {
     for i in 0..nu {
         for j in 0..nv {
             let (u, w) = (tau * i as f64 / nu as f64, tau * j as f64 / nv as f64);
-            let r = small * (1.0 + 0.18 * (7.0 * u).sin() * (5.0 * w).cos() + 0.06 * (23.0 * u + 11.0 * w).sin());
+            let r =
+                small * (1.0 + 0.18 * (7.0 * u).sin() * (5.0 * w).cos() + 0.06 * (23.0 * u + 11.0 * w).sin());
             let c = big + r * w.cos();
             v.push(Point3::new(c * u.cos(), c * u.sin(), r * w.sin()));
         }
@@ -111,8 +112,12 @@ fn bench(c: &mut Criterion) {
         100.0 * blocked as f64 / rays.len() as f64
     );
     // Sanity: ours and parry agree on which rays are blocked.
-    let parry_blocked = parry_rays.iter().filter(|r| parry.cast_local_ray(r, f64::MAX, false).is_some()).count();
-    assert!(blocked.abs_diff(parry_blocked) <= rays.len() / 10_000, "ours {blocked} vs parry {parry_blocked}");
+    let parry_blocked =
+        parry_rays.iter().filter(|r| parry.cast_local_ray(r, f64::MAX, false).is_some()).count();
+    assert!(
+        blocked.abs_diff(parry_blocked) <= rays.len() / 10_000,
+        "ours {blocked} vs parry {parry_blocked}"
+    );
 
     let n = rays.len() as u64;
     let mut g = c.benchmark_group("rays");
@@ -129,12 +134,18 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("parry/first_hit_normal", |b| {
         b.iter(|| {
-            parry_rays.iter().filter(|r| parry.cast_local_ray_and_get_normal(r, f64::MAX, false).is_some()).count()
+            parry_rays
+                .iter()
+                .filter(|r| parry.cast_local_ray_and_get_normal(r, f64::MAX, false).is_some())
+                .count()
         })
     });
     g.bench_function("ours/par_any_hit_all_threads", |b| {
         b.iter(|| {
-            rays.par_iter().with_min_len(1024).filter(|(o, d)| index.ray_hits_any(o, d, f64::INFINITY)).count()
+            rays.par_iter()
+                .with_min_len(1024)
+                .filter(|(o, d)| index.ray_hits_any(o, d, f64::INFINITY))
+                .count()
         })
     });
     let few = &rays[..64];
@@ -172,7 +183,9 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     let spec = GridSpec::cubic(&bunny.bbox().expect("bbox").inflated(1e-3), 256).expect("spec");
     g.throughput(Throughput::Elements(spec.len() as u64));
-    g.bench_function("bunny_256/ours_robust", |b| b.iter(|| voxelize(&bunny, &spec).expect("voxelize").count()));
+    g.bench_function("bunny_256/ours_robust", |b| {
+        b.iter(|| voxelize(&bunny, &spec).expect("voxelize").count())
+    });
     let z_only = VoxelizeOptions { robust: false, ..Default::default() };
     g.bench_function("bunny_256/ours_z_only", |b| {
         b.iter(|| voxelize_opt(&bunny, &spec, &z_only).expect("voxelize").count())

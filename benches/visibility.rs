@@ -59,9 +59,13 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("select");
     g.sample_size(10);
     let opts = OrientOptions { baseline_trials: 0, ..Default::default() };
-    g.bench_function("local_search", |b| b.iter(|| black_box(select_orientations(&mesh, &opts).expect("select"))));
+    g.bench_function("local_search", |b| {
+        b.iter(|| black_box(select_orientations(&mesh, &opts).expect("select")))
+    });
     let plain = OrientOptions { strategy: Strategy::PlainGreedy, ..opts };
-    g.bench_function("plain_greedy", |b| b.iter(|| black_box(select_orientations(&mesh, &plain).expect("select"))));
+    g.bench_function("plain_greedy", |b| {
+        b.iter(|| black_box(select_orientations(&mesh, &plain).expect("select")))
+    });
     g.finish();
 }
 

@@ -7,11 +7,12 @@
 
 use std::time::Instant;
 
-use crate::gcode::{Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, WriterOptions, parse_str};
+use crate::gcode::{
+    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, WriterOptions, parse_str,
+};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Setup, ShapeMetrics, Vector3,
-    VoxelGrid, compare, marching_cubes_voxels, report, sample_surface,
-    unit_cube_normalization, voxelize,
+    VoxelGrid, compare, marching_cubes_voxels, sample_surface, unit_cube_normalization, voxelize,
 };
 use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures, StrategyKind};
@@ -79,6 +80,8 @@ pub struct MillOptions {
     pub stock_margin: f64,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
+    /// Clearing strategies the policy may choose from. Default: all three.
+    pub strategies: Vec<StrategyKind>,
 }
 
 impl Default for MillOptions {
@@ -95,6 +98,7 @@ impl Default for MillOptions {
             seed: 0,
             stock_margin: 0.02,
             paper_scale_mm: 100.0,
+            strategies: StrategyKind::ALL.to_vec(),
         }
     }
 }
@@ -234,7 +238,10 @@ pub fn mill(
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Milled, MillError> {
     if opts.resolution < 8 || opts.resolution > 2048 {
-        return Err(MillError::InvalidOption(format!("resolution must be 8..=2048, got {}", opts.resolution)));
+        return Err(MillError::InvalidOption(format!(
+            "resolution must be 8..=2048, got {}",
+            opts.resolution
+        )));
     }
     if mesh.is_empty() {
         return Err(crate::geom::GeomError::EmptyMesh.into());
@@ -262,7 +269,11 @@ pub fn mill(
             (mesh.clone(), ActionSpace::shop(), bbox.inflated(margin), Normalization::identity())
         }
     };
-    let _ = report(&part); // validates topology cheaply; open meshes are still milled
+    let mut space = space;
+    space.strategies.retain(|s| opts.strategies.contains(s));
+    if space.strategies.is_empty() {
+        return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
+    }
 
     // Orientation selection.
     progress(Stage::Orientation);
@@ -308,7 +319,10 @@ pub fn mill(
     }
     let sim_opts = SimOptions { rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
     let sim_err = |e: crate::voxsim::SimError| MillError::Simulation(e.to_string());
-    let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts).map_err(sim_err)?.with_target(&target).map_err(sim_err)?;
+    let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
+        .map_err(sim_err)?
+        .with_target(&target)
+        .map_err(sim_err)?;
     times.simulation += t.elapsed().as_secs_f64();
 
     let mut setups = Vec::with_capacity(actions.len());
@@ -355,10 +369,14 @@ pub fn mill(
         // so the simulator is told the frame here.
         sim.motion(&Motion::Setup { frame: setup.frame, rotary: [None; 3] }).map_err(sim_err)?;
         let mut tee = Tee { sim: &mut sim, trace: (i == 0).then_some(&mut trace), frame: *setup, last: None };
-        let summary = parse_str(&text, &ParseOptions::default(), &mut tee)
-            .map_err(|e| MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") })?;
+        let summary = parse_str(&text, &ParseOptions::default(), &mut tee).map_err(|e| {
+            MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") }
+        })?;
         if let Some(err) = summary.errors.first() {
-            return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {err}") });
+            return Err(MillError::Program {
+                setup: i + 1,
+                message: format!("re-reading the program: {err}"),
+            });
         }
         let gouges_before = sim.report().gouge_voxels;
         let rapids_before: std::collections::BTreeSet<u64> =
@@ -372,7 +390,14 @@ pub fn mill(
         let rapid_collision_lines =
             report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
         times.simulation += t.elapsed().as_secs_f64();
-        setups.push(SetupProgram { setup: *setup, action: *action, plan, text, gouge_voxels, rapid_collision_lines });
+        setups.push(SetupProgram {
+            setup: *setup,
+            action: *action,
+            plan,
+            text,
+            gouge_voxels,
+            rapid_collision_lines,
+        });
     }
     let t = Instant::now();
     let simulated = sim.into_simulation().map_err(sim_err)?;
@@ -470,10 +495,8 @@ fn setup_features(
             if visible.is_empty() {
                 return 0.0;
             }
-            let ok = visible
-                .par_iter()
-                .filter(|(p, n)| index.signed_distance(&(*p + *n * r)) >= r * 0.98)
-                .count();
+            let ok =
+                visible.par_iter().filter(|(p, n)| index.signed_distance(&(*p + *n * r)) >= r * 0.98).count();
             ok as f64 / visible.len() as f64
         })
         .collect();
@@ -486,7 +509,8 @@ fn setup_features(
             )
         });
         let zs: Vec<f64> = corners.map(|c| c.coords.dot(&axis)).collect();
-        zs.iter().copied().fold(f64::NEG_INFINITY, f64::max) - zs.iter().copied().fold(f64::INFINITY, f64::min)
+        zs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            - zs.iter().copied().fold(f64::INFINITY, f64::min)
     };
     SetupFeatures { reach_by_radius, depth, removal_fraction: 0.0, voxel: 0.0 }
 }

@@ -260,8 +260,11 @@ mod tests {
     #[test]
     fn heuristic_takes_the_largest_radius_that_keeps_reach() {
         let space = ActionSpace::paper();
-        let features =
-            SetupFeatures { reach_by_radius: vec![0.99, 0.989, 0.95, 0.90], voxel: 1.0 / 256.0, ..Default::default() };
+        let features = SetupFeatures {
+            reach_by_radius: vec![0.99, 0.989, 0.95, 0.90],
+            voxel: 1.0 / 256.0,
+            ..Default::default()
+        };
         let ctx = SetupContext { index: 0, space: &space, features: &features };
         let a = HeuristicPolicy::default().choose(&ctx);
         assert_eq!(a.tool_radius, 0.0025, "0.95 / 0.99 is below the 0.985 ratio");

@@ -133,7 +133,8 @@ fn fill_triangle(img: &mut Image, depth: &mut [f64], v: [(f64, f64, f64); 3], c:
     for y in min_y as usize..=max_y as usize {
         for x in min_x as usize..=max_x as usize {
             let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-            let e = |a: (f64, f64, f64), b: (f64, f64, f64)| (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1);
+            let e =
+                |a: (f64, f64, f64), b: (f64, f64, f64)| (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1);
             let w0 = e(v[1], v[2]) / area;
             let w1 = e(v[2], v[0]) / area;
             let w2 = 1.0 - w0 - w1;
@@ -173,12 +174,16 @@ pub struct PathTrace {
 ///
 /// A residual triangle is grey when it lies on the original stock box (untouched
 /// material) and red when a cut made it.
-pub fn render_machining(residual: &Mesh, stock: &Aabb, trace: Option<(&PathTrace, Vector3)>, panel: usize) -> Image {
+pub fn render_machining(
+    residual: &Mesh,
+    stock: &Aabb,
+    trace: Option<(&PathTrace, Vector3)>,
+    panel: usize,
+) -> Image {
     let panel = panel.max(64);
     let tol = 0.75 * stock.extent().max() / 256.0;
-    let on_stock_face = |p: &Point3| {
-        (0..3).any(|a| (p[a] - stock.min[a]).abs() < tol || (p[a] - stock.max[a]).abs() < tol)
-    };
+    let on_stock_face =
+        |p: &Point3| (0..3).any(|a| (p[a] - stock.min[a]).abs() < tol || (p[a] - stock.max[a]).abs() < tol);
     let colour_of = |t: usize| {
         let [a, b, c] = residual.triangle(t);
         if on_stock_face(&a) && on_stock_face(&b) && on_stock_face(&c) { STOCK_GREY } else { CUT_RED }
@@ -221,8 +226,18 @@ mod tests {
             })
             .collect();
         let t = vec![
-            [0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
-            [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5],
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
         ];
         Mesh::new(v, t).unwrap()
     }

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod eval;
 mod gcode;
 mod inspect;
 mod mill;
@@ -23,6 +24,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Evaluate policies and orientation strategies: the paper's Tables 1-4 on our data.
+    Eval(eval::Args),
     /// Mill a mesh: orientations, toolpaths, G-code, then simulate the written G-code and score it.
     Mill(mill::Args),
     /// Parse a G-code program: `check` errors, `stats`, or `motions` as JSON lines.
@@ -38,6 +41,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Eval(args) => eval::run(args),
         Command::Mill(args) => mill::run(args),
         Command::Gcode(args) => gcode::run(args),
         Command::Inspect(args) => inspect::run(args),

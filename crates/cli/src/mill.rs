@@ -71,7 +71,9 @@ fn parse_policy(spec: &str, seed: u64) -> anyhow::Result<Box<dyn Policy>> {
             let layer_height: f64 = h.parse().with_context(|| format!("bad layer height {h:?}"))?;
             Box::new(FixedPolicy(Action { tool_radius, layer_height, strategy }))
         }
-        other => bail!("unknown policy {other:?} (learned policies come with the rl crate; use heuristic, random or fixed:R,H,S)"),
+        other => bail!(
+            "unknown policy {other:?} (learned policies come with the rl crate; use heuristic, random or fixed:R,H,S)"
+        ),
     })
 }
 
@@ -79,7 +81,8 @@ fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
     if n == 1 {
         return vec![output.to_path_buf()];
     }
-    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "program".into());
+    let stem =
+        output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "program".into());
     let ext = output.extension().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "ngc".into());
     (1..=n).map(|i| output.with_file_name(format!("{stem}.{i}.{ext}"))).collect()
 }
@@ -103,10 +106,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         d => bail!("unknown dialect {d:?} (linuxcnc, grbl or fanuc)"),
     };
     let mut policy = parse_policy(&args.policy, args.seed)?;
-    let opts = MillOptions { preset, setups, dialect, resolution: args.res, seed: args.seed, ..MillOptions::default() };
+    let opts = MillOptions {
+        preset,
+        setups,
+        dialect,
+        resolution: args.res,
+        seed: args.seed,
+        ..MillOptions::default()
+    };
 
     let bar = ProgressBar::new_spinner();
-    bar.set_style(ProgressStyle::with_template("{spinner} {elapsed} {msg}").unwrap_or_else(|_| ProgressStyle::default_spinner()));
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
     bar.enable_steady_tick(Duration::from_millis(120));
     let t0 = std::time::Instant::now();
     let mut progress = |stage: Stage| {
@@ -125,7 +138,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("milling {}", mesh_path.display()))?;
     bar.finish_and_clear();
 
-    let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "part".into());
+    let stem =
+        mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "part".into());
     let output = args.output.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.ngc")));
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -142,7 +156,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         report["residual"] = serde_json::json!(p.display().to_string());
     }
     if let Some(p) = &args.render {
-        let img = render_machining(&milled.residual, &milled.stock, Some((&milled.trace, milled.trace_axis)), 480);
+        let img =
+            render_machining(&milled.residual, &milled.stock, Some((&milled.trace, milled.trace_axis)), 480);
         write_bytes_atomic(p, &img.to_png())?;
         report["render"] = serde_json::json!(p.display().to_string());
     }
@@ -160,8 +175,15 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             let a = sp.setup.tool_axis();
             println!(
                 "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}), radius {}, layer {:.6}, {}, {} layers -> {}",
-                i + 1, a.x, a.y, a.z, sp.action.tool_radius, sp.action.layer_height,
-                sp.action.strategy.name(), sp.plan.layers, paths.get(i).unwrap_or(&paths[0]).display()
+                i + 1,
+                a.x,
+                a.y,
+                a.z,
+                sp.action.tool_radius,
+                sp.action.layer_height,
+                sp.action.strategy.name(),
+                sp.plan.layers,
+                paths.get(i).unwrap_or(&paths[0]).display()
             );
         }
         println!(

@@ -110,7 +110,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         println!("{}: {} setups", path.display(), r.directions.len());
         for (i, (d, c)) in r.directions.iter().zip(&r.coverage).enumerate() {
-            println!("  setup {i}: tool axis ({:+.4}, {:+.4}, {:+.4})  coverage {:.2} %", d.x, d.y, d.z, 100.0 * c);
+            println!(
+                "  setup {i}: tool axis ({:+.4}, {:+.4}, {:+.4})  coverage {:.2} %",
+                d.x,
+                d.y,
+                d.z,
+                100.0 * c
+            );
         }
         let b = &r.baselines;
         println!("upper bound {:.2} %", 100.0 * r.upper_bound);

@@ -85,13 +85,18 @@ fn parse_tool(spec: &str) -> anyhow::Result<Cutter> {
 }
 
 fn parse_box(spec: &str) -> anyhow::Result<Aabb> {
-    let body = spec.strip_prefix("box:").with_context(|| format!("--stock {spec}: expected box:X0,Y0,Z0,X1,Y1,Z1"))?;
+    let body = spec
+        .strip_prefix("box:")
+        .with_context(|| format!("--stock {spec}: expected box:X0,Y0,Z0,X1,Y1,Z1"))?;
     let v: Vec<f64> = body
         .split(',')
         .map(|s| s.trim().parse::<f64>().with_context(|| format!("--stock {spec}: bad number {s:?}")))
         .collect::<anyhow::Result<_>>()?;
     let [x0, y0, z0, x1, y1, z1] = v[..] else { bail!("--stock {spec}: expected six numbers") };
-    let b = Aabb::new(Point3::new(x0.min(x1), y0.min(y1), z0.min(z1)), Point3::new(x0.max(x1), y0.max(y1), z0.max(z1)));
+    let b = Aabb::new(
+        Point3::new(x0.min(x1), y0.min(y1), z0.min(z1)),
+        Point3::new(x0.max(x1), y0.max(y1), z0.max(z1)),
+    );
     if !b.is_valid() || b.volume() <= 0.0 {
         bail!("--stock {spec}: the box is empty or not finite");
     }
@@ -120,7 +125,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let target = match &args.target {
         Some(path) => {
             let mesh = load_mesh(path).with_context(|| format!("loading target {}", path.display()))?;
-            Some(voxelize(&mesh, stock.spec()).with_context(|| format!("voxelising target {}", path.display()))?)
+            Some(
+                voxelize(&mesh, stock.spec())
+                    .with_context(|| format!("voxelising target {}", path.display()))?,
+            )
         }
         None => None,
     };
@@ -137,7 +145,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     let sim = if let Some(t) = &target {
         // Gouges need the target inside the simulator: stream through a targeted simulator.
-        let s = shape2gcode::voxsim::Simulator::new(stock, ToolTable::single(cutter), opts)?.with_target(t)?;
+        let s =
+            shape2gcode::voxsim::Simulator::new(stock, ToolTable::single(cutter), opts)?.with_target(t)?;
         simulate_with(&args.program, s)?
     } else {
         simulate_file(&args.program, stock, ToolTable::single(cutter), &opts)
@@ -182,16 +191,29 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string_pretty(&j)?);
     } else {
         println!("program            {}", args.program.display());
-        println!("grid               {:?} voxels of {:.4} mm", sim.residual().dims(), sim.residual().spec().voxel.x);
+        println!(
+            "grid               {:?} voxels of {:.4} mm",
+            sim.residual().dims(),
+            sim.residual().spec().voxel.x
+        );
         println!("moves              {}", r.moves);
         println!("removed            {} voxels, {:.3} mm3", r.removed_voxels, r.removed_volume_mm3);
         println!("gouges             {} voxels, first at line {:?}", r.gouge_voxels, r.first_gouge_line);
-        println!("rapid collisions   {} voxels at lines {:?}", r.rapid_collision_voxels, r.rapid_collision_lines);
+        println!(
+            "rapid collisions   {} voxels at lines {:?}",
+            r.rapid_collision_voxels, r.rapid_collision_lines
+        );
         println!("holder collisions  lines {:?}", r.holder_collisions);
-        println!("machining time     {:.2} s (feed {:.1} mm, rapid {:.1} mm)", r.machining_time_s, r.feed_length_mm, r.rapid_length_mm);
+        println!(
+            "machining time     {:.2} s (feed {:.1} mm, rapid {:.1} mm)",
+            r.machining_time_s, r.feed_length_mm, r.rapid_length_mm
+        );
         println!("MRR                {:.2} mm3/min", r.mrr_mm3_per_min);
         if let Some(w) = rewards {
-            println!("rewards            R_s {:.4}  R_f {:.4}  R_MRR {:.2}  total {:.4}", w.preservation, w.final_iou, w.mrr, w.total);
+            println!(
+                "rewards            R_s {:.4}  R_f {:.4}  R_MRR {:.2}  total {:.4}",
+                w.preservation, w.final_iou, w.mrr, w.total
+            );
         }
         println!("seconds            {seconds:.3}");
     }

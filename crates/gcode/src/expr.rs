@@ -96,8 +96,66 @@ impl<'a> Cursor<'a> {
     }
 
     /// A plain decimal number with optional sign; blanks between its characters are skipped.
+    ///
+    /// Fast path: `[sign]digits[.digits]` with at most 19 digits, converted exactly
+    /// (Clinger); anything else goes through [`Self::number_general`].
     #[inline]
     pub fn number(&mut self) -> R<f64> {
+        let b = self.b;
+        let n = b.len();
+        let mut i = self.i;
+        while i < n && (b[i] == b' ' || b[i] == b'\t') {
+            i += 1;
+        }
+        let mut neg = false;
+        if i < n && (b[i] == b'-' || b[i] == b'+') {
+            neg = b[i] == b'-';
+            i += 1;
+        }
+        let mut mant: u64 = 0;
+        let mut nd = 0u32;
+        while i < n {
+            let d = b[i].wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            mant = mant.wrapping_mul(10).wrapping_add(d as u64);
+            nd += 1;
+            i += 1;
+        }
+        let mut frac = 0u32;
+        if i < n && b[i] == b'.' {
+            i += 1;
+            while i < n {
+                let d = b[i].wrapping_sub(b'0');
+                if d > 9 {
+                    break;
+                }
+                mant = mant.wrapping_mul(10).wrapping_add(d as u64);
+                nd += 1;
+                frac += 1;
+                i += 1;
+            }
+        }
+        let blank_continues = i < n && (b[i] == b' ' || b[i] == b'\t') && {
+            let mut j = i;
+            while j < n && (b[j] == b' ' || b[j] == b'\t') {
+                j += 1;
+            }
+            j < n && (b[j].is_ascii_digit() || b[j] == b'.')
+        };
+        if nd == 0 || nd > 19 || blank_continues || mant >= (1u64 << 53) || frac as usize >= POW10.len() {
+            return self.number_general();
+        }
+        self.i = i;
+        // Clinger's fast path: both operands exact, one correctly rounded division.
+        let v = mant as f64 / POW10[frac as usize];
+        Ok(if neg { -v } else { v })
+    }
+
+    /// The general number reader: blanks inside the number, many digits.
+    #[cold]
+    fn number_general(&mut self) -> R<f64> {
         let start = self.i;
         self.skip_ws();
         let mut neg = false;

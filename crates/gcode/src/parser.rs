@@ -47,6 +47,8 @@ const INCH: f64 = 25.4;
 const RADIUS_TOLERANCE_MM: f64 = 0.00005 * INCH;
 /// LinuxCNC `G83_RAPID_DELTA`: 0.010 inch back off above the previous peck.
 const PECK_RAPID_DELTA_MM: f64 = 0.010 * INCH;
+/// Most moves one canned-cycle block may expand into.
+const MAX_CYCLE_MOVES: u32 = 1_000_000;
 /// Lines longer than this are reported as an error instead of being buffered whole.
 const MAX_LINE: usize = 16 << 20;
 
@@ -675,8 +677,11 @@ impl<'o> Interp<'o> {
                     };
                     match l {
                         b'g' => {
-                            let code = (v * 10.0).round();
-                            if (v * 10.0 - code).abs() > 1e-6 || !(0.0..=9999.0).contains(&code) {
+                            // Round half up without libm (the range check comes first).
+                            let t = v * 10.0;
+                            let code =
+                                if (0.0..=9999.0).contains(&t) { ((t + 0.5) as u32) as f64 } else { -1.0 };
+                            if (t - code).abs() > 1e-6 || code < 0.0 {
                                 return Err(Fail::Line(at, GcodeErrorKind::UnknownCode(format!("G{v}"))));
                             }
                             if blk.ng == blk.g.len() {
@@ -689,8 +694,9 @@ impl<'o> Interp<'o> {
                             blk.ng += 1;
                         }
                         b'm' => {
-                            let code = v.round();
-                            if (v - code).abs() > 1e-6 || !(0.0..=9999.0).contains(&code) {
+                            let code =
+                                if (0.0..=9999.0).contains(&v) { ((v + 0.5) as u32) as f64 } else { -1.0 };
+                            if (v - code).abs() > 1e-6 || code < 0.0 {
                                 return Err(Fail::Line(at, GcodeErrorKind::UnknownCode(format!("M{v}"))));
                             }
                             if blk.nm == blk.m.len() {
@@ -750,7 +756,11 @@ impl<'o> Interp<'o> {
         Ok(())
     }
 
+    #[inline]
     fn apply_assignments(&mut self, line: &[u8]) {
+        if self.assigns.is_empty() {
+            return;
+        }
         for k in 0..self.assigns.len() {
             let (key, v) = self.assigns[k];
             match key {
@@ -821,6 +831,7 @@ impl<'o> Interp<'o> {
         Point3::new(self.work(0), self.work(1), self.work(2))
     }
 
+    #[inline]
     fn set_work(&mut self, w: [f64; 3]) {
         for (i, &v) in w.iter().enumerate() {
             self.mpos[i] = v + self.g5x[i] + self.g92[i];
@@ -1277,7 +1288,13 @@ impl<'o> Interp<'o> {
                     Some(Mode::Rapid) => self.straight(true, g53, sink)?,
                     Some(Mode::Linear) => self.straight(false, g53, sink)?,
                     Some(Mode::Arc(dir)) => self.arc(dir, explicit.map(|e| e.1), sink)?,
-                    Some(Mode::Cycle(code)) => self.cycle(code, prev_mode, sink)?,
+                    Some(Mode::Cycle(code)) => {
+                        if let Err(e) = self.cycle(code, prev_mode, sink) {
+                            // LinuxCNC discards a failing block, its motion mode included.
+                            self.mode = prev_mode;
+                            return Err(e);
+                        }
+                    }
                 }
             }
         }
@@ -1574,8 +1591,13 @@ impl<'o> Interp<'o> {
                 GcodeErrorKind::CannedCycle("R plane below the bottom of the cycle".into()),
             ));
         }
-        if matches!(code, 730 | 830) && (r - cc) / q > 100_000.0 {
-            return Err(Fail::Line(0, GcodeErrorKind::CannedCycle("more than 100 000 pecks".into())));
+        // Bound the expansion: hostile input must not turn one line into billions of moves.
+        let pecks = if matches!(code, 730 | 830) { ((r - cc) / q).ceil() + 1.0 } else { 1.0 };
+        if repeats as f64 * (3.0 * pecks + 4.0) > MAX_CYCLE_MOVES as f64 {
+            return Err(Fail::Line(
+                0,
+                GcodeErrorKind::CannedCycle(format!("expands to more than {MAX_CYCLE_MOVES} moves")),
+            ));
         }
         self.need_feed(&name)?;
         self.cycle_il = Some(old_cc);

@@ -565,4 +565,12 @@ fn hostile_inputs_do_not_panic() {
         let r = parse_str(t, &o, &mut st);
         assert!(r.is_ok(), "{t:?}");
     }
+    // Found by the fuzzer: a modal peck cycle with huge L and R expanded to 552 million
+    // moves. The expansion is now capped and reported.
+    let t = "G0 Z1\nG83 X1 Z-1 R1 Q0.11 F1\nX2 L90000 R810\nX3";
+    let (s, m) = run(t, &o);
+    assert_eq!(s.errors.len(), 1, "{:?}", s.errors);
+    assert_eq!(s.errors[0].line, 3);
+    assert!(matches!(s.errors[0].kind, GcodeErrorKind::CannedCycle(_)));
+    assert!(m.len() < 200, "{} motions", m.len());
 }

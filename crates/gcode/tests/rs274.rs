@@ -15,8 +15,9 @@ use s2g_gcode::{ArcDirection, Motion, MotionRecorder, ParseDialect, ParseOptions
 
 const TOL: f64 = 1e-4;
 
-/// rs274 instances running at the same time interfere (shared interpreter state on the
-/// machine), so the tests run them one at a time.
+/// rs274 keeps its tool table in `$HOME/.tool.mmap`, truncated at start: concurrent runs
+/// corrupt each other. Each run gets its own HOME (the temp dir), and runs in this
+/// process are serialised as well.
 static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 #[derive(Debug, Clone, PartialEq)]
@@ -63,6 +64,7 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
         .arg("-t")
         .arg(&tbl)
         .arg(&prog)
+        .env("HOME", dir)
         .stdin(std::process::Stdio::null())
         .output()
         .expect("run rs274");

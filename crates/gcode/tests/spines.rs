@@ -149,7 +149,9 @@ fn paper_flags_differ_on_g1_travels() {
 #[test]
 fn spines_of_written_marlin_program() {
     use nalgebra::Point3;
-    use s2g_gcode::{ArcDirection, Dialect, Marker, Motion, MotionRecorder, Plane, WriterOptions, write_program};
+    use s2g_gcode::{
+        ArcDirection, Dialect, Marker, Motion, MotionRecorder, Plane, WriterOptions, write_program,
+    };
     use std::borrow::Cow;
 
     let mut ms = Vec::new();
@@ -172,8 +174,16 @@ fn spines_of_written_marlin_program() {
                 feed: 1200.0,
                 extrude: Some(1.5),
             });
-            ms.push(Motion::Linear { to: Point3::new(cx - 10.0, cy - 5.0, z), feed: 1200.0, extrude: Some(0.25) });
-            ms.push(Motion::Linear { to: Point3::new(cx - 10.0, cy - 5.0, z), feed: 2400.0, extrude: Some(-0.8) });
+            ms.push(Motion::Linear {
+                to: Point3::new(cx - 10.0, cy - 5.0, z),
+                feed: 1200.0,
+                extrude: Some(0.25),
+            });
+            ms.push(Motion::Linear {
+                to: Point3::new(cx - 10.0, cy - 5.0, z),
+                feed: 2400.0,
+                extrude: Some(-0.8),
+            });
             filament += 1.75;
             runs += 1;
         }

@@ -328,20 +328,35 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Vec<CanonMove> {
     let table = dir.join("tools.tbl");
     let tools: String = (0..=20).map(|t| format!("T{t} P{t} Z0 D0\n")).collect();
     std::fs::write(&table, tools).expect("write tool table");
-    // rs274 reads and rewrites `rs274ngc.var` in its working directory: give each run its own.
-    let out = Command::new(&exe)
-        .current_dir(dir)
-        .arg("-g")
-        .arg("-t")
-        .arg(&table)
-        .arg(&file)
-        .output()
-        .expect("run rs274");
+    // rs274 reads and rewrites `rs274ngc.var` in its working directory: give each
+    // run its own. Concurrent starts sometimes die with SIGBUS (shared memory set-up
+    // in LinuxCNC's libraries), so runs are serialised and a run killed by a signal
+    // (no exit code; a rejected program exits with code 1) is retried.
+    static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = RS274.lock().unwrap_or_else(|e| e.into_inner());
+    let run = || {
+        Command::new(&exe)
+            .current_dir(dir)
+            .arg("-g")
+            .arg("-t")
+            .arg(&table)
+            .arg(&file)
+            .output()
+            .expect("run rs274")
+    };
+    let mut out = run();
+    for _ in 0..3 {
+        if out.status.code().is_some() {
+            break;
+        }
+        out = run();
+    }
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         out.status.success(),
-        "rs274 rejected {name}:\n{}\n{}\n--- program ---\n{text}",
+        "rs274 rejected {name} ({}):\n{}\n{}\n--- program ---\n{text}",
+        out.status,
         stdout.lines().rev().take(4).collect::<Vec<_>>().join("\n"),
         stderr
     );

@@ -3,9 +3,9 @@
 //!
 //! The index is a flat binned-SAH BVH written for this crate (see `query/bvh.rs`): f32
 //! node boxes rounded outwards (conservative), triangles in f64 in leaf order, iterative
-//! traversal with early exit for any-hit queries. It measured several times faster than
-//! parry3d's `TriMesh` for the orientation-style any-hit rays of the orient crate (see
-//! `benches/rays.rs`, which runs both). The same hierarchy carries the moments of the
+//! traversal (nearer child first) with early exit for any-hit queries. It measured about
+//! twice as fast as parry3d-f64's `TriMesh` ray cast on orientation-style rays (see
+//! `benches/rays.rs`, which runs both); a 4-wide variant was tried and was no faster. The same hierarchy carries the moments of the
 //! fast winding number ([`MeshIndex::winding_number`]), which gives the inside test and the
 //! sign of the distance, robust to small holes and duplicated faces.
 
@@ -13,7 +13,6 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub(crate) mod bvh;
-mod wide;
 
 use rayon::prelude::*;
 
@@ -23,7 +22,6 @@ use crate::mesh::Mesh;
 use crate::sdf::SignedDistance;
 use crate::winding::WindingTree;
 use bvh::Bvh;
-use wide::Bvh4;
 
 /// The first surface point a ray meets.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,7 +53,6 @@ pub struct ClosestPoint {
 #[derive(Debug, Clone)]
 pub struct MeshIndex {
     pub(crate) bvh: Bvh,
-    wide: Bvh4,
     pub(crate) winding: WindingTree,
     triangles: usize,
 }
@@ -85,8 +82,7 @@ impl MeshIndex {
         }
         let bvh = Bvh::build(mesh);
         let winding = WindingTree::build(&bvh);
-        let wide = Bvh4::build(&bvh);
-        Ok(MeshIndex { bvh, wide, winding, triangles: mesh.triangles().len() })
+        Ok(MeshIndex { bvh, winding, triangles: mesh.triangles().len() })
     }
 
     /// Number of triangles indexed.
@@ -103,7 +99,7 @@ impl MeshIndex {
             return None;
         }
         let o = self.bvh.to_local([origin.x, origin.y, origin.z]);
-        let (t, k) = self.wide.first_hit(&self.bvh, o, d, max_dist)?;
+        let (t, k) = self.bvh.first_hit(o, d, max_dist)?;
         let tri = &self.bvh.tris[k];
         let n = bvh::cross(tri.e1, tri.e2);
         let normal = Vector3::new(n[0], n[1], n[2]).try_normalize(0.0).unwrap_or_else(Vector3::zeros);
@@ -124,7 +120,7 @@ impl MeshIndex {
         if !finite(origin) || !(max_dist >= 0.0) {
             return false;
         }
-        self.wide.any_hit(&self.bvh, self.bvh.to_local([origin.x, origin.y, origin.z]), d, max_dist)
+        self.bvh.any_hit(self.bvh.to_local([origin.x, origin.y, origin.z]), d, max_dist)
     }
 
     /// The nearest surface point to `p`. For a non-finite `p` the fallback is
@@ -207,48 +203,6 @@ mod tests {
     use super::*;
 
     fn assert_send_sync<T: Send + Sync>() {}
-
-    #[test]
-    fn wide_tree_agrees_with_the_binary_tree() {
-        // A bumpy sphere-ish soup big enough for a deep tree.
-        let mut v = Vec::new();
-        let mut t = Vec::new();
-        let (nu, nv) = (60usize, 40usize);
-        for i in 0..nu {
-            for j in 0..=nv {
-                let (u, w) = (
-                    std::f64::consts::TAU * i as f64 / nu as f64,
-                    std::f64::consts::PI * j as f64 / nv as f64,
-                );
-                let r = 1.0 + 0.2 * (5.0 * u).sin() * (3.0 * w).cos();
-                v.push(Point3::new(r * w.sin() * u.cos(), r * w.sin() * u.sin(), r * w.cos()));
-            }
-        }
-        let id = |i: usize, j: usize| ((i % nu) * (nv + 1) + j) as u32;
-        for i in 0..nu {
-            for j in 0..nv {
-                t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-            }
-        }
-        let index = MeshIndex::new(&Mesh::new(v, t).unwrap()).unwrap();
-        let mut s = 12345u64;
-        let mut rnd = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        for r in 0..3000 {
-            let o = [1.3 * rnd(), 1.3 * rnd(), 1.3 * rnd()];
-            let d = unit(&Vector3::new(rnd(), rnd(), rnd())).unwrap();
-            let tmax = if r % 3 == 0 { 0.5 } else { f64::INFINITY };
-            let o = index.bvh.to_local(o);
-            let a = index.bvh.first_hit(o, d, tmax);
-            let b = index.wide.first_hit(&index.bvh, o, d, tmax);
-            assert_eq!(a.map(|x| x.0), b.map(|x| x.0), "ray {r}: binary vs wide first hit");
-            assert_eq!(index.bvh.any_hit(o, d, tmax), index.wide.any_hit(&index.bvh, o, d, tmax), "ray {r}");
-            assert_eq!(a.is_some(), index.wide.any_hit(&index.bvh, o, d, tmax), "ray {r}: any vs first");
-        }
-    }
 
     #[test]
     fn index_is_send_and_sync_and_rejects_empty_meshes() {

@@ -31,7 +31,7 @@ pub struct GridSpec {
 impl GridSpec {
     /// `dims` voxels spanning `bounds` exactly.
     pub fn new(bounds: &Aabb, dims: [usize; 3]) -> Result<Self> {
-        if !bounds.is_valid() || dims.iter().any(|&d| d == 0) {
+        if !bounds.is_valid() || dims.contains(&0) {
             return Err(GeomError::InvalidArgument(format!(
                 "voxel grid needs a valid box and non-zero dimensions, got {bounds:?} and {dims:?}"
             )));
@@ -123,7 +123,7 @@ impl GridSpec {
     pub fn center_range(&self, lo: Real, hi: Real, a: usize) -> Option<(usize, usize)> {
         let first = ((lo - self.origin[a]) / self.voxel[a] - 0.5).ceil().max(0.0);
         let last = ((hi - self.origin[a]) / self.voxel[a] - 0.5).floor().min(self.dims[a] as Real - 1.0);
-        (first <= last).then(|| (first as usize, last as usize))
+        (first <= last).then_some((first as usize, last as usize))
     }
 
     /// Number of bricks along each axis.
@@ -340,11 +340,11 @@ impl VoxelGrid {
         let spec = self.spec;
         let d = spec.dims;
         self.par_bricks_mut().for_each(|(base, brick)| {
-            for z in 0..BRICK.min(d[2] - base[2]) {
+            for (z, slab) in brick.iter_mut().enumerate().take(BRICK.min(d[2] - base[2])) {
                 for y in 0..BRICK.min(d[1] - base[1]) {
                     for x in 0..BRICK.min(d[0] - base[0]) {
                         if inside(&spec.center(base[0] + x, base[1] + y, base[2] + z)) {
-                            brick[z] |= 1u64 << (x + BRICK * y);
+                            *slab |= 1u64 << (x + BRICK * y);
                         }
                     }
                 }

@@ -851,3 +851,51 @@ mod checks {
         }
     }
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn coord() -> impl Strategy<Value = Real> {
+        prop_oneof![-1e6..1e6f64, -1.0..1.0f64, Just(0.0), Just(-0.0)]
+    }
+
+    fn soup_strategy() -> impl Strategy<Value = Mesh> {
+        proptest::collection::vec(proptest::array::uniform3(proptest::array::uniform3(coord())), 1..40)
+            .prop_map(|tris| {
+                let tris: Vec<[Point3; 3]> = tris.iter().map(|t| t.map(Point3::from)).collect();
+                Mesh::from_soup(&tris).unwrap()
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+        /// PLY and OBJ round trips are exact and STL is within f32 rounding, for any
+        /// finite coordinates.
+        #[test]
+        fn writers_and_readers_agree(m in soup_strategy()) {
+            let mut ply = Vec::new();
+            s2g_geom::write_ply(&mut ply, &m).unwrap();
+            prop_assert_eq!(&s2g_geom::read_ply(&ply, Path::new("p.ply")).unwrap(), &m);
+
+            let mut obj = Vec::new();
+            s2g_geom::write_obj(&mut obj, &m).unwrap();
+            let back = s2g_geom::read_obj(&obj, Path::new("p.obj")).unwrap();
+            for (a, b) in m.triangle_points().zip(back.triangle_points()) {
+                prop_assert_eq!(a, b);
+            }
+
+            let mut stl = Vec::new();
+            s2g_geom::write_stl(&mut stl, &m).unwrap();
+            let opts = LoadOptions { weld_stl: false, ..LoadOptions::default() };
+            let back = s2g_geom::read_stl_with(&stl, Path::new("p.stl"), &opts).unwrap();
+            prop_assert_eq!(back.triangles().len(), m.triangles().len());
+            for (a, b) in m.vertices().iter().zip(back.vertices()) {
+                for c in 0..3 {
+                    prop_assert_eq!(b[c], a[c] as f32 as f64);
+                }
+            }
+        }
+    }
+}

@@ -157,7 +157,7 @@ fn metrics_are_invariant_under_rigid_motion_of_both_meshes() {
     // A quarter turn about z maps the voxel-centre lattice onto itself: IoU and F1 unchanged.
     let q = Similarity3::from_parts(
         Vector3::zeros().into(),
-        Rotation3::from_euler_angles(0.0, 0.0, 1.5707963267948966),
+        Rotation3::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2),
         1.0,
     );
     let opts = MetricOptions { resolution: 128, samples: 500, ..MetricOptions::default() };

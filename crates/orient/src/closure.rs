@@ -90,7 +90,7 @@ impl HeightMap {
             let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
             // Triangles seen edge-on add nothing that their neighbours do not.
             let scale = (b - a).xy().norm_squared().max((c - a).xy().norm_squared());
-            if !(area.abs() > 1e-14 * scale) {
+            if area.abs().partial_cmp(&(1e-14 * scale)) != Some(std::cmp::Ordering::Greater) {
                 continue;
             }
             let tol = 1e-9 * area.abs();

@@ -192,7 +192,7 @@ pub fn multi_start_search(
     if k == 0 {
         return (Vec::new(), 0);
     }
-    let mut rng = StdRng::seed_from_u64(opts.seed ^ 0x5eed_0f_5ea5c);
+    let mut rng = StdRng::seed_from_u64(opts.seed ^ 0x05ee_d0f5_ea5c);
     let mut starts: Vec<Vec<usize>> = Vec::new();
     let mut g = greedy_start.to_vec();
     g.truncate(k);

@@ -148,7 +148,7 @@ impl<'a> VisibilityContext<'a> {
                 samples.triangles.len()
             )));
         }
-        if !(opts.eps.is_finite() && opts.eps >= 0.0) || !(opts.min_cos.is_finite() && opts.min_cos < 1.0) {
+        if !(opts.eps.is_finite() && opts.eps >= 0.0 && opts.min_cos.is_finite() && opts.min_cos < 1.0) {
             return Err(OrientError::InvalidArgument(format!(
                 "visibility needs eps >= 0 and min_cos < 1, got {} and {}",
                 opts.eps, opts.min_cos
@@ -237,7 +237,7 @@ impl<'a> VisibilityContext<'a> {
     #[inline]
     fn visible_with(&self, i: usize, v: &Vector3, basis: &(Vector3, Vector3)) -> bool {
         let n = &self.normals[i];
-        if !(n.dot(v) > self.opts.min_cos) {
+        if n.dot(v).partial_cmp(&self.opts.min_cos) != Some(std::cmp::Ordering::Greater) {
             return false;
         }
         let p = &self.points[i];

@@ -49,9 +49,8 @@ fn height_field(h: &[Vec<f64>], s: f64) -> Mesh {
     let at = |i: usize, j: usize| if i < nx && j < ny { h[j][i] } else { 0.0 };
     let p = |x: usize, y: usize, z: f64| Point3::new(x as f64 * s, y as f64 * s, z);
     let mut t = Vec::new();
-    for j in 0..ny {
-        for i in 0..nx {
-            let z = h[j][i];
+    for (j, row) in h.iter().enumerate() {
+        for (i, &z) in row.iter().enumerate() {
             quad(&mut t, [p(i, j, z), p(i + 1, j, z), p(i + 1, j + 1, z), p(i, j + 1, z)], Vector3::z());
             quad(
                 &mut t,

@@ -9,6 +9,8 @@ use crate::region::Point2;
 /// Eq. (5) of the Shape2Gcode paper on a `grid`-spaced lattice over `[min, max]` at height
 /// `z`, ordered by nearest neighbour from `start` (Eq. 6 visits them in this order).
 /// Quadratic in the number of band points, as in the paper.
+// One argument per quantity of the paper's Eqs. (5)-(6), kept flat for the comparison.
+#[allow(clippy::too_many_arguments)]
 pub fn paper_contour(
     sdf: &dyn SignedDistance,
     z: f64,

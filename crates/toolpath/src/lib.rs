@@ -39,6 +39,9 @@
 //! assert!(summary.cutting_length > 0.0);
 //! ```
 
+// `!(x > 0.0)` is deliberate throughout: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod baseline;
 mod error;
 mod link;

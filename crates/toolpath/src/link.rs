@@ -96,7 +96,12 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         self.send(Motion::Linear { to, feed, extrude: None })
     }
 
-    pub fn begin(&mut self, setup: &Setup, start: &Point3, strategy: &str) -> Result<(), ToolpathError<S::Error>> {
+    pub fn begin(
+        &mut self,
+        setup: &Setup,
+        start: &Point3,
+        strategy: &str,
+    ) -> Result<(), ToolpathError<S::Error>> {
         self.send(Motion::Setup { frame: setup.frame, rotary: [None; 3] })?;
         let c = format!(
             "s2g-toolpath: tool {} radius {} strategy {}",
@@ -177,10 +182,11 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         let z = plan.z;
         let depth = top - z;
         let plunge = self.tool.plunge_feed;
-        let air = self.outside_stock(&s) || ctx.rest.is_some_and(|rest| {
-            let r = self.tool.radius;
-            !rest.any_in_box(&Point3::new(s.x - r, s.y - r, z), &Point3::new(s.x + r, s.y + r, top))
-        });
+        let air = self.outside_stock(&s)
+            || ctx.rest.is_some_and(|rest| {
+                let r = self.tool.radius;
+                !rest.any_in_box(&Point3::new(s.x - r, s.y - r, z), &Point3::new(s.x + r, s.y + r, top))
+            });
         if depth <= 0.0 || air {
             if !air {
                 self.stats.plunge += 1;

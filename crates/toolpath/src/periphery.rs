@@ -38,10 +38,8 @@ pub(crate) fn rings(region: &Region2, r: f64, s: f64, arc_step: f64) -> Vec<(f64
     let mut d = s.min(r);
     let mut inner = inset(d);
     // A bound on the number of rings: the region's half-width over the smallest step.
-    let max_rings = region
-        .bbox()
-        .map(|(lo, hi)| ((hi - lo).norm() / (0.9 * r.min(s))).ceil() as usize + 2)
-        .unwrap_or(0);
+    let max_rings =
+        region.bbox().map(|(lo, hi)| ((hi - lo).norm() / (0.9 * r.min(s))).ceil() as usize + 2).unwrap_or(0);
     while !inner.is_empty() && out.len() <= max_rings {
         out.push((d, inner.loops()));
         let next = inset(d + s);

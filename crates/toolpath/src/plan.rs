@@ -124,14 +124,25 @@ impl Default for PlanOptions {
 impl PlanOptions {
     fn validate(&self) -> Result<(), String> {
         let pos = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be positive and finite, got {v}")) }
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be positive and finite, got {v}"))
+            }
         };
         let nonneg = |name: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be finite and >= 0, got {v}")) }
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be finite and >= 0, got {v}"))
+            }
         };
         pos("layer_height", self.layer_height)?;
         if !(self.stepover > 0.0 && self.stepover <= 1.0) {
-            return Err(format!("stepover must be in (0, 1] (fraction of the diameter), got {}", self.stepover));
+            return Err(format!(
+                "stepover must be in (0, 1] (fraction of the diameter), got {}",
+                self.stepover
+            ));
         }
         nonneg("finishing_allowance", self.finishing_allowance)?;
         nonneg("clearance_height", self.clearance_height)?;
@@ -263,8 +274,11 @@ pub fn slice_setup<E>(
     if tool.flute_length.is_finite() {
         bottom = bottom.max(top - tool.flute_length);
     }
-    let flats =
-        if opts.snap_to_flats { flat_levels(&tris, opts.flat_tolerance, opts.level_tolerance) } else { Vec::new() };
+    let flats = if opts.snap_to_flats {
+        flat_levels(&tris, opts.flat_tolerance, opts.level_tolerance)
+    } else {
+        Vec::new()
+    };
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
     let keepouts = keepouts(&tris, &levels, opts.level_tolerance);
     Ok(SetupSlices { stock, part_bbox, levels, keepouts })
@@ -338,7 +352,11 @@ impl Ctx<'_> {
 
     pub(crate) fn plan_layer(&self, index: usize, z: f64, z_above: f64, keepout: &Region2) -> LayerPlan {
         let r = self.tool.radius;
-        let off = keepout.grown_safe(r + self.opts.finishing_allowance, self.opts.offset_eps * r, self.opts.arc_step);
+        let off = keepout.grown_safe(
+            r + self.opts.finishing_allowance,
+            self.opts.offset_eps * r,
+            self.opts.arc_step,
+        );
         let rect = self.centre_rect();
         let free = rect.difference(&off);
         let (clip, clearing_region) = match self.rest {
@@ -393,7 +411,9 @@ impl Ctx<'_> {
                     let len = (b - a).norm();
                     let n = ((len / (0.5 * r)).ceil() as usize).max(1);
                     let air = (0..n)
-                        .filter(|&k| self.is_air(rest, &(a + (b - a) * ((k as f64 + 0.5) / n as f64)), z, z_above))
+                        .filter(|&k| {
+                            self.is_air(rest, &(a + (b - a) * ((k as f64 + 0.5) / n as f64)), z, z_above)
+                        })
                         .count();
                     cut_air.1 += len * air as f64 / n as f64;
                 }
@@ -433,9 +453,9 @@ fn make_ctx<'a>(
 ) -> Ctx<'a> {
     let stock = slices.stock;
     let clear_z = stock.max.z + opts.clearance_height;
-    let start = opts.safe_start.unwrap_or_else(|| {
-        Point3::new(stock.min.x - tool.radius, stock.min.y - tool.radius, clear_z)
-    });
+    let start = opts
+        .safe_start
+        .unwrap_or_else(|| Point3::new(stock.min.x - tool.radius, stock.min.y - tool.radius, clear_z));
     Ctx { tool, opts, stock, start, rest }
 }
 
@@ -474,7 +494,8 @@ pub fn plan_setup_rest<S: MotionSink>(
     };
     let mut em = Emitter::new(sink, tool, opts, params);
     em.begin(setup, &ctx.start, opts.strategy.name())?;
-    let mut summary = PlanSummary { layers: slices.levels.len(), stock: Some(slices.stock), ..Default::default() };
+    let mut summary =
+        PlanSummary { layers: slices.levels.len(), stock: Some(slices.stock), ..Default::default() };
     let (mut cut, mut air) = (0.0, 0.0);
     let batch = opts.layers_per_batch.max(1);
     let n = slices.levels.len();
@@ -505,6 +526,6 @@ pub fn plan_setup_rest<S: MotionSink>(
     summary.helix_entries = st.helix;
     summary.ramp_entries = st.ramp;
     summary.plunge_entries = st.plunge;
-    summary.air_cut_fraction = rest.map(|_| if cut > 0.0 { air / cut } else { 0.0 });
+    summary.air_cut_fraction = rest.map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });
     Ok(summary)
 }

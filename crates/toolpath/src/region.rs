@@ -137,7 +137,8 @@ impl Region2 {
 
     /// The axis-aligned rectangle `[min, max]` (empty when degenerate or not finite).
     pub fn rect(min: Point2, max: Point2) -> Self {
-        if !(min.x < max.x && min.y < max.y) || !(min.coords.iter().chain(max.coords.iter()).all(|c| c.is_finite())) {
+        let finite = min.coords.iter().chain(max.coords.iter()).all(|c| c.is_finite());
+        if !(min.x < max.x && min.y < max.y && finite) {
             return Self::empty();
         }
         Self { shapes: vec![vec![vec![[min.x, min.y], [max.x, min.y], [max.x, max.y], [min.x, max.y]]]] }
@@ -166,7 +167,9 @@ impl Region2 {
 
     /// The shapes: for each, the outer boundary then the holes, as point lists.
     pub fn shapes(&self) -> impl Iterator<Item = Vec<Vec<Point2>>> + '_ {
-        self.shapes.iter().map(|s| s.iter().map(|c| c.iter().map(|p| Point2::new(p[0], p[1])).collect()).collect())
+        self.shapes
+            .iter()
+            .map(|s| s.iter().map(|c| c.iter().map(|p| Point2::new(p[0], p[1])).collect()).collect())
     }
 
     /// Number of shapes (connected components).
@@ -320,7 +323,8 @@ impl Region2 {
                 let a = c[i];
                 let b = c[(i + 1) % n];
                 for q in [Point2::new(a[0], a[1]), Point2::new(0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))] {
-                    if index.boundary_distance(&q, distance) < distance * (1.0 - 1e-9) && !index.contains(&q) {
+                    if index.boundary_distance(&q, distance) < distance * (1.0 - 1e-9) && !index.contains(&q)
+                    {
                         for e in index.edges_near(&q, distance + eps) {
                             if seen.insert(e) {
                                 let [ax, ay, bx, by] = index.edges[e as usize];
@@ -475,7 +479,9 @@ impl RegionIndex {
     pub fn boundary_distance(&self, p: &Point2, max: f64) -> f64 {
         let mut best = f64::INFINITY;
         let (ci, cj) = self.cell_of(p.x, p.y);
-        let rings = ((max / self.cell).ceil().min(1e9) as usize).saturating_add(1).min(self.dims[0].max(self.dims[1]));
+        let rings = ((max / self.cell).ceil().min(1e9) as usize)
+            .saturating_add(1)
+            .min(self.dims[0].max(self.dims[1]));
         for ring in 0..=rings {
             let i0 = ci.saturating_sub(ring);
             let j0 = cj.saturating_sub(ring);
@@ -488,7 +494,8 @@ impl RegionIndex {
                     }
                     for &e in &self.cells[j * self.dims[0] + i] {
                         let [ax, ay, bx, by] = self.edges[e as usize];
-                        best = best.min(point_segment_distance(p, &Point2::new(ax, ay), &Point2::new(bx, by)));
+                        best =
+                            best.min(point_segment_distance(p, &Point2::new(ax, ay), &Point2::new(bx, by)));
                     }
                 }
             }
@@ -588,7 +595,8 @@ fn proper_cross(p: &Point2, q: &Point2, a: &Point2, b: &Point2, tol: f64) -> boo
     let d2 = orient(p, q, b) / lpq;
     let d3 = orient(a, b, p) / lab;
     let d4 = orient(a, b, q) / lab;
-    ((d1 > tol && d2 < -tol) || (d1 < -tol && d2 > tol)) && ((d3 > tol && d4 < -tol) || (d3 < -tol && d4 > tol))
+    ((d1 > tol && d2 < -tol) || (d1 < -tol && d2 > tol))
+        && ((d3 > tol && d4 < -tol) || (d3 < -tol && d4 > tol))
 }
 
 #[cfg(test)]

@@ -53,7 +53,8 @@ pub(crate) fn layer_levels(top: f64, bottom: f64, h: f64, flats: &[f64], tol: f6
     if !(top - bottom > tol) || !(h > 0.0) {
         return out;
     }
-    let mut targets: Vec<f64> = flats.iter().copied().filter(|&f| f > bottom + tol && f < top - tol).collect();
+    let mut targets: Vec<f64> =
+        flats.iter().copied().filter(|&f| f > bottom + tol && f < top - tol).collect();
     targets.push(bottom);
     let mut prev = top;
     for t in targets {

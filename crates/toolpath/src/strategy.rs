@@ -59,7 +59,9 @@ impl Strategy {
         climb: bool,
     ) -> Vec<Polyline2> {
         match *self {
-            Strategy::Zigzag { angle_deg } => Zigzag { angle_deg }.clear(region, tool_radius, stepover, start),
+            Strategy::Zigzag { angle_deg } => {
+                Zigzag { angle_deg }.clear(region, tool_radius, stepover, start)
+            }
             Strategy::Periphery => Periphery { arc_step, climb }.clear(region, tool_radius, stepover, start),
             Strategy::Spiral => Spiral { arc_step, climb }.clear(region, tool_radius, stepover, start),
         }

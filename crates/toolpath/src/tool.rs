@@ -65,7 +65,11 @@ impl Tool {
     /// Checks that the tool can exist; the message names the offending field.
     pub fn validate(&self) -> Result<(), String> {
         let pos = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be positive and finite, got {v}")) }
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be positive and finite, got {v}"))
+            }
         };
         pos("radius", self.radius)?;
         pos("feed", self.feed)?;

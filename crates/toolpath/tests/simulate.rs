@@ -66,9 +66,9 @@ fn stepped_block_with_pocket_machines_without_gouges_to_iou_099() {
     }
 }
 
-fn bunny() -> Mesh {
-    let m = s2g_geom::load_mesh(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/meshes/classic/stanford_bunny.stl"))
-        .expect("bundled bunny");
+fn openscad(name: &str) -> Mesh {
+    let p = format!("{}/../../tests/data/meshes/openscad/{name}", env!("CARGO_MANIFEST_DIR"));
+    let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
     s2g_geom::normalize_unit_cube(&m).expect("normalise").0
 }
 
@@ -79,9 +79,11 @@ fn strategy_comparison_table() {
     let parts: Vec<(&str, Mesh)> = vec![
         ("stepped pocket", stepped_pocket().mesh()),
         ("cylinder", common::cylinder(0.5, 0.5, 0.3, 0.4, 48)),
-        ("bunny", bunny()),
+        ("example002", openscad("openscad_Old_example002.stl")),
     ];
-    println!("| part | strategy | setup-2 cutting length | rapid length | time (s) | air fraction | gouges | rapid collisions |");
+    println!(
+        "| part | strategy | setup-2 cutting length | rapid length | time (s) | air fraction | gouges | rapid collisions |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for (name, part) in &parts {
         let bb = part.bbox().expect("bbox");
@@ -101,7 +103,6 @@ fn strategy_comparison_table() {
         let top = Setup::top();
         let bottom = Setup::six_axes()[1];
         let base = PlanOptions { layer_height: e / 16.0, stock: Some(stock), ..Default::default() };
-        let t0 = std::time::Instant::now();
         let (_, r1, after_top) = simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
             plan_setup(part, &top, &tool, &base, sim).expect("plan top")
         });
@@ -126,7 +127,6 @@ fn strategy_comparison_table() {
                 plan_setup_rest(part, &bottom, &tool, &opts, Some(&rest), sim).expect("plan bottom")
             });
             let air = summary.air_cut_fraction.expect("rest given");
-            eprintln!("{name} {} {:?}", strategy.name(), t0.elapsed());
             println!(
                 "| {name} | {} | {:.3} | {:.3} | {:.2} | {:.3} | {} | {} |",
                 strategy.name(),

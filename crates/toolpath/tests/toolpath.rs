@@ -6,19 +6,31 @@ use common::{HeightField, cylinder, moves, samples, uncovered};
 use s2g_gcode::{Motion, MotionRecorder};
 use s2g_geom::{Aabb, Isometry3, Mesh, Point3, Rotation3, Setup, Vector3};
 use s2g_toolpath::{
-    PlanOptions, Point2, Polyline2, Strategy, Tool, ToolKind, ToolpathError, plan_layers, plan_setup, plan_setup_rest,
-    slice_setup,
+    PlanOptions, Point2, Polyline2, Strategy, Tool, ToolKind, ToolpathError, plan_layers, plan_setup,
+    plan_setup_rest, slice_setup,
 };
 
-const STRATEGIES: [Strategy; 4] =
-    [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Zigzag { angle_deg: 30.0 }, Strategy::Periphery, Strategy::Spiral];
+const STRATEGIES: [Strategy; 4] = [
+    Strategy::Zigzag { angle_deg: 0.0 },
+    Strategy::Zigzag { angle_deg: 30.0 },
+    Strategy::Periphery,
+    Strategy::Spiral,
+];
 
 /// The analytic parts: (name, height field).
 fn analytic_parts() -> Vec<(&'static str, HeightField)> {
     vec![
         ("box", HeightField::new(4, 3, 0.25, |_, _| 0.4)),
         ("stepped block", HeightField::new(8, 6, 0.125, |i, _| if i < 4 { 0.5 } else { 0.25 })),
-        ("box with pocket", HeightField::new(8, 8, 0.125, |i, j| if (2..6).contains(&i) && (2..6).contains(&j) { 0.2 } else { 0.5 })),
+        (
+            "box with pocket",
+            HeightField::new(
+                8,
+                8,
+                0.125,
+                |i, j| if (2..6).contains(&i) && (2..6).contains(&j) { 0.2 } else { 0.5 },
+            ),
+        ),
         (
             "stepped block with pocket",
             HeightField::new(10, 8, 0.1, |i, j| {
@@ -49,9 +61,17 @@ fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
     let stock = slices.stock;
     // Floors land exactly on the flat levels.
     for f in hf.h.iter() {
-        assert!(slices.levels.iter().any(|z| (z - f).abs() < 1e-12) || *f >= stock.max.z - 1e-9, "{name}: no layer at floor {f}: {:?}", slices.levels);
+        assert!(
+            slices.levels.iter().any(|z| (z - f).abs() < 1e-12) || *f >= stock.max.z - 1e-9,
+            "{name}: no layer at floor {f}: {:?}",
+            slices.levels
+        );
     }
-    assert!((slices.levels.last().copied().unwrap_or(f64::NAN) - 0.0).abs() < 1e-12, "{name}: last level {:?}", slices.levels);
+    assert!(
+        (slices.levels.last().copied().unwrap_or(f64::NAN) - 0.0).abs() < 1e-12,
+        "{name}: last level {:?}",
+        slices.levels
+    );
     let lo = Point2::new(stock.min.x, stock.min.y);
     let hi = Point2::new(stock.max.x, stock.max.y);
     for (plan, keep) in layers.iter().zip(&slices.keepouts) {
@@ -60,15 +80,35 @@ fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
             for p in samples(path, 0.25 * r) {
                 // Independent: exact horizontal distance to the material above the level.
                 let d = hf.distance_above(&p, plan.z, 1e-7);
-                assert!(d >= r - 1e-7, "{name}/{}: layer {} z {}: point {p:?} is {d} from the part (< r = {r})", strategy.name(), plan.index, plan.z);
+                assert!(
+                    d >= r - 1e-7,
+                    "{name}/{}: layer {} z {}: point {p:?} is {d} from the part (< r = {r})",
+                    strategy.name(),
+                    plan.index,
+                    plan.z
+                );
                 // The planner's own exact keep-out agrees.
                 let dk = common::sd(&ki, &p);
                 assert!(dk >= r - 1e-7, "{name}/{}: keep-out distance {dk} at {p:?}", strategy.name());
-                assert!(p.x >= lo.x - r - 1e-9 && p.x <= hi.x + r + 1e-9 && p.y >= lo.y - r - 1e-9 && p.y <= hi.y + r + 1e-9, "{name}: {p:?} outside stock + r");
+                assert!(
+                    p.x >= lo.x - r - 1e-9
+                        && p.x <= hi.x + r + 1e-9
+                        && p.y >= lo.y - r - 1e-9
+                        && p.y <= hi.y + r + 1e-9,
+                    "{name}: {p:?} outside stock + r"
+                );
             }
         }
         let miss = uncovered(plan, keep, lo, hi, r, 0.3 * r);
-        assert!(miss.is_empty(), "{name}/{}: layer {} z {}: {} uncovered material points, e.g. {:?}", strategy.name(), plan.index, plan.z, miss.len(), &miss[..miss.len().min(5)]);
+        assert!(
+            miss.is_empty(),
+            "{name}/{}: layer {} z {}: {} uncovered material points, e.g. {:?}",
+            strategy.name(),
+            plan.index,
+            plan.z,
+            miss.len(),
+            &miss[..miss.len().min(5)]
+        );
     }
     // The program: cutting inside stock + r, rapids only above the stock or straight down
     // onto levels already cleared.
@@ -92,7 +132,9 @@ fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
         } else {
             for p in [a, b] {
                 assert!(
-                    p.x >= stock.min.x - r - 1e-9 && p.x <= stock.max.x + r + 1e-9 && p.z >= stock.min.z - 1e-9,
+                    p.x >= stock.min.x - r - 1e-9
+                        && p.x <= stock.max.x + r + 1e-9
+                        && p.z >= stock.min.z - 1e-9,
                     "{name}: cutting move outside the stock + r: {p:?}"
                 );
             }
@@ -125,20 +167,37 @@ fn cylinder_contour_keeps_the_radius_and_covers() {
                 for p in samples(path, 0.25 * r) {
                     // The prism is inside the circle: distance to the circle is a lower bound.
                     // Nothing is above the top level (the tip may rest on the top face).
-                    let d = if plan.z < 0.4 - 1e-9 { ((p - Point2::new(0.5, 0.5)).norm() - 0.3).max(0.0) } else { f64::INFINITY };
+                    let d = if plan.z < 0.4 - 1e-9 {
+                        ((p - Point2::new(0.5, 0.5)).norm() - 0.3).max(0.0)
+                    } else {
+                        f64::INFINITY
+                    };
                     let dk = common::sd(&ki, &p);
-                    assert!(dk >= r - 1e-7 && d >= r - 1e-7 - 0.3 * (1.0 - (std::f64::consts::PI / 48.0).cos()), "cylinder/{}: {p:?} d {d} dk {dk}", s.name());
+                    assert!(
+                        dk >= r - 1e-7 && d >= r - 1e-7 - 0.3 * (1.0 - (std::f64::consts::PI / 48.0).cos()),
+                        "cylinder/{}: {p:?} d {d} dk {dk}",
+                        s.name()
+                    );
                 }
             }
             let miss = uncovered(plan, keep, lo, hi, r, 0.3 * r);
-            assert!(miss.is_empty(), "cylinder/{}: {} uncovered, e.g. {:?}", s.name(), miss.len(), miss.first());
+            assert!(
+                miss.is_empty(),
+                "cylinder/{}: {} uncovered, e.g. {:?}",
+                s.name(),
+                miss.len(),
+                miss.first()
+            );
         }
     }
 }
 
 fn bunny() -> Mesh {
-    let m = s2g_geom::load_mesh(concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/meshes/classic/stanford_bunny.stl"))
-        .expect("bundled bunny");
+    let m = s2g_geom::load_mesh(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/meshes/classic/stanford_bunny.stl"
+    ))
+    .expect("bundled bunny");
     s2g_geom::normalize_unit_cube(&m).expect("normalise").0
 }
 
@@ -173,7 +232,11 @@ fn check_mesh(name: &str, part: &Mesh, setup: &Setup) {
         let ki = slices.keepouts[plan.index].index();
         for path in plan.contour.iter().chain(&plan.clearing) {
             for p in samples(path, 0.5 * r) {
-                assert!(!grid.within(&p, r - 1e-7), "{name}: layer {} point {p:?} is within r of a part vertex above", plan.index);
+                assert!(
+                    !grid.within(&p, r - 1e-7),
+                    "{name}: layer {} point {p:?} is within r of a part vertex above",
+                    plan.index
+                );
                 let dk = common::sd(&ki, &p);
                 assert!(dk >= r - 1e-7, "{name}: layer {} point {p:?} keep-out distance {dk}", plan.index);
             }
@@ -249,17 +312,35 @@ fn impossible_inputs_are_typed_errors() {
     let e = plan_setup(&Mesh::default(), &top, &Tool::flat(0.1), &PlanOptions::default(), &mut rec);
     assert!(matches!(e, Err(ToolpathError::EmptyMesh)), "{e:?}");
     let stock = Aabb::new(Point3::new(1.0, 0.0, 0.0), Point3::new(0.0, 1.0, 1.0));
-    let e = plan_setup(&part, &top, &Tool::flat(0.1), &PlanOptions { stock: Some(stock), ..Default::default() }, &mut rec);
+    let e = plan_setup(
+        &part,
+        &top,
+        &Tool::flat(0.1),
+        &PlanOptions { stock: Some(stock), ..Default::default() },
+        &mut rec,
+    );
     assert!(matches!(e, Err(ToolpathError::InvalidStock(_))), "{e:?}");
     // A tool far larger than the part is fine: nothing but air around it.
-    let s = plan_setup(&part, &top, &Tool::flat(5.0), &PlanOptions { layer_height: 0.1, ..Default::default() }, &mut rec)
-        .expect("huge tool plans");
+    let s = plan_setup(
+        &part,
+        &top,
+        &Tool::flat(5.0),
+        &PlanOptions { layer_height: 0.1, ..Default::default() },
+        &mut rec,
+    )
+    .expect("huge tool plans");
     assert!(s.layers > 0);
 }
 
 #[test]
 fn rest_machining_skips_material_already_removed() {
-    let hf = HeightField::new(8, 8, 0.125, |i, j| if (2..6).contains(&i) && (2..6).contains(&j) { 0.2 } else { 0.5 });
+    let hf =
+        HeightField::new(
+            8,
+            8,
+            0.125,
+            |i, j| if (2..6).contains(&i) && (2..6).contains(&j) { 0.2 } else { 0.5 },
+        );
     let part = hf.mesh();
     let tool = Tool::flat(0.04);
     let opts = opts_for(Strategy::Zigzag { angle_deg: 0.0 }, 0.1);
@@ -272,8 +353,14 @@ fn rest_machining_skips_material_already_removed() {
         min.z < 0.35 && pocket && max.z > 0.2
     };
     let mut part_rec = MotionRecorder::default();
-    let s_rest = plan_setup_rest(&part, &Setup::top(), &tool, &opts, Some(&rest), &mut part_rec).expect("plan");
-    assert!(s_rest.cutting_length < 0.5 * s_full.cutting_length, "rest {} vs full {}", s_rest.cutting_length, s_full.cutting_length);
+    let s_rest =
+        plan_setup_rest(&part, &Setup::top(), &tool, &opts, Some(&rest), &mut part_rec).expect("plan");
+    assert!(
+        s_rest.cutting_length < 0.5 * s_full.cutting_length,
+        "rest {} vs full {}",
+        s_rest.cutting_length,
+        s_full.cutting_length
+    );
     assert!(s_rest.skipped_layers >= 1, "{s_rest:?}");
     let air = s_rest.air_cut_fraction.expect("air fraction with rest info");
     assert!((0.0..=1.0).contains(&air), "{air}");

@@ -335,28 +335,64 @@ fn popcount(b: &Brick) -> u64 {
     b.iter().map(|w| w.count_ones() as u64).sum()
 }
 
-/// Voxel centres of the brick at `base` whose bit is set in `bits` and that satisfy `inside`.
+/// Voxel centres of the brick at `base` whose bit is set in `bits` and that satisfy
+/// `inside(q, 0)`, for a **convex** region. Each 8-voxel row along x is first culled at its
+/// middle with `inside(mid, +half)`; a row whose two end centres are inside is inside
+/// whole (convexity), so only rows crossing the boundary test their voxels one by one.
 #[inline]
-fn select(view: &Store, base: [usize; 3], bits: &Brick, inside: impl Fn(&Point3) -> bool) -> Brick {
+fn select(view: &Store, base: [usize; 3], bits: &Brick, inside: impl Fn(&Point3, f64) -> bool) -> Brick {
     let s = &view.spec;
+    let half = 3.5 * s.voxel.x;
+    let x0 = s.origin.x + (base[0] as f64 + 0.5) * s.voxel.x;
     let mut out = [0u64; BRICK];
     for (z, &word) in bits.iter().enumerate() {
-        let mut w = word;
+        if word == 0 {
+            continue;
+        }
         let qz = s.origin.z + ((base[2] + z) as f64 + 0.5) * s.voxel.z;
-        while w != 0 {
-            let bit = w.trailing_zeros() as usize;
-            w &= w - 1;
-            let q = Point3::new(
-                s.origin.x + ((base[0] + bit % BRICK) as f64 + 0.5) * s.voxel.x,
-                s.origin.y + ((base[1] + bit / BRICK) as f64 + 0.5) * s.voxel.y,
-                qz,
-            );
-            if inside(&q) {
-                out[z] |= 1u64 << bit;
+        for y in 0..BRICK {
+            let row = (word >> (BRICK * y)) & 0xff;
+            if row == 0 {
+                continue;
             }
+            let qy = s.origin.y + ((base[1] + y) as f64 + 0.5) * s.voxel.y;
+            if !inside(&Point3::new(x0 + half, qy, qz), half) {
+                continue;
+            }
+            let first = row.trailing_zeros() as usize;
+            let last = 63 - row.leading_zeros() as usize;
+            let at = |x: usize| Point3::new(x0 + x as f64 * s.voxel.x, qy, qz);
+            let hit = if inside(&at(first), 0.0) && inside(&at(last), 0.0) {
+                row
+            } else {
+                let mut hit = 0u64;
+                let mut w = row;
+                while w != 0 {
+                    let x = w.trailing_zeros() as usize;
+                    w &= w - 1;
+                    if inside(&at(x), 0.0) {
+                        hit |= 1 << x;
+                    }
+                }
+                hit
+            };
+            out[z] |= hit << (BRICK * y);
         }
     }
     out
+}
+
+/// Whether the eight extreme voxel centres of the brick's in-grid part satisfy `inside`:
+/// for a convex region, the whole brick is then inside.
+#[inline]
+fn corners_inside(view: &Store, base: [usize; 3], inside: impl Fn(&Point3) -> bool) -> bool {
+    let s = &view.spec;
+    let e = view.extent(base);
+    let c = |a: usize, i: usize| s.origin[a] + ((base[a] + i) as f64 + 0.5) * s.voxel[a];
+    let xs = [c(0, 0), c(0, e[0] - 1)];
+    let ys = [c(1, 0), c(1, e[1] - 1)];
+    let zs = [c(2, 0), c(2, e[2] - 1)];
+    zs.iter().all(|&z| ys.iter().all(|&y| xs.iter().all(|&x| inside(&Point3::new(x, y, z)))))
 }
 
 /// In-grid bit mask of the brick at `base`.
@@ -394,10 +430,12 @@ fn process_brick(
         match sw.op {
             Op::Deposit => {
                 let grid = in_grid_mask(view, base);
-                let mask = if sw.cut_contains(&c, eps - d) {
+                let mask = if sw.cut_contains(&c, eps - d)
+                    || corners_inside(view, base, |q| sw.cut_contains(q, eps))
+                {
                     grid
                 } else {
-                    select(view, base, &grid, |q| sw.cut_contains(q, eps))
+                    select(view, base, &grid, |q, d| sw.cut_contains(q, d + eps))
                 };
                 for z in 0..BRICK {
                     st.deposited += (mask[z] & !brick[z]).count_ones() as u64;
@@ -410,10 +448,12 @@ fn process_brick(
                 }
                 let cut = if sw.cut_contains(&c, eps - d) {
                     *brick
-                } else if sw.cut_contains(&c, d + eps) {
-                    select(view, base, brick, |q| sw.cut_contains(q, eps))
-                } else {
+                } else if !sw.cut_contains(&c, d + eps) {
                     [0; BRICK]
+                } else if corners_inside(view, base, |q| sw.cut_contains(q, eps)) {
+                    *brick
+                } else {
+                    select(view, base, brick, |q, d| sw.cut_contains(q, d + eps))
                 };
                 let n = popcount(&cut);
                 if n > 0 {
@@ -439,7 +479,15 @@ fn process_brick(
                     let hits = if sw.guard_contains(&c, eps - d) {
                         popcount(brick)
                     } else {
-                        popcount(&select(view, base, brick, |q| sw.guard_contains(q, eps)))
+                        // Shank and holder together are not convex: select per primitive.
+                        let mut m = [0u64; BRICK];
+                        for g in &sw.prims.guard[..sw.prims.nguard] {
+                            let part = select(view, base, brick, |q, d| g.contains(&sw.seg, q, d + eps));
+                            for z in 0..BRICK {
+                                m[z] |= part[z];
+                            }
+                        }
+                        popcount(&m)
                     };
                     if hits > 0 {
                         st.holder_voxels += hits;

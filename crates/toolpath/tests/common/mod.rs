@@ -52,24 +52,54 @@ impl HeightField {
                 let h = self.height(i, j);
                 let (x0, y0, x1, y1) = (i as f64 * c, j as f64 * c, (i + 1) as f64 * c, (j + 1) as f64 * c);
                 // Top (normal +z) and bottom (normal -z).
-                quad(Point3::new(x0, y0, h), Point3::new(x1, y0, h), Point3::new(x1, y1, h), Point3::new(x0, y1, h));
-                quad(Point3::new(x0, y0, 0.0), Point3::new(x0, y1, 0.0), Point3::new(x1, y1, 0.0), Point3::new(x1, y0, 0.0));
+                quad(
+                    Point3::new(x0, y0, h),
+                    Point3::new(x1, y0, h),
+                    Point3::new(x1, y1, h),
+                    Point3::new(x0, y1, h),
+                );
+                quad(
+                    Point3::new(x0, y0, 0.0),
+                    Point3::new(x0, y1, 0.0),
+                    Point3::new(x1, y1, 0.0),
+                    Point3::new(x1, y0, 0.0),
+                );
                 // Walls where this column is taller than its neighbour, facing the neighbour.
                 let hx = self.height(i + 1, j);
                 if h > hx {
-                    quad(Point3::new(x1, y0, hx), Point3::new(x1, y1, hx), Point3::new(x1, y1, h), Point3::new(x1, y0, h));
+                    quad(
+                        Point3::new(x1, y0, hx),
+                        Point3::new(x1, y1, hx),
+                        Point3::new(x1, y1, h),
+                        Point3::new(x1, y0, h),
+                    );
                 }
                 let hx = self.height(i - 1, j);
                 if h > hx {
-                    quad(Point3::new(x0, y1, hx), Point3::new(x0, y0, hx), Point3::new(x0, y0, h), Point3::new(x0, y1, h));
+                    quad(
+                        Point3::new(x0, y1, hx),
+                        Point3::new(x0, y0, hx),
+                        Point3::new(x0, y0, h),
+                        Point3::new(x0, y1, h),
+                    );
                 }
                 let hy = self.height(i, j + 1);
                 if h > hy {
-                    quad(Point3::new(x1, y1, hy), Point3::new(x0, y1, hy), Point3::new(x0, y1, h), Point3::new(x1, y1, h));
+                    quad(
+                        Point3::new(x1, y1, hy),
+                        Point3::new(x0, y1, hy),
+                        Point3::new(x0, y1, h),
+                        Point3::new(x1, y1, h),
+                    );
                 }
                 let hy = self.height(i, j - 1);
                 if h > hy {
-                    quad(Point3::new(x0, y0, hy), Point3::new(x1, y0, hy), Point3::new(x1, y0, h), Point3::new(x0, y0, h));
+                    quad(
+                        Point3::new(x0, y0, hy),
+                        Point3::new(x1, y0, hy),
+                        Point3::new(x1, y0, h),
+                        Point3::new(x0, y0, h),
+                    );
                 }
             }
         }
@@ -142,11 +172,8 @@ impl PathGrid {
         let ny = (((hi.y - lo.y) / cell).ceil() as usize).max(1);
         let mut g = Self { segs: Vec::new(), origin: lo, cell, nx, ny, cells: vec![Vec::new(); nx * ny] };
         for p in paths {
-            let segs: Vec<(Point2, Point2)> = if p.points.len() == 1 {
-                vec![(p.points[0], p.points[0])]
-            } else {
-                p.segments().collect()
-            };
+            let segs: Vec<(Point2, Point2)> =
+                if p.points.len() == 1 { vec![(p.points[0], p.points[0])] } else { p.segments().collect() };
             for (a, b) in segs {
                 let id = g.segs.len() as u32;
                 g.segs.push((a, b));
@@ -188,9 +215,21 @@ impl PathGrid {
 /// Material points of a layer (inside the stock rectangle, outside the keep-out, and
 /// within 0.98 r of the free region: the tool can reach them) not within `r (1 + 1e-6)` of
 /// the layer's contour or clearing paths. Sampled on a grid of spacing `step`.
-pub fn uncovered(plan: &LayerPlan, keepout: &s2g_toolpath::Region2, lo: Point2, hi: Point2, r: f64, step: f64) -> Vec<Point2> {
+pub fn uncovered(
+    plan: &LayerPlan,
+    keepout: &s2g_toolpath::Region2,
+    lo: Point2,
+    hi: Point2,
+    r: f64,
+    step: f64,
+) -> Vec<Point2> {
     let paths: Vec<&Polyline2> = plan.contour.iter().chain(&plan.clearing).collect();
-    let grid = PathGrid::new(&paths, Point2::new(lo.x - 2.0 * r, lo.y - 2.0 * r), Point2::new(hi.x + 2.0 * r, hi.y + 2.0 * r), 1.01 * r);
+    let grid = PathGrid::new(
+        &paths,
+        Point2::new(lo.x - 2.0 * r, lo.y - 2.0 * r),
+        Point2::new(hi.x + 2.0 * r, hi.y + 2.0 * r),
+        1.01 * r,
+    );
     let free = plan.free.index();
     let keep = keepout.index();
     let mut out = Vec::new();

@@ -1,0 +1,6 @@
+//! End-to-end tests of the whole system on the bundled sample data.
+
+mod e2e {
+    pub mod common;
+    mod mill;
+}
