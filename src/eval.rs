@@ -2,7 +2,8 @@
 //!
 //! Table 1: quality and machining time per policy. Table 2: surface coverage of the
 //! orientation strategies. Table 3: fixed fine / fixed coarse / random / chosen
-//! parameters. Table 4: the chosen policy with one clearing strategy removed at a time.
+//! parameters. Table 4: the chosen policy with one clearing strategy (or the contour pass)
+//! removed at a time.
 
 use serde_json::{Value, json};
 
@@ -146,6 +147,13 @@ pub fn evaluate(
         }
         tables.ablation.push(mean_row(&format!("without {}", removed.name()), &runs));
     }
+    let o = MillOptions { contour: false, ..opts.clone() };
+    let mut runs = Vec::with_capacity(parts.len());
+    for (part, mesh) in parts {
+        on_run(part, "heuristic without contour");
+        runs.push(mill(mesh, &mut HeuristicPolicy::default(), &o, &mut |_| {})?);
+    }
+    tables.ablation.push(mean_row("without contour", &runs));
     Ok(tables)
 }
 

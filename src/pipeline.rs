@@ -11,14 +11,15 @@ use crate::gcode::{
     Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, WriterOptions, parse_str,
 };
 use crate::geom::{
-    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Setup, ShapeMetrics, Vector3,
-    VoxelGrid, compare, marching_cubes_voxels, sample_surface, unit_cube_normalization, voxelize,
+    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Setup, ShapeMetrics,
+    TAUBIN_LAMBDA, TAUBIN_MU, Vector3, VoxelGrid, compare, marching_cubes_voxels, sample_surface,
+    taubin_smooth, unit_cube_normalization, voxelize,
 };
 use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures, StrategyKind};
 use crate::render::PathTrace;
 use crate::toolpath::{PlanOptions, PlanSummary, Strategy, Tool, ToolKind, VoxelMaterial, plan_setup_rest};
-use crate::voxsim::{Cutter, RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
+use crate::voxsim::{Carver, Cutter, RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
 
 /// Units and action space of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -82,6 +83,19 @@ pub struct MillOptions {
     pub paper_scale_mm: f64,
     /// Clearing strategies the policy may choose from. Default: all three.
     pub strategies: Vec<StrategyKind>,
+    /// Taubin smoothing iterations (lambda 0.5, mu -0.53) applied to the residual mesh
+    /// before scoring and writing. Marching cubes of a voxel occupancy puts every vertex on
+    /// an edge midpoint, so a wall that is not parallel to a grid plane comes out as a
+    /// staircase whose normals are off by up to 45 degrees; a few volume-preserving
+    /// low-pass steps recover the wall's direction while moving vertices by well under a
+    /// voxel. 0 keeps the raw staircase. Default 8.
+    pub residual_smoothing: usize,
+    /// How the simulator removes material. Default [`Carver::Exact`]; [`Carver::Dexel`]
+    /// falls back to exact for setups whose axis is not a grid axis; the paper's
+    /// Monte-Carlo carver is there to compare against.
+    pub carver: Carver,
+    /// Run the contour pass on every layer (the paper always does). Default true.
+    pub contour: bool,
 }
 
 impl Default for MillOptions {
@@ -99,6 +113,9 @@ impl Default for MillOptions {
             stock_margin: 0.02,
             paper_scale_mm: 100.0,
             strategies: StrategyKind::ALL.to_vec(),
+            residual_smoothing: 8,
+            carver: Carver::Exact,
+            contour: true,
         }
     }
 }
@@ -317,7 +334,7 @@ pub fn mill(
     for a in &actions {
         tools = tools.with(tool_number(&space, a), Cutter::flat(a.tool_radius, diag));
     }
-    let sim_opts = SimOptions { rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
+    let sim_opts = SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
     let sim_err = |e: crate::voxsim::SimError| MillError::Simulation(e.to_string());
     let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
         .map_err(sim_err)?
@@ -348,6 +365,7 @@ pub fn mill(
                 StrategyKind::Periphery => Strategy::Periphery,
                 StrategyKind::Spiral => Strategy::Spiral,
             },
+            contour: opts.contour,
             // Appendix A.1: start 0.1 (of the normalised part) above the top.
             clearance_height: 0.1 * stock.extent().max(),
             stock: Some(stock_in_setup(&stock, setup)),
@@ -365,6 +383,11 @@ pub fn mill(
 
         progress(Stage::Simulation);
         let t = Instant::now();
+        // The simulator was flushed at the end of the previous setup: its counts so far
+        // belong to earlier programs.
+        let gouges_before = sim.report().gouge_voxels;
+        let rapids_before: std::collections::BTreeSet<u64> =
+            sim.report().rapid_collision_lines.iter().copied().collect();
         // A 3-axis program per setup: the fixture rotation is in its header comment,
         // so the simulator is told the frame here.
         sim.motion(&Motion::Setup { frame: setup.frame, rotary: [None; 3] }).map_err(sim_err)?;
@@ -378,9 +401,6 @@ pub fn mill(
                 message: format!("re-reading the program: {err}"),
             });
         }
-        let gouges_before = sim.report().gouge_voxels;
-        let rapids_before: std::collections::BTreeSet<u64> =
-            sim.report().rapid_collision_lines.iter().copied().collect();
         // Flushes the simulator, so its report is complete for this setup.
         remaining = sim.residual_grid();
         let report = sim.report();
@@ -409,7 +429,10 @@ pub fn mill(
     // Score in the unit cube.
     progress(Stage::Scoring);
     let t = Instant::now();
-    let residual_plan = marching_cubes_voxels(simulated.residual())?;
+    let mut residual_plan = marching_cubes_voxels(simulated.residual())?;
+    if opts.residual_smoothing > 0 {
+        residual_plan = taubin_smooth(&residual_plan, opts.residual_smoothing, TAUBIN_LAMBDA, TAUBIN_MU)?;
+    }
     let to_unit = |m: &Mesh| m.transformed(&unit.as_similarity());
     let residual = residual_plan.transformed(&to_input.inverse_similarity());
     let metrics = compare(

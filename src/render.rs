@@ -197,10 +197,14 @@ pub fn render_machining(
         img.blit(&render_mesh(residual, &view, &frame, &colour_of), i * panel, 0);
     }
     if let Some((trace, axis)) = trace {
-        // Look down the setup's tool axis at the part in light grey, with the path over it.
+        // Look down the setup's tool axis at the part in light grey, with one layer of the
+        // path over it: the median of the levels the path cuts at (all layers at once
+        // would paint the panel solid).
         let view = View::new(axis);
         let mut p = render_mesh(residual, &view, &frame, &|_| [0.85, 0.85, 0.87]);
-        for (a, b, cutting) in &trace.segments {
+        let level = median_level(trace, &axis, 1e-6 * stock.extent().max());
+        let on_level = |q: &Point3| level.is_none_or(|(h, tol)| (q.coords.dot(&axis) - h).abs() <= tol);
+        for (a, b, cutting) in trace.segments.iter().filter(|(a, b, _)| on_level(a) && on_level(b)) {
             let (ax, ay, _) = frame.project(&view, a);
             let (bx, by, _) = frame.project(&view, b);
             let c = if *cutting { [20, 70, 200] } else { [150, 200, 150] };
@@ -209,6 +213,21 @@ pub fn render_machining(
         img.blit(&p, views.len() * panel, 0);
     }
     img
+}
+
+/// The median height along `axis` among the levels at which the trace cuts (cutting
+/// segments perpendicular to the axis), with the tolerance that groups a level.
+fn median_level(trace: &PathTrace, axis: &Vector3, tol: f64) -> Option<(f64, f64)> {
+    let h = |q: &Point3| q.coords.dot(axis);
+    let mut levels: Vec<f64> = trace
+        .segments
+        .iter()
+        .filter(|(a, b, c)| *c && (h(a) - h(b)).abs() <= tol)
+        .map(|(a, _, _)| h(a))
+        .collect();
+    levels.sort_by(f64::total_cmp);
+    levels.dedup_by(|a, b| (*a - *b).abs() <= tol);
+    levels.get(levels.len() / 2).map(|&m| (m, tol))
 }
 
 #[cfg(test)]

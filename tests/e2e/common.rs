@@ -21,31 +21,48 @@ pub fn closed_meshes() -> Vec<PathBuf> {
     v
 }
 
-/// Runs LinuxCNC's `rs274` on `program` with tools 1-9 in its table and returns its
-/// error lines, if any. Panics with an install hint when `rs274` is missing.
+/// `rs274` keeps its tool table in `$HOME/.tool.mmap` and writes `rs274ngc.var` in its
+/// working folder: each run gets the program's folder as both, and runs in this process
+/// are serialised.
+static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Runs LinuxCNC's `rs274` on `program` with tools 0-99 in its table and returns its
+/// error lines (it stops at the first error with a non-zero status), if any. Panics with
+/// an install hint when `rs274` is missing.
 pub fn rs274_errors(program: &Path) -> Vec<String> {
     let dir = program.parent().expect("program has a folder");
     let table = dir.join("tools.tbl");
-    let tools: String = (1..=9).map(|t| format!("T{t} P{t} Z0 D0\n")).collect();
+    let tools: String = (0..100).map(|t| format!("T{t} P{t} Z0 D0\n")).collect();
     std::fs::write(&table, tools).expect("write tool table");
-    let out = Command::new("rs274")
-        .arg("-g")
-        .arg("-t")
-        .arg(&table)
-        .arg(program)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("rs274 is required: apt-get install linuxcnc-uspace (.ci/run installs it)");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    text.lines()
-        .filter(|l| {
-            let l = l.to_ascii_lowercase();
-            !l.contains("n.....")
-                && (l.contains("error")
-                    || l.contains("arc")
-                    || l.contains("invalid")
-                    || l.contains("unknown"))
-        })
+    let _one_at_a_time = RS274.lock().unwrap_or_else(|e| e.into_inner());
+    let run = || {
+        Command::new("rs274")
+            .arg("-g")
+            .arg("-t")
+            .arg(&table)
+            .arg(program)
+            .env("HOME", dir)
+            .current_dir(dir)
+            .stdin(std::process::Stdio::null())
+            .output()
+            .expect("rs274 is required: apt-get install linuxcnc-uspace (.ci/run installs it)")
+    };
+    let mut out = run();
+    if out.status.code().is_none() {
+        // Killed by a signal (it maps its tool table into memory): one more try.
+        out = run();
+    }
+    if out.status.success() {
+        return Vec::new();
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let mut errors: Vec<String> = stderr
+        .lines()
+        .filter(|l| !l.trim().is_empty() && l.trim() != "executing")
         .map(str::to_owned)
-        .collect()
+        .collect();
+    if errors.is_empty() {
+        errors.push(format!("rs274 exited with {}", out.status));
+    }
+    errors
 }

@@ -18,10 +18,14 @@ fn mill_file(path: &std::path::Path, opts: &MillOptions) -> (Mesh, Milled) {
 /// Every closed mesh mills with zero gouges and zero rapid collisions, every program
 /// runs through `rs274` without error, and with the heuristic policy the OpenSCAD parts
 /// reach mean IoU >= 0.90 and mean normal consistency >= 0.92 (the paper: 0.848 / 0.922).
+///
+/// The grid is 128^3 rather than `s2g mill`'s 256^3 to keep CI within its budget (the
+/// heuristic's finest layer is one voxel, so this also halves the layers); the closing
+/// note of the mill issue has the same table at 256^3.
 #[test]
 fn every_closed_mesh_mills_safely_and_meets_the_quality_targets() {
     let dir = tempfile::tempdir().unwrap();
-    let opts = MillOptions { orient_points: 4096, ..MillOptions::default() };
+    let opts = MillOptions { resolution: 128, ..MillOptions::default() };
     let (mut iou, mut nc, mut n) = (0.0, 0.0, 0);
     let mut table =
         String::from("| part | setups | IoU | F1 | CD x1000 | NC | T (s) |\n|---|---|---|---|---|---|---|\n");

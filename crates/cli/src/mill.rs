@@ -42,6 +42,9 @@ pub struct Args {
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Surface points for orientation selection.
+    #[arg(long, default_value_t = 16384)]
+    points: usize,
     /// Write the JSON report here.
     #[arg(long)]
     report: Option<PathBuf>,
@@ -112,6 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         dialect,
         resolution: args.res,
         seed: args.seed,
+        orient_points: args.points,
         ..MillOptions::default()
     };
 
@@ -121,11 +125,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
     bar.enable_steady_tick(Duration::from_millis(120));
-    let t0 = std::time::Instant::now();
     let mut progress = |stage: Stage| {
-        if std::env::var_os("S2G_TRACE").is_some() {
-            eprintln!("[{:8.2}s] {stage:?}", t0.elapsed().as_secs_f64());
-        }
         bar.set_message(match stage {
             Stage::Orientation => "choosing tool orientations",
             Stage::ActionSelection => "choosing tool, layer height and strategy",

@@ -44,6 +44,10 @@ pub struct PlanOptions {
     pub stepover: f64,
     /// Clearing strategy. Default zigzag along X.
     pub strategy: Strategy,
+    /// Run the contour pass along the offset keep-out before clearing (§3.3.1: the paper
+    /// always does). `false` leaves it out, for ablations; the clearing passes still stay
+    /// in the free region, so the program stays safe. Default true.
+    pub contour: bool,
     /// Material left on the part's walls for a finishing pass. Default 0.
     pub finishing_allowance: f64,
     /// Climb milling (with a clockwise spindle) rather than conventional. Default true.
@@ -99,6 +103,7 @@ impl Default for PlanOptions {
             layer_height: 1.0 / 64.0,
             stepover: 0.5,
             strategy: Strategy::default(),
+            contour: true,
             finishing_allowance: 0.0,
             climb: true,
             clearance_height: 0.1,
@@ -370,7 +375,7 @@ impl Ctx<'_> {
         // Contour: the offset keep-out's boundary inside the stock outline; part on the
         // right of travel for climb milling (its loops come part-on-the-left).
         let mut pieces: Vec<Polyline2> = Vec::new();
-        for mut lp in off.loops() {
+        for mut lp in off.loops().into_iter().filter(|_| self.opts.contour) {
             if self.opts.climb {
                 lp.reverse();
             }

@@ -1,0 +1,114 @@
+//! `s2g mill`: the files and report it writes, reproducibility, and errors.
+
+use std::process::Command;
+
+fn s2g() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_s2g"))
+}
+
+fn data(rel: &str) -> String {
+    format!("{}/../../tests/data/{rel}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A small, fast run: the LetterBlock on a coarse grid with two setups.
+fn mill_letterblock(dir: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    let mut cmd = s2g();
+    cmd.args(["mill", &data("meshes/openscad/openscad_Basics_LetterBlock.stl")])
+        .args(["--res", "48", "--setups", "2", "--points", "1024"])
+        .arg("-o")
+        .arg(dir.join("block.ngc"))
+        .args(extra);
+    cmd.output().unwrap()
+}
+
+#[test]
+fn writes_programs_report_residual_and_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (report, residual, render) = (d.join("r.json"), d.join("res.stl"), d.join("r.png"));
+    let out = mill_letterblock(
+        d,
+        &[
+            "--json",
+            "--report",
+            report.to_str().unwrap(),
+            "--residual",
+            residual.to_str().unwrap(),
+            "--render",
+            render.to_str().unwrap(),
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}: {stderr}", out.status);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "iou",
+        "f1",
+        "chamfer_x1000",
+        "normal_consistency",
+        "machining_time_s",
+        "gouge_voxels",
+        "rapid_collisions",
+        "setups",
+        "stage_seconds",
+        "programs",
+        "residual",
+        "render",
+    ] {
+        assert!(v.get(key).is_some(), "report lacks {key}: {v}");
+    }
+    assert_eq!(v["gouge_voxels"], 0, "{v}");
+    assert_eq!(v["rapid_collisions"], 0, "{v}");
+    assert!(v["iou"].as_f64().unwrap() > 0.8, "{v}");
+    let setups = v["setups"].as_array().unwrap();
+    assert_eq!(setups.len(), 2, "{v}");
+    // One program per setup, each stating its fixture rotation, each with the lines counted.
+    let programs = v["programs"].as_array().unwrap();
+    assert_eq!(programs.len(), 2);
+    for (p, s) in programs.iter().zip(setups) {
+        let text = std::fs::read_to_string(p.as_str().unwrap()).unwrap();
+        assert!(text.contains("rotate part so that tool axis"), "{p}: no fixture comment");
+        assert_eq!(text.lines().count() as u64, s["program_lines"].as_u64().unwrap(), "{p}");
+    }
+    // The report file is the printed report; the residual loads; the render is a PNG.
+    let file: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(file, v);
+    let check = s2g().args(["inspect", "--json"]).arg(&residual).output().unwrap();
+    assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
+    let mesh: serde_json::Value = serde_json::from_slice(&check.stdout).unwrap();
+    assert_eq!(mesh["closed"], true, "residual mesh: {mesh}");
+    assert!(std::fs::read(&render).unwrap().starts_with(b"\x89PNG\r\n\x1a\n"));
+}
+
+#[test]
+fn reproducible_runs_give_identical_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = mill_letterblock(dir.path(), &["--json", "--reproducible"]);
+    let program_a = std::fs::read(dir.path().join("block.1.ngc")).unwrap();
+    let b = mill_letterblock(dir.path(), &["--json", "--reproducible"]);
+    let program_b = std::fs::read(dir.path().join("block.1.ngc")).unwrap();
+    assert!(a.status.success() && b.status.success());
+    assert_eq!(a.stdout, b.stdout, "reports differ");
+    assert_eq!(program_a, program_b, "programs differ");
+}
+
+#[test]
+fn bad_input_is_one_line_and_a_failure_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.stl");
+    let empty = data("meshes/stl_edge_cases/stl-models/broken/empty.stl");
+    let cases: [(Vec<String>, &str); 4] = [
+        (vec!["mill".into(), missing.display().to_string()], "missing.stl"),
+        (vec!["mill".into(), empty.clone()], "empty.stl"),
+        (vec!["mill".into(), "--policy".into(), "fixed:abc".into()], "fixed"),
+        (vec!["mill".into(), "--setups".into(), "many".into()], "setups"),
+    ];
+    for (args, needle) in cases {
+        let out = s2g().args(&args).current_dir(dir.path()).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{args:?}: expected one line, got {stderr:?}");
+        assert!(lines[0].starts_with("s2g: error:") && lines[0].contains(needle), "{args:?}: {stderr}");
+    }
+}
