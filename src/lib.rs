@@ -10,12 +10,24 @@ pub use s2g_toolpath as toolpath;
 pub use s2g_voxsim as voxsim;
 
 mod eval;
+pub mod fdm;
+mod feature;
 mod pipeline;
 mod policy;
 mod render;
 mod report;
 
 pub use crate::eval::{CoverageRow, Row, Tables, evaluate, policy_by_name};
+pub use crate::fdm::{
+    Bead, BeadShape, Deposition, Extrusion, FdmError, FdmOptions, FdmOutput, FdmReport, FdmStageSeconds,
+    Reconstruction, Solid, deposit_beads, deposit_beads_naive, extract_beads, indexed_check, profile_area,
+    profile_width, reconstruct, reconstruct_file, render_layer, render_result, save_step, solid_grid_spec,
+    solid_mesh, sweep_spine, tube_mesh, write_step,
+};
+pub use crate::feature::{
+    FeatureCheck, FeatureError, FeatureProgram, FeatureResidual, JobSpec, feature_program, feature_writer_options,
+    load_job, parse_job,
+};
 pub use crate::pipeline::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
     mill,

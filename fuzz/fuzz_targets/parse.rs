@@ -2,7 +2,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, parse_reader, parse_str};
+use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, RotaryAxes, parse_reader, parse_str};
 
 /// Counts motions and checks that move end points are finite.
 struct Count(u64);
@@ -12,6 +12,10 @@ impl MotionSink for Count {
     fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
         if let Some(p) = m.end_point() {
             assert!(p.iter().all(|v| v.is_finite()), "non-finite end point {m:?}");
+        }
+        if let Motion::Setup { frame, .. } = m {
+            let q = frame.rotation.coords.iter().chain(frame.translation.vector.iter());
+            assert!(q.into_iter().all(|v| v.is_finite()), "non-finite setup {m:?}");
         }
         self.0 += 1;
         Ok(())
@@ -25,7 +29,12 @@ fuzz_target!(|data: &[u8]| {
         Some(1) => ParseDialect::Fdm,
         _ => ParseDialect::Auto,
     };
-    let opts = ParseOptions { dialect, stop_at_program_end: false, ..ParseOptions::default() };
+    let rotary = match data.get(1).map(|b| b % 3) {
+        Some(0) => Some(RotaryAxes::AC),
+        Some(1) => Some(RotaryAxes::BC),
+        _ => None,
+    };
+    let opts = ParseOptions { dialect, rotary, stop_at_program_end: false, ..ParseOptions::default() };
     let mut a = Count(0);
     let sa = parse_str(&text, &opts, &mut a).expect("infallible sink");
     // The streaming reader over the raw bytes must see the same number of lines.

@@ -106,3 +106,39 @@ fn two_runs_give_identical_programs_and_reports() {
     let jb = serde_json::to_string(&b.report_json(false)).unwrap();
     assert_eq!(ja, jb, "reports differ between two runs");
 }
+
+/// `evaluate` builds the paper's tables: a policy row is the mean of what `mill` gives for
+/// that policy on each part, and Table 4 has one row per removed strategy plus the
+/// contour ablation, each a complete, safe run.
+#[test]
+fn evaluation_tables_are_means_of_single_runs() {
+    use shape2gcode::evaluate;
+    let names = ["openscad_Basics_LetterBlock", "openscad_Old_example002"];
+    let parts: Vec<(String, Mesh)> = names
+        .iter()
+        .map(|n| (n.to_string(), load_mesh(data(&format!("meshes/openscad/{n}.stl"))).unwrap()))
+        .collect();
+    let opts =
+        MillOptions { orient_points: 1024, resolution: 32, metric_samples: 2000, ..MillOptions::default() };
+    let policies = ["heuristic".to_string(), "coarse".to_string()];
+    let mut runs = 0;
+    let tables = evaluate(&parts, &policies, &opts, &mut |_, _| runs += 1).unwrap();
+    assert_eq!(tables.policies.len(), 2);
+    assert_eq!(tables.ablation.len(), 1 + 3 + 1, "none removed, three strategies, contour");
+    assert_eq!(runs, parts.len() * (2 + 3 + 1), "runs announced");
+    let mean_iou: f64 = parts
+        .iter()
+        .map(|(_, m)| mill(m, &mut HeuristicPolicy::default(), &opts, &mut |_| {}).unwrap().metrics.iou)
+        .sum::<f64>()
+        / parts.len() as f64;
+    let row = &tables.policies[0];
+    assert_eq!(row.name, "heuristic");
+    assert!((row.iou - mean_iou).abs() < 1e-12, "table {} vs direct {mean_iou}", row.iou);
+    assert_eq!(tables.ablation[0].iou, row.iou, "'none removed' is the heuristic row");
+    for r in tables.policies.iter().chain(&tables.ablation) {
+        assert!((0.0..=1.0).contains(&r.iou) && (0.0..=1.0).contains(&r.normal_consistency), "{r:?}");
+        assert_eq!(r.unsafe_parts, 0, "{r:?}");
+    }
+    let c = &tables.orientation;
+    assert!(c.ours <= c.upper_bound + 1e-12 && c.six_axes <= c.upper_bound + 1e-12, "{c:?}");
+}

@@ -8,10 +8,12 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod eval;
+mod feature;
 mod gcode;
 mod inspect;
 mod mill;
 mod orient;
+mod reconstruct;
 mod simulate;
 
 /// Shape2Gcode: 3-D shapes to machine programs and machine programs back to shapes.
@@ -26,6 +28,8 @@ struct Cli {
 enum Command {
     /// Evaluate policies and orientation strategies: the paper's Tables 1-4 on our data.
     Eval(eval::Args),
+    /// Program machining features (pockets, slots, holes) on a block from a TOML job (seed 001).
+    Feature(feature::Args),
     /// Mill a mesh: orientations, toolpaths, G-code, then simulate the written G-code and score it.
     Mill(mill::Args),
     /// Parse a G-code program: `check` errors, `stats`, or `motions` as JSON lines.
@@ -34,6 +38,8 @@ enum Command {
     Inspect(inspect::Args),
     /// Choose tool orientations by visibility; optionally write each setup's reconstruction.
     Orient(orient::Args),
+    /// Rebuild the printed geometry from FDM G-code: a watertight solid or one tube per path.
+    Reconstruct(reconstruct::Args),
     /// Simulate a G-code program on a voxel stock: removed volume, gouges, collisions, time.
     Simulate(simulate::Args),
 }
@@ -42,10 +48,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Eval(args) => eval::run(args),
+        Command::Feature(args) => feature::run(args),
         Command::Mill(args) => mill::run(args),
         Command::Gcode(args) => gcode::run(args),
         Command::Inspect(args) => inspect::run(args),
         Command::Orient(args) => orient::run(args),
+        Command::Reconstruct(args) => reconstruct::run(args),
         Command::Simulate(args) => simulate::run(args),
     };
     match result {

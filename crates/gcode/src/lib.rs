@@ -3,12 +3,18 @@
 //! [`Motion`] is one machine event in millimetres; a [`MotionSink`] consumes them.
 //! The parser pushes into any sink, the dialect writers *are* sinks, and so are the
 //! simulator and any user code.
+//!
+//! 3+2 programs: [`rotary_frame`] and [`rotary_angles`] convert between setup frames
+//! and A/C or B/C table angles; the writers ([`WriterOptions::rotary`]) and the parser
+//! ([`ParseOptions::rotary`]) both use them, so written setups read back as the same
+//! kinematic frames.
 
 mod arc;
 mod error;
 mod expr;
 mod motion;
 mod parser;
+mod rotary;
 mod spine;
 mod stats;
 mod writer;
@@ -19,9 +25,11 @@ pub use crate::arc::{
 };
 pub use crate::error::{GcodeError, GcodeErrorKind, ParseError};
 pub use crate::motion::{
-    ArcDirection, Coolant, Marker, Motion, MotionRecorder, MotionSink, Plane, SpindleDirection,
+    ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionRecorder, MotionSink,
+    PECK_CLEARANCE_MM, Plane, SpindleDirection,
 };
 pub use crate::parser::{ParseDialect, ParseOptions, ParseSummary, parse_file, parse_reader, parse_str};
+pub use crate::rotary::{rotary_angles, rotary_frame, rotary_twist};
 pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};
 pub use crate::stats::{Stats, StatsOptions};
 pub use crate::writer::{

@@ -123,6 +123,99 @@ pub enum Motion<'a> {
     },
     /// M2 / M30: end of program.
     End,
+    /// G81 / G82 / G83: one canned drilling cycle (see [`DrillCycle`]). Sinks that do not
+    /// know cycles can replay [`DrillCycle::expand`] instead.
+    Cycle(DrillCycle),
+    /// M0 (`optional: false`) or M1 (`optional: true`): program stop.
+    Stop {
+        /// M1: stop only when the operator's optional-stop switch is on.
+        optional: bool,
+    },
+}
+
+/// Which canned drilling cycle a [`DrillCycle`] is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CycleKind {
+    /// G81: feed to the bottom, rapid out.
+    Drill,
+    /// G82: feed to the bottom, dwell `seconds`, rapid out.
+    Dwell {
+        /// Dwell at the bottom in seconds.
+        seconds: f64,
+    },
+    /// G83: peck drilling, feeding `peck` mm at a time with a rapid retract to the R plane
+    /// after each peck (full chip clearing).
+    Peck {
+        /// Peck depth in mm (`Q`), positive.
+        peck: f64,
+    },
+}
+
+/// One canned drilling cycle in the XY plane along -Z, retracting to the initial level
+/// (`G98`): from the current position the tool rapids up (or down) to `clearance`, then to
+/// `x`, `y`, down to `r_plane`, feeds to `bottom` (in pecks for [`CycleKind::Peck`]) and
+/// rapids back to `clearance`, where it ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DrillCycle {
+    /// Cycle kind.
+    pub kind: CycleKind,
+    /// Hole position X.
+    pub x: f64,
+    /// Hole position Y.
+    pub y: f64,
+    /// Initial level (Z) the cycle starts from and returns to; at or above `r_plane`.
+    pub clearance: f64,
+    /// Retract (R) plane Z, where feeding starts.
+    pub r_plane: f64,
+    /// Hole bottom Z (below `r_plane`).
+    pub bottom: f64,
+    /// Feed rate in mm/min.
+    pub feed: f64,
+}
+
+/// Most pecks [`DrillCycle::expand`] writes for one hole.
+const MAX_PECKS: f64 = 10_000.0;
+
+/// LinuxCNC's G83 rapid stop above the previous peck (0.010 inch), used by [`DrillCycle::expand`].
+pub const PECK_CLEARANCE_MM: f64 = 0.254;
+
+impl DrillCycle {
+    /// The cycle as plain moves (rapids, feeds, dwells), in LinuxCNC's order: `from` is the
+    /// tool position before the cycle (when known, it moves to `clearance` first). A peck so
+    /// small that the hole would need more than 10 000 pecks is raised to depth / 10 000.
+    pub fn expand(&self, from: Option<Point3<f64>>, mut out: impl FnMut(Motion<'static>)) {
+        let top = self.clearance.max(self.r_plane);
+        if let Some(p) = from {
+            out(Motion::Rapid { to: Point3::new(p.x, p.y, top) });
+        }
+        let at = |z: f64| Point3::new(self.x, self.y, z);
+        out(Motion::Rapid { to: at(top) });
+        out(Motion::Rapid { to: at(self.r_plane) });
+        match self.kind {
+            CycleKind::Peck { peck } if peck > 0.0 && peck.is_finite() => {
+                // At most MAX_PECKS pecks (a smaller peck is raised to that count's size).
+                let peck = peck.max((self.r_plane - self.bottom) / MAX_PECKS);
+                let mut depth = self.r_plane;
+                while depth > self.bottom {
+                    if depth < self.r_plane {
+                        out(Motion::Rapid { to: at((depth + PECK_CLEARANCE_MM).min(self.r_plane)) });
+                    }
+                    depth = (depth - peck).max(self.bottom);
+                    out(Motion::Linear { to: at(depth), feed: self.feed, extrude: None });
+                    if depth > self.bottom {
+                        out(Motion::Rapid { to: at(self.r_plane) });
+                    }
+                }
+            }
+            _ => {
+                out(Motion::Linear { to: at(self.bottom), feed: self.feed, extrude: None });
+                if let CycleKind::Dwell { seconds } = self.kind {
+                    out(Motion::Dwell { seconds });
+                }
+            }
+        }
+        out(Motion::Rapid { to: at(top) });
+    }
 }
 
 /// Slicer annotations surfaced by the parser.
@@ -203,6 +296,8 @@ impl Motion<'_> {
             Motion::Dwell { seconds } => Motion::Dwell { seconds },
             Motion::Setup { frame, rotary } => Motion::Setup { frame, rotary },
             Motion::End => Motion::End,
+            Motion::Cycle(c) => Motion::Cycle(c),
+            Motion::Stop { optional } => Motion::Stop { optional },
         }
     }
 
@@ -224,5 +319,104 @@ impl MotionSink for MotionRecorder {
     fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
         self.line = line;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod cycle_tests {
+    use super::*;
+    use crate::{Dialect, ParseOptions, WriterOptions, parse_str, write_program};
+
+    fn moves(ms: &[(u64, Motion<'static>)]) -> Vec<Motion<'static>> {
+        ms.iter()
+            .map(|(_, m)| m.clone())
+            .filter(|m| matches!(m, Motion::Rapid { .. } | Motion::Linear { .. } | Motion::Dwell { .. }))
+            .collect()
+    }
+
+    /// LinuxCNC text of each cycle, read back by the parser (its own cycle expansion), moves
+    /// like `DrillCycle::expand`; grbl gets the expansion itself.
+    #[test]
+    fn written_cycles_parse_back_as_their_expansion() {
+        for kind in [CycleKind::Drill, CycleKind::Dwell { seconds: 0.75 }, CycleKind::Peck { peck: 1.5 }] {
+            let start = Point3::new(0.0, 0.0, 5.0);
+            let cycle =
+                DrillCycle { kind, x: 10.0, y: 4.0, clearance: 5.0, r_plane: 1.0, bottom: -4.0, feed: 100.0 };
+            let program =
+                [Motion::Rapid { to: start }, Motion::Cycle(cycle), Motion::Stop { optional: true }];
+            let mut expected = vec![Motion::Rapid { to: start }];
+            cycle.expand(Some(start), |m| expected.push(m));
+            // Dedupe zero-length rapids the parser would not produce.
+            expected.dedup_by(
+                |b, a| matches!((a, b), (Motion::Rapid { to: p }, Motion::Rapid { to: q }) if p == q),
+            );
+            for dialect in [Dialect::LinuxCnc, Dialect::Grbl] {
+                let opts = WriterOptions { line_numbers: true, footer: false, ..Default::default() };
+                let text = write_program(dialect, opts, &program).expect("writes");
+                assert_eq!(text.contains("G98"), dialect == Dialect::LinuxCnc, "{dialect:?}: {text}");
+                assert!(text.contains("M1\n"), "{dialect:?}: optional stop in {text}");
+                if dialect == Dialect::LinuxCnc {
+                    assert!(text.contains("G80"), "cycle cancelled before the end: {text}");
+                }
+                let mut rec = MotionRecorder::default();
+                parse_str(&text, &ParseOptions { stop_at_first_error: true, ..Default::default() }, &mut rec)
+                    .expect("parses");
+                let got = moves(&rec.motions);
+                let mut got = got;
+                got.dedup_by(
+                    |b, a| matches!((a, b), (Motion::Rapid { to: p }, Motion::Rapid { to: q }) if p == q),
+                );
+                assert_eq!(
+                    got.len(),
+                    expected.len(),
+                    "{kind:?} {dialect:?}: {got:?} vs {expected:?}\n{text}"
+                );
+                for (g, e) in got.iter().zip(&expected) {
+                    let close = match (g, e) {
+                        (Motion::Rapid { to: a }, Motion::Rapid { to: b })
+                        | (Motion::Linear { to: a, .. }, Motion::Linear { to: b, .. }) => {
+                            (a - b).norm() < 1e-3
+                        }
+                        (Motion::Dwell { seconds: a }, Motion::Dwell { seconds: b }) => (a - b).abs() < 1e-6,
+                        _ => false,
+                    };
+                    assert!(close, "{kind:?} {dialect:?}: {g:?} vs {e:?}\n{text}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tiny_pecks_are_bounded() {
+        let c = DrillCycle {
+            kind: CycleKind::Peck { peck: 1e-12 },
+            x: 0.0,
+            y: 0.0,
+            clearance: 2.0,
+            r_plane: 1.0,
+            bottom: -9.0,
+            feed: 10.0,
+        };
+        let mut n = 0usize;
+        let mut lowest = f64::INFINITY;
+        c.expand(None, |m| {
+            n += 1;
+            if let Some(p) = m.end_point() {
+                lowest = lowest.min(p.z);
+            }
+        });
+        assert!(n <= 3 * 10_000 + 4, "{n} moves");
+        assert_eq!(lowest, -9.0, "reaches the bottom");
+    }
+
+    #[test]
+    fn tool_length_offset_follows_tool_changes() {
+        let program = [Motion::ToolChange { tool: 3 }, Motion::Rapid { to: Point3::new(1.0, 2.0, 3.0) }];
+        let opts =
+            WriterOptions { tool_length_offset: true, header: false, footer: false, ..Default::default() };
+        let text = write_program(Dialect::LinuxCnc, opts.clone(), &program).expect("writes");
+        assert_eq!(text, "T3 M6\nG43 H3\nG0 X1 Y2 Z3\n");
+        let text = write_program(Dialect::Grbl, opts, &program).expect("writes");
+        assert!(!text.contains("G43"), "grbl has no G43 H: {text}");
     }
 }

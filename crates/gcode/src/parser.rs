@@ -1,8 +1,13 @@
 //! The streaming G-code parser: bytes in, [`Motion`]s out into any [`MotionSink`].
 //!
-//! One line at a time, zero-copy over the line's bytes, no allocation per word. The
-//! semantics follow LinuxCNC's RS274NGC interpreter (`rs274`), which the integration
-//! tests use as the reference, with FDM (Marlin / RepRap) extensions.
+//! One line at a time, zero-copy over the line's bytes, no allocation per line (only
+//! error messages and O-word labels allocate). Lines are split eight bytes at a time;
+//! a word followed by a plain number is read without the expression machinery (G and M
+//! codes as integers); a block of only `G0`/`G1`, `X Y Z E F N` in G0/G1 mode takes a
+//! short path with the general interpreter's semantics (a unit test runs both on every
+//! sample file and on random blocks). The semantics follow LinuxCNC's RS274NGC
+//! interpreter (`rs274`), which the integration tests use as the reference, with FDM
+//! (Marlin / RepRap) extensions.
 //!
 //! # Dialects and leniency
 //! [`ParseDialect::Cnc`] is strict LinuxCNC: what `rs274` rejects is an error (a `G1` without
@@ -29,8 +34,21 @@
 //!   parameters (`#5221`.., `#5211`.., `#5161`..) are stored in mm.
 //! - `G41`/`G42` cutter compensation and `G43` tool length are accepted and ignored: the
 //!   programmed path is reported (as `rs274` does with zero tool diameters and lengths).
-//! - Rotary and UVW axis words are accepted and ignored.
-//! - O-word control flow is reported as [`GcodeErrorKind::Unsupported`].
+//! - Rotary and UVW axis words are accepted and ignored, unless
+//!   [`ParseOptions::rotary`] names a kinematics: then A/B/C words become
+//!   [`Motion::Setup`] (see [`crate::rotary_frame`]).
+//! - A Fanuc program number (`O1234` alone on a line, optionally with a comment) is a
+//!   label: nothing runs, [`ParseSummary::program_number`] keeps the first one. Under
+//!   [`ParseDialect::Cnc`] it is an error, as in `rs274`.
+//! - `G4 X<seconds>` without `P` is Fanuc's dwell (a warning, once; an error under
+//!   [`ParseDialect::Cnc`]); the X word is the time, not a move.
+//! - LinuxCNC O-word control flow is not executed. A subroutine definition
+//!   (`o100 sub` .. `o100 endsub`) runs nothing, so its lines are skipped with one
+//!   warning. `if`/`while`/`do`/`repeat` blocks are reported as
+//!   [`GcodeErrorKind::Unsupported`] on their first line and skipped up to the matching
+//!   `endif`/`endwhile`/`while`/`endrepeat` (their motions are missing, never run
+//!   unconditionally); `call`, `return` and stray closing lines are
+//!   [`GcodeErrorKind::Unsupported`] too. A `%` line ends a skipped block.
 
 use std::borrow::Cow;
 use std::io::BufRead;
@@ -41,6 +59,8 @@ use nalgebra::Point3;
 use crate::error::{GcodeError, GcodeErrorKind, ParseError};
 use crate::expr::{Cursor, ParamKey, Params};
 use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use crate::rotary::rotary_frame;
+use crate::writer::RotaryAxes;
 
 const INCH: f64 = 25.4;
 /// LinuxCNC `RADIUS_TOLERANCE_INCH * MM_PER_INCH`: zero-radius and R-arc reach tolerance.
@@ -91,6 +111,15 @@ pub struct ParseOptions {
     /// At most this many errors and this many warnings are stored; the rest are counted in
     /// [`ParseSummary::dropped`]. Default: 10 000.
     pub max_reported: usize,
+    /// 3+2 rotary kinematics. When set, a `G0`/`G1` block with words of its rotary axes
+    /// (A and C for [`RotaryAxes::AC`], B and C for [`RotaryAxes::BC`]; degrees, not
+    /// scaled by `G20`, incremental under `G91`) first emits a [`Motion::Setup`] with
+    /// [`crate::rotary_frame`] of the current angles and those angles in `rotary`, then the
+    /// block's move, if it has other axis or `E` words (a block with rotary words only
+    /// moves nothing else). Rotary words on arcs and cycles, and the other rotary letter,
+    /// are ignored. Default `None`: rotary words are ignored, and a block of rotary words
+    /// only is a zero-length move, as `rs274` reports it.
+    pub rotary: Option<RotaryAxes>,
 }
 
 impl Default for ParseOptions {
@@ -104,6 +133,7 @@ impl Default for ParseOptions {
             stop_at_program_end: true,
             firmware_retract_mm: 1.0,
             max_reported: 10_000,
+            rotary: None,
         }
     }
 }
@@ -125,6 +155,8 @@ pub struct ParseSummary {
     pub dropped: u64,
     /// The line of `M2`/`M30`/closing `%`, if the program ended explicitly.
     pub program_end: Option<u64>,
+    /// The first Fanuc program number (`O1234` alone on a line), if any.
+    pub program_number: Option<u32>,
 }
 
 /// Parses G-code text into `sink`.
@@ -142,12 +174,23 @@ pub fn parse_str<S: MotionSink>(
     opts: &ParseOptions,
     sink: &mut S,
 ) -> Result<ParseSummary, ParseError<S::Error>> {
+    parse_bytes(text.as_bytes(), opts, sink, true)
+}
+
+/// [`parse_str`] over bytes; `fast_path: false` sends every block through the general
+/// interpreter (the tests compare both).
+fn parse_bytes<S: MotionSink>(
+    b: &[u8],
+    opts: &ParseOptions,
+    sink: &mut S,
+    fast_path: bool,
+) -> Result<ParseSummary, ParseError<S::Error>> {
     let mut it = Interp::new(opts, None);
-    let b = text.as_bytes();
+    it.fast_path = fast_path;
     let mut i = 0;
     while i < b.len() {
         let rest = &b[i..];
-        let end = rest.iter().position(|&c| c == b'\n' || c == b'\r').unwrap_or(rest.len());
+        let end = find_eol(rest).unwrap_or(rest.len());
         it.line(&rest[..end], sink)?;
         if it.done {
             break;
@@ -218,7 +261,7 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
                 start = 1;
             }
         }
-        let consumed = match buf[start..].iter().position(|&c| c == b'\n' || c == b'\r') {
+        let consumed = match find_eol(&buf[start..]) {
             Some(k) => {
                 let end = start + k;
                 if line.is_empty() && !too_long {
@@ -260,6 +303,100 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
     }
     it.summary.bytes = bytes;
     it.finish(sink)
+}
+
+/// Index of the first `\n` or `\r` in `b`, eight bytes at a time.
+#[inline]
+fn find_eol(b: &[u8]) -> Option<usize> {
+    const LO: u64 = 0x0101_0101_0101_0101;
+    const HI: u64 = 0x8080_8080_8080_8080;
+    let mut chunks = b.chunks_exact(8);
+    let mut i = 0;
+    for ch in chunks.by_ref() {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(ch);
+        let w = u64::from_le_bytes(w);
+        let x = w ^ (LO * b'\n' as u64);
+        let y = w ^ (LO * b'\r' as u64);
+        // A zero byte of x or y marks a match; the lowest flagged byte is always exact.
+        let t = (x.wrapping_sub(LO) & !x | y.wrapping_sub(LO) & !y) & HI;
+        if t != 0 {
+            return Some(i + (t.trailing_zeros() / 8) as usize);
+        }
+        i += 8;
+    }
+    chunks.remainder().iter().position(|&c| c == b'\n' || c == b'\r').map(|k| i + k)
+}
+
+/// A G code (× 10: `G91.1` is 911) or M code written as plain digits at `b[i..]`
+/// (`1`, `01`, `91.1`), and where it ends; `None` for anything else (signs, blanks inside,
+/// more decimals, out of range), which the general number reader then handles.
+#[inline(always)]
+fn plain_code(b: &[u8], i: usize, g: bool) -> Option<(u16, usize)> {
+    let mut j = i;
+    let mut v = 0u32;
+    while let Some(&c) = b.get(j)
+        && c.is_ascii_digit()
+        && j - i < 5
+    {
+        v = v * 10 + (c - b'0') as u32;
+        j += 1;
+    }
+    if j == i {
+        return None;
+    }
+    let mut code = v;
+    if g {
+        code *= 10;
+        if b.get(j) == Some(&b'.') {
+            j += 1;
+            if let Some(&c) = b.get(j)
+                && c.is_ascii_digit()
+            {
+                code += (c - b'0') as u32;
+                j += 1;
+            }
+        }
+    }
+    match b.get(j) {
+        Some(c) if c.is_ascii_digit() || *c == b'.' => return None,
+        Some(b' ' | b'\t') => {
+            // `G 1 2` continues the number: leave it to the general reader.
+            let k = b[j..].iter().position(|&c| c != b' ' && c != b'\t').map_or(b.len(), |k| j + k);
+            if b.get(k).is_some_and(|&c| c.is_ascii_digit() || c == b'.') {
+                return None;
+            }
+        }
+        _ => {}
+    }
+    if code > 9999 {
+        return None;
+    }
+    Some((code as u16, j))
+}
+
+/// `√(a² + b²)` without the libm call of `hypot` (the operands are mm, far from overflow);
+/// `hypot` when the sum is not finite.
+#[inline]
+fn hyp(a: f64, b: f64) -> f64 {
+    let s = a * a + b * b;
+    if s.is_finite() { s.sqrt() } else { a.hypot(b) }
+}
+
+#[cold]
+fn bad_code<E>(l: u8, v: f64, at: usize) -> Fail<E> {
+    Fail::Line(at, GcodeErrorKind::UnknownCode(format!("{}{v}", l.to_ascii_uppercase() as char)))
+}
+
+#[cold]
+fn too_many<E>(l: u8, at: usize) -> Fail<E> {
+    let what = format!("too many {} words", l.to_ascii_uppercase() as char);
+    Fail::Line(at, GcodeErrorKind::ModalConflict(what))
+}
+
+#[cold]
+fn repeated<E>(l: u8, at: usize) -> Fail<E> {
+    Fail::Line(at, GcodeErrorKind::RepeatedWord(l.to_ascii_uppercase() as char))
 }
 
 /// Why a line stopped: a G-code error (column, kind) or the sink.
@@ -341,6 +478,9 @@ struct Interp<'o> {
     mode: Option<Mode>,
     feed: f64,
     warned_feed: bool,
+    warned_fanuc_dwell: bool,
+    /// Use [`Self::fast_straight`] (always, except in tests).
+    fast_path: bool,
     rpm: f64,
     spindle: SpindleDirection,
     tool: Option<u32>,
@@ -356,8 +496,12 @@ struct Interp<'o> {
     cycle_cc: f64,
     cycle_p: f64,
     cycle_q: f64,
+    /// Rotary axis positions A, B, C in degrees (with [`ParseOptions::rotary`]).
+    rot: [f64; 3],
     // Slicer markers.
     pending_layer: bool,
+    /// An O-word block being skipped: its normalised label and the keyword that closes it.
+    skip_o: Option<(Vec<u8>, &'static str)>,
     // Scratch reused across lines.
     comments: Vec<(usize, usize)>,
     assigns: Vec<(ParamKey, f64)>,
@@ -388,6 +532,8 @@ impl<'o> Interp<'o> {
             mode: None,
             feed: 0.0,
             warned_feed: false,
+            warned_fanuc_dwell: false,
+            fast_path: true,
             rpm: 0.0,
             spindle: SpindleDirection::Off,
             tool: None,
@@ -401,7 +547,9 @@ impl<'o> Interp<'o> {
             cycle_cc: 0.0,
             cycle_p: 0.0,
             cycle_q: 0.0,
+            rot: [0.0; 3],
             pending_layer: false,
+            skip_o: None,
             comments: Vec::new(),
             assigns: Vec::new(),
             block: Block {
@@ -481,6 +629,15 @@ impl<'o> Interp<'o> {
     }
 
     fn finish<S: MotionSink>(mut self, sink: &mut S) -> Result<ParseSummary, ParseError<S::Error>> {
+        if let Some((label, end)) = self.skip_o.take() {
+            let label = String::from_utf8_lossy(&label).into_owned();
+            self.record(
+                0,
+                GcodeErrorKind::Unsupported(format!(
+                    "O-word block o{label} not closed by 'o{label} {end}': the rest of the program was skipped"
+                )),
+            )?;
+        }
         if self.pending_layer {
             self.pending_layer = false;
             self.emit(sink, &Motion::Marker(Marker::Layer { index: None, z: None })).map_err(
@@ -618,11 +775,37 @@ impl<'o> Interp<'o> {
                 _ if ch.is_ascii_alphabetic() => {
                     let l = ch.to_ascii_lowercase();
                     c.i += 1;
+                    // Fast path: a plain number right after the letter (`X12.5`, `Y-3`, `F.5`).
+                    let plain = match b.get(c.i) {
+                        Some(b'0'..=b'9' | b'.') => true,
+                        Some(b'-' | b'+') => matches!(b.get(c.i + 1), Some(b'0'..=b'9' | b'.')),
+                        _ => false,
+                    };
+                    if plain && l != b'o' {
+                        if (l == b'g' || l == b'm')
+                            && let Some((code, next)) = plain_code(b, c.i, l == b'g')
+                        {
+                            self.store_code(l, code, at)?;
+                            c.i = next;
+                            continue;
+                        }
+                        let v = c.number()?;
+                        self.store_word(l, v, at)?;
+                        continue;
+                    }
                     if l == b'o' {
-                        return Err(Fail::Line(
-                            at,
-                            GcodeErrorKind::Unsupported("O-word control flow".into()),
-                        ));
+                        let blk = &self.block;
+                        let alone = blk.mask & !bit(b'n') == 0
+                            && blk.ng == 0
+                            && blk.nm == 0
+                            && self.assigns.is_empty();
+                        match self.o_word(b, at, alone)? {
+                            Some(next) => {
+                                c.i = next;
+                                continue;
+                            }
+                            None => return Ok(false),
+                        }
                     }
                     if !self.strict && c.peek() == Some(b'{') {
                         // A slicer template placeholder left unexpanded (`Y{machine_depth}`).
@@ -675,52 +858,7 @@ impl<'o> Interp<'o> {
                             )),
                         ));
                     };
-                    match l {
-                        b'g' => {
-                            // Round half up without libm (the range check comes first).
-                            let t = v * 10.0;
-                            let code =
-                                if (0.0..=9999.0).contains(&t) { ((t + 0.5) as u32) as f64 } else { -1.0 };
-                            if (t - code).abs() > 1e-6 || code < 0.0 {
-                                return Err(Fail::Line(at, GcodeErrorKind::UnknownCode(format!("G{v}"))));
-                            }
-                            if blk.ng == blk.g.len() {
-                                return Err(Fail::Line(
-                                    at,
-                                    GcodeErrorKind::ModalConflict("too many G words".into()),
-                                ));
-                            }
-                            blk.g[blk.ng] = (code as u16, at as u32);
-                            blk.ng += 1;
-                        }
-                        b'm' => {
-                            let code =
-                                if (0.0..=9999.0).contains(&v) { ((v + 0.5) as u32) as f64 } else { -1.0 };
-                            if (v - code).abs() > 1e-6 || code < 0.0 {
-                                return Err(Fail::Line(at, GcodeErrorKind::UnknownCode(format!("M{v}"))));
-                            }
-                            if blk.nm == blk.m.len() {
-                                return Err(Fail::Line(
-                                    at,
-                                    GcodeErrorKind::ModalConflict("too many M words".into()),
-                                ));
-                            }
-                            blk.m[blk.nm] = (code as u16, at as u32);
-                            blk.nm += 1;
-                        }
-                        _ => {
-                            let k = (l - b'a') as usize;
-                            if blk.mask & bit(l) != 0 {
-                                return Err(Fail::Line(
-                                    at,
-                                    GcodeErrorKind::RepeatedWord(l.to_ascii_uppercase() as char),
-                                ));
-                            }
-                            blk.mask |= bit(l);
-                            blk.vals[k] = v;
-                            blk.cols[k] = at as u32;
-                        }
-                    }
+                    self.store_word(l, v, at)?;
                 }
                 _ => {
                     let shown = if ch.is_ascii_graphic() {
@@ -735,9 +873,145 @@ impl<'o> Interp<'o> {
         Ok(true)
     }
 
+    /// Stores one word of the line being lexed (`l` lowercase, `at` its column).
+    #[inline(always)]
+    fn store_word(&mut self, l: u8, v: f64, at: usize) -> Res<(), ()> {
+        let blk = &mut self.block;
+        match l {
+            b'g' | b'm' => {
+                // Codes are stored × 10 for G (`G91.1` = 911), as is for M. Round half up
+                // without libm (the range check comes first).
+                let t = if l == b'g' { v * 10.0 } else { v };
+                let code = if (0.0..=9999.0).contains(&t) { (t + 0.5) as u32 } else { u32::MAX };
+                if code == u32::MAX || (t - code as f64).abs() > 1e-6 {
+                    return Err(bad_code(l, v, at));
+                }
+                return self.store_code(l, code as u16, at);
+            }
+            _ => {
+                let k = (l - b'a') as usize;
+                if blk.mask & bit(l) != 0 {
+                    return Err(repeated(l, at));
+                }
+                blk.mask |= bit(l);
+                blk.vals[k] = v;
+                blk.cols[k] = at as u32;
+            }
+        }
+        Ok(())
+    }
+
+    /// Stores a G code (× 10) or M code.
+    #[inline(always)]
+    fn store_code(&mut self, l: u8, code: u16, at: usize) -> Res<(), ()> {
+        let blk = &mut self.block;
+        let (list, n) = if l == b'g' { (&mut blk.g[..], &mut blk.ng) } else { (&mut blk.m[..], &mut blk.nm) };
+        let Some(slot) = list.get_mut(*n) else { return Err(too_many(l, at)) };
+        *slot = (code, at as u32);
+        *n += 1;
+        Ok(())
+    }
+
+    /// Handles an O word at `at` (LinuxCNC control flow or a Fanuc program number).
+    /// `alone`: no other word precedes it on the line. Returns where lexing goes on
+    /// (a program number), `None` to skip the line, or the line's error.
+    fn o_word(&mut self, b: &[u8], at: usize, alone: bool) -> Res<Option<usize>, ()> {
+        let o = read_o_word(b, at).map_err(|k| Fail::Line(at, k))?;
+        let shown = String::from_utf8_lossy(&b[at..o.end]).trim().to_string();
+        let rest_empty =
+            matches!(b[o.end..].iter().find(|c| !matches!(c, b' ' | b'\t')), None | Some(b'(' | b';'));
+        if o.keyword.is_empty() {
+            return match o.number {
+                Some(n) if alone && rest_empty && !self.strict => {
+                    // Fanuc program number `O1234`: a label, nothing to execute.
+                    self.summary.program_number.get_or_insert(n);
+                    Ok(Some(o.end))
+                }
+                Some(_) if alone && rest_empty => Err(Fail::Line(
+                    at,
+                    GcodeErrorKind::Unsupported(format!(
+                        "program number {shown} (Fanuc): LinuxCNC needs an O-word keyword"
+                    )),
+                )),
+                _ => Err(Fail::Line(
+                    at,
+                    GcodeErrorKind::Unsupported(format!("O-word {shown} without a control-flow keyword")),
+                )),
+            };
+        }
+        let end: Option<&'static str> = match o.keyword.as_str() {
+            "sub" => Some("endsub"),
+            "if" => Some("endif"),
+            "while" => Some("endwhile"),
+            "do" => Some("while"),
+            "repeat" => Some("endrepeat"),
+            _ => None,
+        };
+        let label = String::from_utf8_lossy(&b[o.label.0..o.label.1]).trim().to_string();
+        match end {
+            Some(end) if o.keyword == "sub" => {
+                // A definition runs nothing: skip its body (calls are reported where they are).
+                self.skip_o = Some((o.norm, end));
+                self.warn(
+                    at,
+                    GcodeErrorKind::Unsupported(format!(
+                        "O-word subroutine ({shown}): body up to 'o{label} endsub' skipped; calls are not supported"
+                    )),
+                );
+                Ok(None)
+            }
+            Some(end) => {
+                self.skip_o = Some((o.norm, end));
+                Err(Fail::Line(
+                    at,
+                    GcodeErrorKind::Unsupported(format!(
+                        "O-word control flow ({shown}): lines up to 'o{label} {end}' skipped"
+                    )),
+                ))
+            }
+            None => Err(Fail::Line(
+                at,
+                GcodeErrorKind::Unsupported(format!("O-word control flow ({shown}): line skipped")),
+            )),
+        }
+    }
+
+    /// While an O-word block is skipped: `true` when `line` is skipped too (the
+    /// closing line included); `false` for a `%` line, which still ends the program.
+    #[cold]
+    fn skipped_o_line(&mut self, line: &[u8]) -> bool {
+        let mut i = 0;
+        let blank = |c: u8| c == b' ' || c == b'\t';
+        while i < line.len() && (blank(line[i]) || line[i] == b'/') {
+            i += 1;
+        }
+        if line.get(i) == Some(&b'%') {
+            self.skip_o = None;
+            return false;
+        }
+        if matches!(line.get(i), Some(b'n' | b'N')) {
+            i += 1;
+            while i < line.len() && (blank(line[i]) || line[i].is_ascii_digit() || line[i] == b'.') {
+                i += 1;
+            }
+        }
+        if matches!(line.get(i), Some(b'o' | b'O'))
+            && let Ok(o) = read_o_word(line, i)
+            && let Some((label, end)) = &self.skip_o
+            && o.norm == *label
+            && o.keyword == *end
+        {
+            self.skip_o = None;
+        }
+        true
+    }
+
     // ---------------------------------------------------------- interpretation
 
     fn process<S: MotionSink>(&mut self, line: &[u8], sink: &mut S) -> Res<(), S::Error> {
+        if self.skip_o.is_some() && self.skipped_o_line(line) {
+            return Ok(());
+        }
         let has = match self.lex(line) {
             Ok(h) => h,
             Err(Fail::Line(c, k)) => return Err(Fail::Line(c, k)),
@@ -846,7 +1120,51 @@ impl<'o> Interp<'o> {
         self.params.numbered[5220] = self.coord as f64;
     }
 
+    /// The common block `[G0|G1] [X..] [Y..] [Z..] [E..] [F..] [N..]` in G0/G1 mode, with
+    /// the general path's semantics. Returns `false` (nothing done) for any other block.
+    #[inline]
+    fn fast_straight<S: MotionSink>(&mut self, sink: &mut S) -> Res<bool, S::Error> {
+        const WORDS: u32 = bit(b'x') | bit(b'y') | bit(b'z') | bit(b'e') | bit(b'f') | bit(b'n');
+        const XYZ: u32 = bit(b'x') | bit(b'y') | bit(b'z');
+        let blk = &self.block;
+        if blk.nm != 0 || blk.novalue != 0 || blk.mask & !WORDS != 0 || blk.ng > 1 {
+            return Ok(false);
+        }
+        let explicit = match (blk.ng, blk.g[0].0) {
+            (0, _) => None,
+            (_, 0) => Some(Mode::Rapid),
+            (_, 10) => Some(Mode::Linear),
+            _ => return Ok(false),
+        };
+        let mode = match explicit.or(self.mode) {
+            Some(m @ (Mode::Rapid | Mode::Linear)) => m,
+            _ => return Ok(false),
+        };
+        if blk.get(b'n').is_some_and(|n| n < 0.0) || blk.get(b'f').is_some_and(|f| f < 0.0) {
+            return Ok(false);
+        }
+        let has_e = blk.has(b'e');
+        let has_axes = blk.mask & XYZ != 0;
+        if has_e {
+            self.fdm_evidence();
+        }
+        if let Some(f) = self.block.get(b'f') {
+            self.feed = f * self.scale();
+        }
+        if explicit.is_some() {
+            self.cycle_il = None;
+            self.mode = Some(mode);
+        }
+        if explicit.is_some() || has_axes || (has_e && self.fdm) {
+            self.straight(mode == Mode::Rapid, false, sink)?;
+        }
+        Ok(true)
+    }
+
     fn execute<S: MotionSink>(&mut self, sink: &mut S) -> Res<(), S::Error> {
+        if self.fast_path && self.fast_straight(sink)? {
+            return Ok(());
+        }
         // ---- Classify G codes by modal group and check conflicts.
         let mut groups: [Option<(u16, usize)>; 14] = [None; 14];
         let mut g53 = false;
@@ -1118,9 +1436,23 @@ impl<'o> Interp<'o> {
                     (None, None) => 0.0,
                 }
             } else {
-                match self.block.get(b'p') {
-                    Some(p) => p,
-                    None => {
+                match (self.block.get(b'p'), self.block.get(b'x')) {
+                    (Some(p), _) => p,
+                    (None, Some(x)) if !self.strict => {
+                        // Fanuc `G4 X<seconds>`: the X word is the time, not a move.
+                        self.block.mask &= !bit(b'x');
+                        if !self.warned_fanuc_dwell {
+                            self.warned_fanuc_dwell = true;
+                            self.warn(
+                                col,
+                                GcodeErrorKind::Unsupported(
+                                    "G4 X read as a Fanuc dwell in seconds (warned once)".into(),
+                                ),
+                            );
+                        }
+                        x
+                    }
+                    _ => {
                         return Err(Fail::Line(
                             col,
                             GcodeErrorKind::MissingWord { code: "G4".into(), letter: 'P' },
@@ -1285,8 +1617,11 @@ impl<'o> Interp<'o> {
                             self.lenient(col, GcodeErrorKind::AxisWordsWithoutMotion)?;
                         }
                     }
-                    Some(Mode::Rapid) => self.straight(true, g53, sink)?,
-                    Some(Mode::Linear) => self.straight(false, g53, sink)?,
+                    Some(m @ (Mode::Rapid | Mode::Linear)) => {
+                        if !(self.opts.rotary.is_some() && self.rotary_setup(sink)?) {
+                            self.straight(m == Mode::Rapid, g53, sink)?;
+                        }
+                    }
                     Some(Mode::Arc(dir)) => self.arc(dir, explicit.map(|e| e.1), sink)?,
                     Some(Mode::Cycle(code)) => {
                         if let Err(e) = self.cycle(code, prev_mode, sink) {
@@ -1389,6 +1724,30 @@ impl<'o> Interp<'o> {
         self.emit(sink, &Motion::Linear { to, feed: self.feed, extrude })
     }
 
+    /// With [`ParseOptions::rotary`]: emits the setup of the block's rotary words, if
+    /// any. Returns `true` when the block has no other move words (nothing else moves).
+    fn rotary_setup<S: MotionSink>(&mut self, sink: &mut S) -> Res<bool, S::Error> {
+        let Some(axes) = self.opts.rotary else { return Ok(false) };
+        let letters: [Option<u8>; 3] = match axes {
+            RotaryAxes::AC => [Some(b'a'), None, Some(b'c')],
+            RotaryAxes::BC => [None, Some(b'b'), Some(b'c')],
+        };
+        let mask = letters.iter().flatten().fold(0, |m, &l| m | bit(l));
+        if self.block.mask & mask == 0 {
+            return Ok(false);
+        }
+        for (i, l) in letters.iter().enumerate() {
+            if let Some(v) = l.and_then(|l| self.block.get(l)) {
+                self.rot[i] = if self.absolute { v } else { self.rot[i] + v };
+            }
+        }
+        let rotary = [0, 1, 2].map(|i| letters[i].map(|_| self.rot[i]));
+        let frame = rotary_frame(axes, self.rot);
+        self.emit(sink, &Motion::Setup { frame, rotary })?;
+        let others = bit(b'x') | bit(b'y') | bit(b'z') | bit(b'u') | bit(b'v') | bit(b'w') | bit(b'e');
+        Ok(self.block.mask & others == 0)
+    }
+
     fn plane_axes(&self) -> (usize, usize, usize) {
         match self.plane {
             Plane::XY => (0, 1, 2),
@@ -1447,7 +1806,7 @@ impl<'o> Interp<'o> {
             }
             let mut ar = r_raw.abs();
             let (mu, mv) = ((eu + su) / 2.0, (ev + sv) / 2.0);
-            let mut half = (mu - eu).hypot(mv - ev);
+            let mut half = hyp(mu - eu, mv - ev);
             if half - ar > RADIUS_TOLERANCE_MM {
                 // Lenient fallback: a half circle through both points.
                 self.lenient(col, GcodeErrorKind::ArcRadiusTooSmall { radius: ar, half_chord: half })?;
@@ -1480,8 +1839,8 @@ impl<'o> Interp<'o> {
                 cu = su + i;
                 cv = sv + j;
             }
-            let r1 = (cu - su).hypot(cv - sv);
-            let r2 = (cu - eu).hypot(cv - ev);
+            let r1 = hyp(cu - su, cv - sv);
+            let r2 = hyp(cu - eu, cv - ev);
             if r1 < RADIUS_TOLERANCE_MM || r2 < RADIUS_TOLERANCE_MM {
                 return Err(Fail::Line(col0, GcodeErrorKind::ArcDegenerate("zero radius".into())));
             }
@@ -1804,4 +2163,188 @@ impl<'o> Interp<'o> {
 /// `G91.1` style text of a code stored × 10.
 fn fmt_code(code: u16) -> String {
     if code.is_multiple_of(10) { format!("{}", code / 10) } else { format!("{}.{}", code / 10, code % 10) }
+}
+
+/// An O word as read by [`read_o_word`].
+struct OWord {
+    /// Byte range of the label inside the line (`100`, `<name>`, `[expr]`).
+    label: (usize, usize),
+    /// The label lowercased, without blanks and leading zeros: what closing lines must repeat.
+    norm: Vec<u8>,
+    /// The value of an all-digit label.
+    number: Option<u32>,
+    /// The keyword (`sub`, `if`, ...), lowercased; empty when none.
+    keyword: String,
+    /// Where the line goes on after the keyword.
+    end: usize,
+}
+
+/// Reads the O word whose letter is at `at`: its label and keyword.
+fn read_o_word(b: &[u8], at: usize) -> Result<OWord, GcodeErrorKind> {
+    let blank = |c: u8| c == b' ' || c == b'\t';
+    let mut i = at + 1;
+    while i < b.len() && blank(b[i]) {
+        i += 1;
+    }
+    let start = i;
+    match b.get(i) {
+        Some(b'<') => match b[i..].iter().position(|&c| c == b'>') {
+            Some(k) => i += k + 1,
+            None => return Err(GcodeErrorKind::NotGcode("O-word name without '>'".into())),
+        },
+        Some(b'[') => {
+            let mut depth = 0u32;
+            while i < b.len() {
+                match b[i] {
+                    b'[' => depth += 1,
+                    b']' => depth -= 1,
+                    _ => {}
+                }
+                i += 1;
+                if depth == 0 {
+                    break;
+                }
+            }
+            if depth != 0 {
+                return Err(GcodeErrorKind::Expression("O-word label without ']'".into()));
+            }
+        }
+        _ => {
+            while i < b.len()
+                && (b[i].is_ascii_digit()
+                    || (blank(b[i]) && b[i + 1..].first().is_some_and(u8::is_ascii_digit)))
+            {
+                i += 1;
+            }
+        }
+    }
+    if i == start {
+        return Err(GcodeErrorKind::NotGcode("expected a number or <name> after 'O'".into()));
+    }
+    let label = (start, i);
+    let mut norm: Vec<u8> = b[start..i].iter().filter(|&&c| !blank(c)).map(u8::to_ascii_lowercase).collect();
+    let digits = norm.iter().all(u8::is_ascii_digit);
+    if digits {
+        let z = norm.iter().take_while(|&&c| c == b'0').count().min(norm.len().saturating_sub(1));
+        norm.drain(..z);
+    }
+    let number = if digits && norm.len() <= 9 {
+        Some(norm.iter().fold(0u32, |a, &d| a * 10 + (d - b'0') as u32))
+    } else {
+        None
+    };
+    while i < b.len() && blank(b[i]) {
+        i += 1;
+    }
+    let ks = i;
+    while i < b.len() && b[i].is_ascii_alphabetic() && i - ks < 16 {
+        i += 1;
+    }
+    let keyword = String::from_utf8_lossy(&b[ks..i]).to_ascii_lowercase();
+    Ok(OWord { label, norm, number, keyword, end: i })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::motion::MotionRecorder;
+
+    fn both(text: &[u8], opts: &ParseOptions, what: &str) {
+        let mut a = MotionRecorder::default();
+        let mut b = MotionRecorder::default();
+        let sa = parse_bytes(text, opts, &mut a, true).expect("infallible sink");
+        let sb = parse_bytes(text, opts, &mut b, false).expect("infallible sink");
+        assert_eq!(sa, sb, "{what}: summaries differ\n{}", String::from_utf8_lossy(text));
+        assert_eq!(a.motions, b.motions, "{what}: motions differ\n{}", String::from_utf8_lossy(text));
+    }
+
+    fn dialects() -> [ParseOptions; 3] {
+        [ParseDialect::Auto, ParseDialect::Cnc, ParseDialect::Fdm]
+            .map(|dialect| ParseOptions { dialect, ..ParseOptions::default() })
+    }
+
+    #[test]
+    fn plain_codes_agree_with_the_number_reader() {
+        let mut state = 0x9E37_u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let alphabet = b"0123456789.  X-";
+        let mut taken = 0;
+        for case in 0..100_000 {
+            let len = 1 + (next() % 8) as usize;
+            let mut t: Vec<u8> =
+                (0..len).map(|_| alphabet[(next() % alphabet.len() as u64) as usize]).collect();
+            if case % 2 == 0 {
+                t[0] = b'0' + (next() % 10) as u8;
+            }
+            for g in [true, false] {
+                let Some((code, end)) = plain_code(&t, 0, g) else { continue };
+                taken += 1;
+                let mut c = Cursor { b: &t, i: 0 };
+                let v = c.number().unwrap_or_else(|e| panic!("{:?}: {e:?}", String::from_utf8_lossy(&t)));
+                let want = if g { v * 10.0 } else { v };
+                let shown = String::from_utf8_lossy(&t);
+                assert!((want - code as f64).abs() < 1e-6, "{shown:?} (g {g}): {code} vs {v}");
+                assert_eq!(c.i, end, "{shown:?} (g {g}): end");
+            }
+        }
+        assert!(taken > 20_000, "only {taken} plain codes");
+    }
+
+    #[test]
+    fn fast_path_agrees_with_the_general_interpreter_on_samples() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
+        let mut n = 0;
+        for dir in ["cnc/programs", "fdm/gcode", "cnc/odd"] {
+            let entries = std::fs::read_dir(root.join(dir)).unwrap_or_else(|e| panic!("{dir}: {e}"));
+            for e in entries {
+                let path = e.expect("dir entry").path();
+                let text = std::fs::read(&path).expect("read");
+                for opts in dialects() {
+                    both(&text, &opts, &path.display().to_string());
+                }
+                n += 1;
+            }
+        }
+        assert!(n >= 8, "only {n} sample files");
+    }
+
+    #[test]
+    fn fast_path_agrees_with_the_general_interpreter_on_random_blocks() {
+        // SplitMix64: random blocks of the words the fast path takes and of their neighbours.
+        let mut state = 0x5EED_u64;
+        let mut next = move || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        };
+        let words = [
+            "G0", "G1", "G2", "G3", "G20", "G21", "G90", "G91", "G80", "G53", "G4", "G92", "G10", "G11",
+            "M3", "M82", "M83", "X", "Y", "Z", "E", "F", "N", "S", "T", "R", "I", "J", "P", "A", "(c)", ";t",
+        ];
+        for case in 0..400 {
+            let mut text = String::new();
+            for _ in 0..(next() % 30) {
+                for _ in 0..(1 + next() % 4) {
+                    let w = words[(next() % words.len() as u64) as usize];
+                    text.push_str(w);
+                    if w.len() == 1 {
+                        let v = (next() % 4000) as f64 / 8.0 - 100.0;
+                        text.push_str(&format!("{v}"));
+                    }
+                    text.push(' ');
+                }
+                text.push('\n');
+            }
+            for opts in dialects() {
+                both(text.as_bytes(), &opts, &format!("random case {case}"));
+            }
+        }
+    }
 }

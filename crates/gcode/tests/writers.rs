@@ -553,14 +553,6 @@ use s2g_gcode::{ExtrusionMode, Marker, ParseOptions, parse_str};
 
 /// Parses `text`; asserts no errors; returns the motions (header comment removed).
 fn parse_back(name: &str, text: &str) -> Vec<Motion<'static>> {
-    // Our parser reads every O word as (unsupported) LinuxCNC control flow, so the
-    // Fanuc program-number line `O0001` is left out here; rs274 is not involved.
-    let text: String = if text.starts_with("%\nO") {
-        text.lines().filter(|l| !l.starts_with('O')).flat_map(|l| [l, "\n"]).collect()
-    } else {
-        text.to_owned()
-    };
-    let text = text.as_str();
     let mut rec = MotionRecorder::default();
     let summary = parse_str(text, &ParseOptions::default(), &mut rec).expect("infallible sink");
     assert!(summary.errors.is_empty(), "{name}: parse errors {:?}\n{text}", summary.errors);
@@ -584,8 +576,6 @@ fn close_pt(a: &Point3<f64>, b: &Point3<f64>, tol: f64) -> bool {
 fn expected(dialect: Dialect, opts: &WriterOptions, m: &Motion<'static>) -> Option<Motion<'static>> {
     match m {
         Motion::Comment(_) | Motion::Marker(_) if !opts.comments => None,
-        // Fanuc dwells are `G4 X<seconds>` (Fanuc's form); our parser reads G4 the
-        // LinuxCNC way (P only), so Fanuc programs are generated without dwells.
         Motion::ToolChange { tool } if dialect == Dialect::Grbl => {
             opts.comments.then(|| Motion::Comment(Cow::Owned(format!("tool change T{tool}"))))
         }
@@ -725,11 +715,6 @@ fn cnc_dialects_round_trip() {
             .run(&program(), |motions| {
                 case.set(case.get() + 1);
                 let name = format!("{dialect:?} case {}", case.get());
-                let motions: Vec<_> = if dialect == Dialect::Fanuc {
-                    motions.into_iter().filter(|m| !matches!(m, Motion::Dwell { .. })).collect()
-                } else {
-                    motions
-                };
                 round_trip(&name, dialect, cnc_options(case.get()), &motions);
                 Ok(())
             })
@@ -879,4 +864,232 @@ fn setups_read_back_as_comments() {
         let moves = run_rs274(dir.path(), "setup", &text);
         assert_eq!(moves.len(), rapids, "{text}");
     }
+}
+
+/// One fixed program per dialect: the Fanuc program number and `G4 X` dwell, setup
+/// comments (with the `M0` pause) and every motion kind read back with no error.
+#[test]
+fn every_dialect_round_trips_dwells_and_setups() {
+    let frame = Isometry3::rotation(Vector3::x() * (PI / 2.0));
+    let ms: Vec<Motion<'static>> = vec![
+        Motion::Rapid { to: Point3::new(0.0, 0.0, 10.0) },
+        Motion::Spindle { rpm: 12000.0, direction: SpindleDirection::Clockwise },
+        Motion::Coolant(Coolant::Flood),
+        Motion::Linear { to: Point3::new(5.0, 0.0, -1.0), feed: 300.0, extrude: None },
+        Motion::Dwell { seconds: 1.25 },
+        Motion::Arc {
+            to: Point3::new(0.0, 5.0, -1.0),
+            center: Point3::new(0.0, 0.0, -1.0),
+            plane: Plane::XY,
+            direction: ArcDirection::CounterClockwise,
+            turns: 0,
+            feed: 300.0,
+            extrude: None,
+        },
+        Motion::Setup { frame: Isometry3::identity(), rotary: [None; 3] },
+        Motion::Rapid { to: Point3::new(0.0, 0.0, 10.0) },
+        Motion::Setup { frame, rotary: [None; 3] },
+        Motion::Rapid { to: Point3::new(1.0, 2.0, 10.0) },
+        Motion::Linear { to: Point3::new(1.0, 2.0, -0.5), feed: 150.0, extrude: None },
+        Motion::Dwell { seconds: 0.5 },
+        Motion::Comment(Cow::Borrowed("done")),
+    ];
+    for dialect in [Dialect::LinuxCnc, Dialect::Grbl, Dialect::Fanuc, Dialect::Marlin] {
+        for line_numbers in [false, true] {
+            let name = format!("{dialect:?} line numbers {line_numbers}");
+            let opts = WriterOptions { line_numbers, ..Default::default() };
+            let text = write_program(dialect, opts.clone(), &ms).expect("writes");
+            if dialect == Dialect::Fanuc {
+                assert!(text.starts_with("%\nO0001\n") && text.contains("G4 X1.25"), "{text}");
+            }
+            let mut rec = MotionRecorder::default();
+            let summary = parse_str(&text, &ParseOptions::default(), &mut rec).expect("infallible sink");
+            assert!(summary.errors.is_empty(), "{name}: {:?}\n{text}", summary.errors);
+            assert_eq!(summary.program_number, (dialect == Dialect::Fanuc).then_some(1), "{name}");
+            let got: Vec<Motion<'static>> = rec.motions.into_iter().map(|(_, m)| m).collect();
+            let setups: Vec<&str> = got
+                .iter()
+                .filter_map(|m| match m {
+                    Motion::Comment(c) if c.starts_with("SETUP ") => Some(c.as_ref()),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(setups.len(), 2, "{name}: {setups:?}\n{text}");
+            assert!(
+                setups[1].starts_with("SETUP 2: rotate part so that tool axis = +0.000000 -1.000000"),
+                "{name}"
+            );
+            // Without setups and the header comment, the rest must read back as written.
+            let input: Vec<Motion<'static>> =
+                ms.iter().filter(|m| !matches!(m, Motion::Setup { .. })).cloned().collect();
+            let got: Vec<Motion<'static>> = got
+                .into_iter()
+                .filter(|m| {
+                    !matches!(m, Motion::Comment(c) if c.starts_with("SETUP ") || c.starts_with("generated by"))
+                })
+                .collect();
+            let dwells: Vec<f64> = got
+                .iter()
+                .filter_map(|m| match m {
+                    Motion::Dwell { seconds } => Some(*seconds),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(dwells, [1.25, 0.5], "{name}\n{text}");
+            compare(&name, dialect, &opts, &input, &got, &text);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// 3+2 rotary setups: writer and parser share `rotary_frame` / `rotary_angles`.
+
+use s2g_gcode::{RotaryAxes, rotary_angles, rotary_frame, rotary_twist};
+
+/// A random rotation (normalised 4-vector, rejection of short ones) and translation.
+fn frame_strategy() -> impl Strategy<Value = Isometry3<f64>> {
+    (
+        [-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64],
+        [-50.0..50.0f64, -50.0..50.0f64, -50.0..50.0f64],
+    )
+        .prop_filter("non-degenerate quaternion", |(q, _)| q.iter().map(|c| c * c).sum::<f64>() > 0.01)
+        .prop_map(|(q, t)| {
+            let q =
+                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+            Isometry3::from_parts(nalgebra::Translation3::new(t[0], t[1], t[2]), q)
+        })
+}
+
+fn tool_axis(f: &Isometry3<f64>) -> Vector3<f64> {
+    f.rotation * Vector3::z()
+}
+
+#[test]
+fn rotary_angles_invert_rotary_frame() {
+    // Plus the edge cases: vertical up and down, horizontal along each axis.
+    let edges: Vec<Isometry3<f64>> = [
+        Vector3::zeros(),
+        Vector3::x() * PI,
+        Vector3::y() * PI,
+        Vector3::x() * (PI / 2.0),
+        Vector3::y() * (-PI / 2.0),
+        Vector3::x() * 1e-9,
+    ]
+    .into_iter()
+    .map(Isometry3::rotation)
+    .collect();
+    let check = |f: &Isometry3<f64>| {
+        for axes in [RotaryAxes::AC, RotaryAxes::BC] {
+            let ang = rotary_angles(axes, f);
+            let k = rotary_frame(axes, ang);
+            let d = (tool_axis(&k) - tool_axis(f)).norm();
+            assert!(d < 1e-9, "{axes:?} {f:?}: angles {ang:?} give tool axis off by {d}");
+            assert_eq!(k.translation.vector, Vector3::zeros());
+            // The kinematic frame has no twist; the frame is the kinematic one turned by the twist.
+            assert!(rotary_twist(axes, &k).abs() < 1e-7, "{axes:?} {ang:?}: {}", rotary_twist(axes, &k));
+            let phi = rotary_twist(axes, f).to_radians();
+            let rebuilt = k.rotation * nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), phi);
+            assert!(rebuilt.angle_to(&f.rotation) < 1e-9, "{axes:?} {f:?}: twist {phi}");
+            // The angles of the kinematic frame are the angles themselves.
+            let again = rotary_angles(axes, &k);
+            for i in 0..3 {
+                let diff = (again[i] - ang[i] + 540.0).rem_euclid(360.0) - 180.0;
+                assert!(diff.abs() < 1e-6, "{axes:?} {ang:?} -> {again:?}");
+            }
+        }
+    };
+    edges.iter().for_each(check);
+    seeded(500)
+        .run(&frame_strategy(), |f| {
+            check(&f);
+            Ok(())
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// Writes two setups with rotary words and parses them back under the same kinematics.
+fn rotary_round_trip(axes: RotaryAxes, f1: Isometry3<f64>, f2: Isometry3<f64>, decimals: usize) -> String {
+    let ms = vec![
+        Motion::Rapid { to: Point3::new(0.0, 0.0, 20.0) },
+        Motion::Setup { frame: f1, rotary: [None; 3] },
+        Motion::Rapid { to: Point3::new(1.0, 2.0, 20.0) },
+        Motion::Linear { to: Point3::new(1.0, 2.0, -1.0), feed: 200.0, extrude: None },
+        Motion::Setup { frame: f2, rotary: [None; 3] },
+        Motion::Rapid { to: Point3::new(-3.0, 4.0, 15.0) },
+        Motion::Linear { to: Point3::new(-3.0, 5.0, -2.0), feed: 250.0, extrude: None },
+    ];
+    let opts = WriterOptions { rotary: Some(axes), decimals, ..Default::default() };
+    let text = write_program(Dialect::LinuxCnc, opts, &ms).expect("writes");
+    let mut rec = MotionRecorder::default();
+    let po = ParseOptions { rotary: Some(axes), ..ParseOptions::default() };
+    let summary = parse_str(&text, &po, &mut rec).expect("infallible sink");
+    assert!(summary.errors.is_empty(), "{axes:?}: {:?}\n{text}", summary.errors);
+    let got: Vec<Motion<'static>> = rec.motions.into_iter().map(|(_, m)| m).collect();
+    let setups: Vec<(Isometry3<f64>, [Option<f64>; 3])> = got
+        .iter()
+        .filter_map(|m| match m {
+            Motion::Setup { frame, rotary } => Some((*frame, *rotary)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(setups.len(), 2, "{axes:?}\n{text}");
+    for ((got, rotary), want) in setups.iter().zip([f1, f2]) {
+        let d = (tool_axis(got) - tool_axis(&want)).norm();
+        assert!(d < 1e-9, "{axes:?}: tool axis off by {d}: {got:?} vs {want:?}\n{text}");
+        let kin = rotary_frame(axes, rotary_angles(axes, &want));
+        let a = got.rotation.angle_to(&kin.rotation);
+        assert!(a < 1e-9, "{axes:?}: rotation differs from the kinematic one by {a} rad\n{text}");
+        let used = match axes {
+            RotaryAxes::AC => [true, false, true],
+            RotaryAxes::BC => [false, true, true],
+        };
+        assert_eq!(rotary.map(|r| r.is_some()), used, "{axes:?}: {rotary:?}");
+    }
+    // The rotary lines move nothing else: the moves read back are the input moves, in order.
+    let ends: Vec<Point3<f64>> = got.iter().filter_map(Motion::end_point).collect();
+    let want = [[0.0, 0.0, 20.0], [1.0, 2.0, 20.0], [1.0, 2.0, -1.0], [-3.0, 4.0, 15.0], [-3.0, 5.0, -2.0]];
+    for (k, w) in want.iter().enumerate() {
+        assert!(close_pt(&ends[k], &Point3::from(*w), 1e-9), "{axes:?}: move {k}: {:?}\n{text}", ends[k]);
+    }
+    let setup_at = got.iter().position(|m| matches!(m, Motion::Setup { .. })).expect("setup");
+    let first_after = got[setup_at..].iter().find_map(Motion::end_point).expect("move after the setup");
+    assert!(
+        close_pt(&first_after, &Point3::new(1.0, 2.0, 20.0), 1e-9),
+        "setup comes before the move\n{text}"
+    );
+    text
+}
+
+#[test]
+fn rotary_setups_read_back_as_kinematic_frames() {
+    // Random frames: ten decimals make the written angles exact to 1e-10 degrees.
+    let pair = (frame_strategy(), frame_strategy());
+    for axes in [RotaryAxes::AC, RotaryAxes::BC] {
+        seeded(48)
+            .run(&pair, |(f1, f2)| {
+                rotary_round_trip(axes, f1, f2, 10);
+                Ok(())
+            })
+            .unwrap_or_else(|e| panic!("{e}"));
+        // Kinematic frames of whole-degree angles round-trip exactly at the default 4 decimals.
+        let f1 = rotary_frame(axes, [35.0, 35.0, -120.0]);
+        let f2 = rotary_frame(axes, [90.0, 90.0, 45.0]);
+        let text = rotary_round_trip(axes, f1, f2, 4);
+        let word = if axes == RotaryAxes::AC { "G0 A35 C-120" } else { "G0 B35 C-120" };
+        assert!(text.contains(word), "{text}");
+    }
+    // Incremental rotary words add up; G20 does not scale degrees.
+    let mut rec = MotionRecorder::default();
+    let po = ParseOptions { rotary: Some(RotaryAxes::AC), ..ParseOptions::default() };
+    parse_str("G20 G0 A30 C10\nG91 G0 A15 C-20 X1\n", &po, &mut rec).expect("parse");
+    let rot: Vec<[Option<f64>; 3]> = rec
+        .motions
+        .iter()
+        .filter_map(|(_, m)| match m {
+            Motion::Setup { rotary, .. } => Some(*rotary),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(rot, [[Some(30.0), None, Some(10.0)], [Some(45.0), None, Some(-10.0)]]);
+    assert_eq!(rec.motions.iter().filter(|(_, m)| m.end_point().is_some()).count(), 1);
 }

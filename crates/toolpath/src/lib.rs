@@ -18,7 +18,7 @@
 //!
 //! With a [`RemainingMaterial`], areas without material are skipped (rest machining).
 //! Motions stream into any [`s2g_gcode::MotionSink`] through [`plan_setup`].
-//! Machining features (pockets, slots, holes; seed 001) will live in a `features` module.
+//! Machining features (pockets, slots, holes on a block; seed 001) live in [`features`].
 //!
 //! ```
 //! use s2g_gcode::MotionRecorder;
@@ -43,6 +43,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod baseline;
+pub mod features;
 mod error;
 mod link;
 mod periphery;

@@ -11,6 +11,9 @@
 //! | tool change | `T1 M6` | `M0 (tool change T1)` (grbl has no M6) | `T1 M6` | `T1` |
 //! | comments | `(text)` | `(text)` | `(text)` | `;text` |
 //! | footer | `M5`, `M9`, `G53 G0 Z0`, `M30` | same | `M5`, `M9`, `G91 G28 Z0`, `G90`, `M30`, `%` | `G0 Z<top + lift>`, `M84` |
+//! | drill cycles | `G98 G81`/`G82 P<s>`/`G83 Q<peck>`, `G80` before the next other block | expanded to `G0`/`G1`/`G4` | as LinuxCNC, `G82 P<ms>` | expanded |
+//! | stops | `M0` / `M1` | same | same | `M0` / comment |
+//! | tool length | `G43 H<n>` after `T<n> M6` with [`WriterOptions::tool_length_offset`] | never | as LinuxCNC | never |
 //!
 //! Numbers have at most [`WriterOptions::decimals`] decimals, trailing zeros
 //! trimmed (Fanuc keeps the point: `X1.`), never `-0`, never an exponent. A
@@ -32,10 +35,14 @@
 //! [`WriterOptions::setup_pause`] is set. With a rotary option the same comment
 //! is followed by `G0 A<a> C<c>` ([`RotaryAxes::AC`]) or `G0 B<b> C<c>`
 //! ([`RotaryAxes::BC`]) in degrees: the setup's own `rotary` values when given,
-//! otherwise solved from its tool axis `t = frame * +Z` with the table-table
-//! conventions `t = Rz(C) Rx(A) +Z` (so `A = acos(t.z)` in `[0, 180]`,
-//! `C = atan2(t.x, -t.y)`) and `t = Rz(C) Ry(B) +Z` (`B = acos(t.z)`,
-//! `C = atan2(t.y, t.x)`). After a setup every axis word is written again.
+//! otherwise [`crate::rotary_angles`] of its frame, solved from the tool axis
+//! `t = frame * +Z` with the table-table conventions `t = Rz(C) Rx(A) +Z` (so
+//! `A = acos(t.z)` in `[0, 180]`, `C = atan2(t.x, -t.y)`) and `t = Rz(C) Ry(B) +Z`
+//! (`B = acos(t.z)`, `C = atan2(t.y, t.x)`). Only frames whose rotation is the
+//! kinematic rotation of those angles are written exactly; for others the
+//! machine cuts the path turned about the tool axis by [`crate::rotary_twist`] (see
+//! [`crate::rotary_frame`]). After a setup every axis word is
+//! written again.
 
 mod format;
 
@@ -46,7 +53,9 @@ use std::io::Write;
 use nalgebra::{Isometry3, Point3, Vector3};
 
 use crate::arc::{ArcError, ArcFitOptions, ArcFitter, ArcSpec, plane_axes};
-use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use crate::motion::{
+    ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionSink, Plane, SpindleDirection,
+};
 
 pub(crate) use format::{push_num, rounded};
 
@@ -134,6 +143,9 @@ pub struct WriterOptions {
     pub setup_pause: bool,
     /// Marlin extrusion mode. Default [`ExtrusionMode::Absolute`].
     pub extrusion: ExtrusionMode,
+    /// LinuxCNC and Fanuc: write `G43 H<n>` (tool length offset of tool `n`) after each
+    /// tool change. Default false.
+    pub tool_length_offset: bool,
 }
 
 impl Default for WriterOptions {
@@ -156,6 +168,7 @@ impl Default for WriterOptions {
             rotary: None,
             setup_pause: true,
             extrusion: ExtrusionMode::Absolute,
+            tool_length_offset: false,
         }
     }
 }
@@ -326,6 +339,8 @@ struct Core<W: Write> {
     e_written: f64,
     max_z: f64,
     setups: u32,
+    /// A canned cycle is modal and active (`G80` due before the next other block).
+    cycle_active: bool,
 }
 
 impl<W: Write> Core<W> {
@@ -352,6 +367,7 @@ impl<W: Write> Core<W> {
             e_written: 0.0,
             max_z: f64::NEG_INFINITY,
             setups: 0,
+            cycle_active: false,
         }
     }
 
@@ -524,6 +540,7 @@ impl<W: Write> Core<W> {
     }
 
     fn footer(&mut self) -> Result<(), WriteError> {
+        self.cancel_cycle()?;
         if !self.opts.footer {
             return Ok(());
         }
@@ -796,6 +813,104 @@ impl<W: Write> Core<W> {
         self.end_block()
     }
 
+    /// `G80` when a canned cycle is active.
+    fn cancel_cycle(&mut self) -> Result<(), WriteError> {
+        if self.cycle_active {
+            self.cycle_active = false;
+            self.raw("G80");
+            self.end_block()?;
+        }
+        Ok(())
+    }
+
+    /// A canned drilling cycle: native on LinuxCNC and Fanuc, expanded elsewhere.
+    fn cycle(&mut self, c: &DrillCycle) -> Result<(), WriteError> {
+        for (what, v) in [("cycle X", c.x), ("cycle Y", c.y), ("cycle clearance", c.clearance)] {
+            self.check(what, v)?;
+        }
+        self.check("cycle R plane", c.r_plane)?;
+        self.check("cycle bottom", c.bottom)?;
+        self.check("feed", c.feed)?;
+        let (extra, extra_ok) = match c.kind {
+            CycleKind::Drill => (None, true),
+            CycleKind::Dwell { seconds } => (Some(('P', seconds)), seconds.is_finite() && seconds >= 0.0),
+            CycleKind::Peck { peck } => (Some(('Q', peck)), peck.is_finite() && peck > 0.0),
+        };
+        if !extra_ok {
+            return Err(WriteError::NonFinite {
+                index: self.index,
+                what: "cycle dwell or peck",
+                value: f64::NAN,
+            });
+        }
+        if !matches!(self.dialect, Dialect::LinuxCnc | Dialect::Fanuc) {
+            let from = match self.pos {
+                [Some(x), Some(y), Some(z)] => Some(Point3::new(x, y, z)),
+                _ => None,
+            };
+            let mut moves = Vec::new();
+            c.expand(from, |m| moves.push(m));
+            for m in &moves {
+                match m {
+                    Motion::Rapid { to } => self.rapid(to)?,
+                    Motion::Linear { to, feed, .. } => self.linear(to, *feed, None)?,
+                    Motion::Dwell { seconds } => {
+                        self.raw("G4");
+                        let (v, dec) = if self.dialect == Dialect::Marlin {
+                            (seconds * 1000.0, 0)
+                        } else {
+                            (*seconds, 3)
+                        };
+                        self.word('P', v, dec);
+                        self.end_block()?;
+                    }
+                    _ => {}
+                }
+            }
+            return Ok(());
+        }
+        let d = self.opts.decimals;
+        let top = c.clearance.max(c.r_plane);
+        // The initial level is where the cycle starts: go there first.
+        if self.pos[2] != Some(rounded(top, d)) {
+            let mut p = Point3::new(c.x, c.y, top);
+            if let (Some(x), Some(y)) = (self.pos[0], self.pos[1]) {
+                p.x = x;
+                p.y = y;
+            }
+            self.rapid(&p)?;
+        }
+        self.raw("G98");
+        self.raw(match c.kind {
+            CycleKind::Drill => "G81",
+            CycleKind::Dwell { .. } => "G82",
+            CycleKind::Peck { .. } => "G83",
+        });
+        self.word('X', c.x, d);
+        self.word('Y', c.y, d);
+        self.word('Z', c.bottom, d);
+        self.word('R', c.r_plane, d);
+        match extra {
+            Some(('P', s)) if self.dialect == Dialect::Fanuc => {
+                // Fanuc G82 P is an integer number of milliseconds.
+                self.raw(&format!("P{}", (s * 1000.0).round() as u64));
+            }
+            Some((letter, v)) => self.word(letter, v, d.max(3)),
+            None => {}
+        }
+        let f = rounded(c.feed, d);
+        self.word('F', f, d);
+        self.feed = Some(f);
+        self.end_block()?;
+        self.cycle_active = true;
+        // After the cycle the motion mode must be stated again (G80 cancels it).
+        self.motion_mode = None;
+        self.pos = [Some(rounded(c.x, d)), Some(rounded(c.y, d)), Some(rounded(top, d))];
+        self.exact = Some(Point3::new(c.x, c.y, top));
+        self.max_z = self.max_z.max(top);
+        Ok(())
+    }
+
     fn setup(&mut self, frame: &Isometry3<f64>, rotary: &[Option<f64>; 3]) -> Result<(), WriteError> {
         for c in frame.translation.vector.iter().chain(frame.rotation.coords.iter()) {
             self.check("setup frame", *c)?;
@@ -831,20 +946,14 @@ impl<W: Write> Core<W> {
                 }
             }
             Some(axes) => {
-                let deg = |r: f64| r.to_degrees();
-                let tz = t.z.clamp(-1.0, 1.0);
-                let (first, c_solved) = match axes {
-                    RotaryAxes::AC => (deg(tz.acos()), deg(t.x.atan2(-t.y))),
-                    RotaryAxes::BC => (deg(tz.acos()), deg(t.y.atan2(t.x))),
-                };
-                // A vertical tool axis leaves C free: keep it at 0.
-                let c_solved = if (1.0 - tz.abs()) < 1e-12 { 0.0 } else { c_solved };
+                // Shared with the parser: see crate::rotary.
+                let solved = crate::rotary::rotary_angles(axes, frame);
                 let (li, letter) = match axes {
                     RotaryAxes::AC => (0, 'A'),
                     RotaryAxes::BC => (1, 'B'),
                 };
-                let a = rotary[li].unwrap_or(first);
-                let c = rotary[2].unwrap_or(c_solved);
+                let a = rotary[li].unwrap_or(solved[li]);
+                let c = rotary[2].unwrap_or(solved[2]);
                 self.check("rotary angle", a)?;
                 self.check("rotary angle", c)?;
                 self.raw("G0");
@@ -869,6 +978,9 @@ impl<W: Write> MotionSink for Core<W> {
             return Err(WriteError::Finished);
         }
         self.header()?;
+        if !matches!(motion, Motion::Cycle(_) | Motion::Comment(_) | Motion::Marker(_)) {
+            self.cancel_cycle()?;
+        }
         let d = self.opts.decimals;
         match motion {
             Motion::Rapid { to } => self.rapid(to)?,
@@ -888,6 +1000,12 @@ impl<W: Write> MotionSink for Core<W> {
                     _ => self.raw(&format!("T{tool} M6")),
                 }
                 self.end_block()?;
+                if self.opts.tool_length_offset && matches!(self.dialect, Dialect::LinuxCnc | Dialect::Fanuc)
+                {
+                    self.raw("G43");
+                    self.word('H', f64::from(*tool), 0);
+                    self.end_block()?;
+                }
             }
             Motion::Spindle { rpm, direction } => {
                 let rpm = self.check("spindle speed", *rpm)?;
@@ -955,6 +1073,15 @@ impl<W: Write> MotionSink for Core<W> {
                     self.end_block()?;
                 }
                 self.ended = true;
+            }
+            Motion::Cycle(c) => self.cycle(c)?,
+            Motion::Stop { optional } => {
+                match (self.dialect, optional) {
+                    (Dialect::Marlin, true) => self.push_comment("optional stop"),
+                    (_, true) => self.raw("M1"),
+                    (_, false) => self.raw("M0"),
+                }
+                self.end_block()?;
             }
             // Future motion kinds: not representable yet; write them as a comment.
             #[allow(unreachable_patterns)] // Motion is non_exhaustive.
