@@ -25,8 +25,8 @@ pub use crate::fdm::{
     solid_mesh, sweep_spine, tube_mesh, write_step,
 };
 pub use crate::feature::{
-    FeatureCheck, FeatureError, FeatureProgram, FeatureResidual, JobSpec, feature_program, feature_writer_options,
-    load_job, parse_job,
+    FeatureCheck, FeatureError, FeatureProgram, FeatureResidual, JobSpec, feature_program,
+    feature_writer_options, load_job, parse_job,
 };
 pub use crate::pipeline::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,

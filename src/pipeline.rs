@@ -4,16 +4,37 @@
 //! policy -> plan (toolpath) -> write G-code text (gcode) -> **parse the text back**
 //! -> simulate every setup in the part frame (voxsim) -> score (geom metrics,
 //! rewards). What is scored is what a machine would run.
+//!
+//! # Program layouts
+//!
+//! [`ProgramLayout::PerSetup`] writes one 3-axis program per setup, its fixture rotation in
+//! its `SETUP` header comment; each is parsed back on its own and the simulator is told
+//! the setup's frame. [`ProgramLayout::Rotary`] writes **one** 3+2 program for a
+//! table-table machine: before each setup the tool rapids straight up (program +Z) to a
+//! height where the whole stock can turn under it (the stock's farthest corner from the
+//! rotary centre, plus the clearance), then `G0 A.. C..` (or `B.. C..`) turns the part.
+//! The rotary centre is the part frame's origin (the program origin). The program is
+//! parsed back in one pass with [`ParseOptions::rotary`], so the simulator learns every
+//! frame from the rotary words alone.
+//!
+//! Rotary words fix the tool axis but not the turn about it: the part turns by the
+//! kinematic rotation of its angles ([`rotary_frame`]). Each setup is still planned in
+//! the frame orientation selection gave it, and its program coordinates are turned about
+//! Z (and shifted by that frame's translation, zero today) into the kinematic frame as
+//! they are written, so both layouts cut the same paths in the part frame.
 
+use std::cell::RefCell;
+use std::io::{BufRead, Read};
 use std::time::Instant;
 
 use crate::gcode::{
-    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, WriterOptions, parse_str,
+    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Plane, RotaryAxes, WriterOptions, linearize_arc,
+    parse_reader, parse_str, rotary_angles, rotary_frame,
 };
 use crate::geom::{
-    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Setup, ShapeMetrics,
-    TAUBIN_LAMBDA, TAUBIN_MU, Vector3, VoxelGrid, compare, marching_cubes_voxels, sample_surface,
-    taubin_smooth, unit_cube_normalization, voxelize,
+    Aabb, GridSpec, Isometry3, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Rotation3, Setup,
+    ShapeMetrics, TAUBIN_LAMBDA, TAUBIN_MU, Vector3, VoxelGrid, compare, marching_cubes_voxels,
+    sample_surface, taubin_smooth, unit_cube_normalization, voxelize,
 };
 use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures, StrategyKind};
@@ -51,7 +72,9 @@ pub enum ProgramLayout {
     /// One 3-axis program per setup; the fixture rotation is stated in its header comment.
     #[default]
     PerSetup,
-    /// One 3+2 program for a table-table machine with these rotary axes.
+    /// One 3+2 program for a table-table machine with these rotary axes (A/C or B/C),
+    /// whose tilt axis travels [`MillOptions::rotary_tilt_range_deg`]. Needs a dialect
+    /// with rotary axes: LinuxCNC or Fanuc (grbl has none).
     Rotary(RotaryAxes),
 }
 
@@ -68,6 +91,13 @@ pub struct MillOptions {
     pub dialect: Dialect,
     /// One program per setup or one 3+2 program. Default: per setup.
     pub layout: ProgramLayout,
+    /// Travel of the rotary layout's tilt axis (A for [`RotaryAxes::AC`], B for
+    /// [`RotaryAxes::BC`]) in degrees, `[min, max]`. A tool axis at angle θ from +Z is
+    /// reached with tilt θ (and C as [`rotary_angles`] solves it) or with tilt −θ and C
+    /// turned by 180°, whichever lies in the range first; a setup that neither reaches is
+    /// a [`MillError::Unreachable`]. Ignored by the per-setup layout. Default
+    /// `[-180, 180]`: every direction (real trunnions are narrower, e.g. `[-30, 110]`).
+    pub rotary_tilt_range_deg: [f64; 2],
     /// Surface points for orientation selection. Default 16,384 (the paper's).
     pub orient_points: usize,
     /// Candidate directions for orientation selection. Default 512 (+ the six axes).
@@ -106,6 +136,7 @@ impl Default for MillOptions {
             resolution: 256,
             dialect: Dialect::LinuxCnc,
             layout: ProgramLayout::PerSetup,
+            rotary_tilt_range_deg: [-180.0, 180.0],
             orient_points: 16384,
             orient_candidates: 512,
             metric_samples: 8000,
@@ -152,6 +183,22 @@ pub enum MillError {
     /// An option is out of range.
     #[error("invalid option: {0}")]
     InvalidOption(String),
+    /// The rotary layout's machine cannot tilt the part to a setup's tool axis.
+    #[error(
+        "setup {setup}: tool axis {tool_axis:?} needs a {letter} tilt of +/-{tilt_deg:.4} degrees, outside the machine's {letter} range {range_deg:?} (widen the tilt range or use the per-setup layout)"
+    )]
+    Unreachable {
+        /// 1-based setup.
+        setup: usize,
+        /// Its tool axis in the part frame.
+        tool_axis: [f64; 3],
+        /// The tilt axis: `'A'` or `'B'`.
+        letter: char,
+        /// The tilt it needs (either sign would do), in degrees.
+        tilt_deg: f64,
+        /// The machine's tilt range, in degrees.
+        range_deg: [f64; 2],
+    },
 }
 
 /// A stage of the pipeline, for progress reports and timings (seed 000 Table A1).
@@ -187,17 +234,27 @@ pub struct StageSeconds {
 /// One setup's program and what went into it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SetupProgram {
-    /// The setup (frame: setup coordinates to part coordinates, in part units).
+    /// The setup (frame: program coordinates to part coordinates, in part units). In the
+    /// rotary layout this is the kinematic frame its rotary words realise
+    /// ([`rotary_frame`] of `rotary_deg`): the same tool axis as orientation selection's
+    /// setup, turned about it.
     pub setup: Setup,
     /// The action the policy chose.
     pub action: Action,
     /// The planner's summary.
     pub plan: PlanSummary,
-    /// The G-code text.
+    /// The G-code text: this setup's program, or in the rotary layout this setup's section
+    /// of the one program (from the safe retract before its rotation to the next
+    /// section; the first holds the header, the last the footer), so that the sections
+    /// joined are the program.
     pub text: String,
-    /// Target voxels this setup's program removed.
+    /// Rotary layout: the angles `[A, B, C]` in degrees this setup's rotary words state
+    /// (the unused tilt letter is 0). `None` in the per-setup layout.
+    pub rotary_deg: Option<[f64; 3]>,
+    /// Target voxels this setup's program (or section) removed.
     pub gouge_voxels: u64,
-    /// Lines of this setup's program where a rapid move removed material.
+    /// Lines of this setup's program where a rapid move removed material (in the rotary
+    /// layout: lines of the one program, within this setup's section).
     pub rapid_collision_lines: Vec<u64>,
 }
 
@@ -263,7 +320,22 @@ pub fn mill(
     if mesh.is_empty() {
         return Err(crate::geom::GeomError::EmptyMesh.into());
     }
+    if let ProgramLayout::Rotary(_) = opts.layout {
+        if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
+            return Err(MillError::InvalidOption(format!(
+                "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
+                opts.dialect
+            )));
+        }
+        let [lo, hi] = opts.rotary_tilt_range_deg;
+        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            return Err(MillError::InvalidOption(format!(
+                "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
+            )));
+        }
+    }
     let mut times = StageSeconds::default();
+    let decimals = 4;
 
     // Units: the paper plans in the unit cube; the shop in part units. `to_input`
     // maps planning units back to the input mesh's units.
@@ -306,6 +378,18 @@ pub fn mill(
         oopts.coverage_target = 1.0;
     }
     let orientation = select_orientations(&part, &oopts)?;
+    // The rotary layout fails here, before any planning, on a setup its machine cannot reach.
+    let placements = match opts.layout {
+        ProgramLayout::PerSetup => None,
+        ProgramLayout::Rotary(axes) => Some(
+            orientation
+                .setups
+                .iter()
+                .enumerate()
+                .map(|(i, s)| Placement::new(axes, s, opts.rotary_tilt_range_deg, decimals, i))
+                .collect::<Result<Vec<_>, _>>()?,
+        ),
+    };
     times.orientation = t.elapsed().as_secs_f64();
 
     // Actions.
@@ -325,7 +409,6 @@ pub fn mill(
 
     // Per setup: plan against the material earlier setups left (rest machining), write
     // the program, then parse the written text back into the simulator.
-    let decimals = 4;
     let (feed, rapid) = feeds(opts.preset);
     let t = Instant::now();
     let spec = GridSpec::cubic(&stock, opts.resolution)?;
@@ -335,95 +418,41 @@ pub fn mill(
         tools = tools.with(tool_number(&space, a), Cutter::flat(a.tool_radius, diag));
     }
     let sim_opts = SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
-    let sim_err = |e: crate::voxsim::SimError| MillError::Simulation(e.to_string());
-    let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
-        .map_err(sim_err)?
+    let sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
+        .map_err(sim_error)?
         .with_target(&target)
-        .map_err(sim_err)?;
+        .map_err(sim_error)?;
+    let sim = RefCell::new(sim);
     times.simulation += t.elapsed().as_secs_f64();
 
-    let mut setups = Vec::with_capacity(actions.len());
+    // Appendix A.1: start 0.1 (of the normalised part) above the top.
+    let clearance = 0.1 * stock.extent().max();
+    let jobs: Vec<Job> = orientation
+        .setups
+        .iter()
+        .zip(&actions)
+        .map(|(setup, action)| Job::new(setup, action, &space, &stock, diag, feed, rapid, clearance, opts))
+        .collect();
+    let wopts = WriterOptions { decimals, ..WriterOptions::default() };
     let mut trace = PathTrace::default();
-    let mut remaining = sim.residual_grid();
-    for (i, (setup, action)) in orientation.setups.iter().zip(&actions).enumerate() {
-        progress(Stage::GcodeTranslation);
-        let t = Instant::now();
-        let rest = VoxelMaterial { grid: &remaining, setup: *setup };
-        let tool = Tool {
-            radius: action.tool_radius,
-            kind: ToolKind::Flat,
-            flute_length: diag,
-            feed,
-            plunge_feed: feed / 3.0,
-            spindle_rpm: 12000.0,
-            number: tool_number(&space, action),
-        };
-        let popts = PlanOptions {
-            layer_height: action.layer_height,
-            strategy: match action.strategy {
-                StrategyKind::Zigzag => Strategy::Zigzag { angle_deg: 0.0 },
-                StrategyKind::Periphery => Strategy::Periphery,
-                StrategyKind::Spiral => Strategy::Spiral,
-            },
-            contour: opts.contour,
-            // Appendix A.1: start 0.1 (of the normalised part) above the top.
-            clearance_height: 0.1 * stock.extent().max(),
-            stock: Some(stock_in_setup(&stock, setup)),
-            rapid_feed: rapid,
-            ..PlanOptions::default()
-        };
-        let wopts = WriterOptions { decimals, ..WriterOptions::default() };
-        let mut writer = GcodeWriter::new(Vec::new(), opts.dialect, wopts);
-        let plan = plan_setup_rest(&part, setup, &tool, &popts, Some(&rest), &mut writer)
-            .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
-        writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
-        let text = String::from_utf8(writer.into_inner())
-            .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
-        times.gcode_translation += t.elapsed().as_secs_f64();
-
-        progress(Stage::Simulation);
-        let t = Instant::now();
-        // The simulator was flushed at the end of the previous setup: its counts so far
-        // belong to earlier programs.
-        let gouges_before = sim.report().gouge_voxels;
-        let rapids_before: std::collections::BTreeSet<u64> =
-            sim.report().rapid_collision_lines.iter().copied().collect();
-        // A 3-axis program per setup: the fixture rotation is in its header comment,
-        // so the simulator is told the frame here.
-        sim.motion(&Motion::Setup { frame: setup.frame, rotary: [None; 3] }).map_err(sim_err)?;
-        let mut tee = Tee { sim: &mut sim, trace: (i == 0).then_some(&mut trace), frame: *setup, last: None };
-        let summary = parse_str(&text, &ParseOptions::default(), &mut tee).map_err(|e| {
-            MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") }
-        })?;
-        if let Some(err) = summary.errors.first() {
-            return Err(MillError::Program {
-                setup: i + 1,
-                message: format!("re-reading the program: {err}"),
-            });
+    let ctx = Ctx { part: &part, jobs: &jobs, sim: &sim, dialect: opts.dialect, wopts: &wopts };
+    let setups = match (opts.layout, placements) {
+        (ProgramLayout::Rotary(axes), Some(placements)) => {
+            // Above this height (program +Z, rotary centre at the origin) the tool clears
+            // every point of the stock in every orientation of the table.
+            let turn_z = (0..8).map(|i| corner(&stock, i).coords.norm()).fold(0.0, f64::max) + clearance;
+            mill_rotary(&ctx, axes, &placements, turn_z, &mut trace, &mut times, progress)?
         }
-        // Flushes the simulator, so its report is complete for this setup.
-        remaining = sim.residual_grid();
-        let report = sim.report();
-        let gouge_voxels = report.gouge_voxels - gouges_before;
-        // The simulator keeps one set of lines over all programs; this setup's are the new
-        // ones (a line number that already collided in an earlier program is not repeated).
-        let rapid_collision_lines =
-            report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
-        times.simulation += t.elapsed().as_secs_f64();
-        setups.push(SetupProgram {
-            setup: *setup,
-            action: *action,
-            plan,
-            text,
-            gouge_voxels,
-            rapid_collision_lines,
-        });
-    }
+        _ => mill_per_setup(&ctx, &mut trace, &mut times, progress)?,
+    };
     let t = Instant::now();
-    let simulated = sim.into_simulation().map_err(sim_err)?;
-    let rewards = simulated.rewards(&target, &RewardWeights::default()).map_err(sim_err)?;
+    let simulated = sim.into_inner().into_simulation().map_err(sim_error)?;
+    let rewards = simulated.rewards(&target, &RewardWeights::default()).map_err(sim_error)?;
     let simulation = simulated.report().clone();
-    let programs: Vec<String> = setups.iter().map(|s| s.text.clone()).collect();
+    let programs: Vec<String> = match opts.layout {
+        ProgramLayout::PerSetup => setups.iter().map(|s| s.text.clone()).collect(),
+        ProgramLayout::Rotary(_) => vec![setups.iter().map(|s| s.text.as_str()).collect()],
+    };
     times.simulation += t.elapsed().as_secs_f64();
 
     // Score in the unit cube.
@@ -466,18 +495,498 @@ pub fn mill(
     })
 }
 
+/// Corner `i` (bits: x, y, z at max) of a box.
+fn corner(b: &Aabb, i: usize) -> Point3 {
+    Point3::new(
+        if i & 1 == 0 { b.min.x } else { b.max.x },
+        if i & 2 == 0 { b.min.y } else { b.max.y },
+        if i & 4 == 0 { b.min.z } else { b.max.z },
+    )
+}
+
 /// The stock box as seen in a setup's frame (the box around its rotated corners).
 fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
     let mut b = Aabb::empty();
     for i in 0..8 {
-        let c = Point3::new(
-            if i & 1 == 0 { stock.min.x } else { stock.max.x },
-            if i & 2 == 0 { stock.min.y } else { stock.max.y },
-            if i & 4 == 0 { stock.min.z } else { stock.max.z },
-        );
-        b.grow(&setup.to_setup(&c));
+        b.grow(&setup.to_setup(&corner(stock, i)));
     }
     b
+}
+
+/// What one setup is planned with.
+struct Job {
+    setup: Setup,
+    action: Action,
+    tool: Tool,
+    popts: PlanOptions,
+}
+
+impl Job {
+    #[allow(clippy::too_many_arguments)] // Private: the run's constants, passed once per setup.
+    fn new(
+        setup: &Setup,
+        action: &Action,
+        space: &ActionSpace,
+        stock: &Aabb,
+        diag: f64,
+        feed: f64,
+        rapid: f64,
+        clearance: f64,
+        opts: &MillOptions,
+    ) -> Self {
+        let tool = Tool {
+            radius: action.tool_radius,
+            kind: ToolKind::Flat,
+            flute_length: diag,
+            feed,
+            plunge_feed: feed / 3.0,
+            spindle_rpm: 12000.0,
+            number: tool_number(space, action),
+        };
+        let popts = PlanOptions {
+            layer_height: action.layer_height,
+            strategy: match action.strategy {
+                StrategyKind::Zigzag => Strategy::Zigzag { angle_deg: 0.0 },
+                StrategyKind::Periphery => Strategy::Periphery,
+                StrategyKind::Spiral => Strategy::Spiral,
+            },
+            contour: opts.contour,
+            clearance_height: clearance,
+            stock: Some(stock_in_setup(stock, setup)),
+            rapid_feed: rapid,
+            ..PlanOptions::default()
+        };
+        Self { setup: *setup, action: *action, tool, popts }
+    }
+}
+
+/// What both layouts share.
+struct Ctx<'a> {
+    part: &'a Mesh,
+    jobs: &'a [Job],
+    sim: &'a RefCell<Simulator>,
+    dialect: Dialect,
+    wopts: &'a WriterOptions,
+}
+
+fn sim_error(e: crate::voxsim::SimError) -> MillError {
+    MillError::Simulation(e.to_string())
+}
+
+/// One 3-axis program per setup, each parsed back on its own.
+fn mill_per_setup(
+    ctx: &Ctx<'_>,
+    trace: &mut PathTrace,
+    times: &mut StageSeconds,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Vec<SetupProgram>, MillError> {
+    let mut setups = Vec::with_capacity(ctx.jobs.len());
+    let mut remaining = ctx.sim.borrow_mut().residual_grid();
+    for (i, job) in ctx.jobs.iter().enumerate() {
+        progress(Stage::GcodeTranslation);
+        let t = Instant::now();
+        let rest = VoxelMaterial { grid: &remaining, setup: job.setup };
+        let mut writer = GcodeWriter::new(Vec::new(), ctx.dialect, ctx.wopts.clone());
+        let plan = plan_setup_rest(ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
+            .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
+        writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+        let text = String::from_utf8(writer.into_inner())
+            .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+        times.gcode_translation += t.elapsed().as_secs_f64();
+
+        progress(Stage::Simulation);
+        let t = Instant::now();
+        // The simulator was flushed at the end of the previous setup: its counts so far
+        // belong to earlier programs.
+        let (gouges_before, rapids_before) = {
+            let sim = ctx.sim.borrow();
+            let r = sim.report();
+            (
+                r.gouge_voxels,
+                r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>(),
+            )
+        };
+        let mut tee = Tee::new(ctx.sim, (i == 0).then_some(&mut *trace));
+        // A 3-axis program per setup: the fixture rotation is in its header comment,
+        // so the simulator is told the frame here.
+        tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
+        let summary = parse_str(&text, &ParseOptions::default(), &mut tee).map_err(|e| {
+            MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") }
+        })?;
+        if let Some(err) = summary.errors.first() {
+            return Err(MillError::Program {
+                setup: i + 1,
+                message: format!("re-reading the program: {err}"),
+            });
+        }
+        // Flushes the simulator, so its report is complete for this setup.
+        remaining = ctx.sim.borrow_mut().residual_grid();
+        let sim = ctx.sim.borrow();
+        let report = sim.report();
+        let gouge_voxels = report.gouge_voxels - gouges_before;
+        // The simulator keeps one set of lines over all programs; this setup's are the new
+        // ones (a line number that already collided in an earlier program is not repeated).
+        let rapid_collision_lines =
+            report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
+        times.simulation += t.elapsed().as_secs_f64();
+        setups.push(SetupProgram {
+            setup: job.setup,
+            action: job.action,
+            plan,
+            text,
+            rotary_deg: None,
+            gouge_voxels,
+            rapid_collision_lines,
+        });
+    }
+    Ok(setups)
+}
+
+/// How a setup is put under the spindle of a table-table machine.
+#[derive(Debug, Clone, Copy)]
+struct Placement {
+    /// The kinematic frame of `angles` (program to part).
+    frame: Isometry3,
+    /// `[A, B, C]` in degrees, rounded to the program's decimals.
+    angles: [f64; 3],
+    /// Planning-frame coordinates to program coordinates: a turn about Z (and the planning
+    /// frame's translation), so that XY arcs stay XY arcs.
+    to_program: Isometry3,
+}
+
+impl Placement {
+    /// The placement of `setup` (0-based `index`) under `axes` with the tilt axis limited
+    /// to `range` degrees, or [`MillError::Unreachable`].
+    fn new(
+        axes: RotaryAxes,
+        setup: &Setup,
+        range: [f64; 2],
+        decimals: usize,
+        index: usize,
+    ) -> Result<Self, MillError> {
+        let (li, letter) = match axes {
+            RotaryAxes::AC => (0, 'A'),
+            RotaryAxes::BC => (1, 'B'),
+        };
+        let solved = rotary_angles(axes, &setup.frame);
+        let (tilt, c) = (solved[li], solved[2]);
+        let q = 10f64.powi(decimals as i32);
+        let round = |v: f64| (v * q).round() / q;
+        // C in (-180, 180] after rounding.
+        let wrap = |v: f64| {
+            let v = round(v);
+            if v > 180.0 {
+                v - 360.0
+            } else if v <= -180.0 {
+                v + 360.0
+            } else {
+                v
+            }
+        };
+        // The same tool axis with the tilt's sign flipped: Rz(C + 180) Rx(-θ) = Rz(C) Rx(θ) Rz(180).
+        let [lo, hi] = range;
+        let (tilt, c) = [(round(tilt), wrap(c)), (round(-tilt), wrap(c + 180.0))]
+            .into_iter()
+            .find(|(t, _)| (lo..=hi).contains(t))
+            .ok_or_else(|| {
+                let t = setup.tool_axis();
+                MillError::Unreachable {
+                    setup: index + 1,
+                    tool_axis: [t.x, t.y, t.z],
+                    letter,
+                    tilt_deg: tilt,
+                    range_deg: range,
+                }
+            })?;
+        let mut angles = [0.0; 3];
+        angles[li] = tilt;
+        angles[2] = c;
+        let frame = rotary_frame(axes, angles);
+        // frame * program = setup.frame * planned; up to the rounding of the angles the
+        // difference is a turn about Z: keep exactly that, from where it sends +X.
+        let d = frame.inverse() * setup.frame;
+        let x = d.rotation * Vector3::x();
+        let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x));
+        Ok(Self { frame, angles, to_program: Isometry3::from_parts(d.translation, turn) })
+    }
+}
+
+/// One section of the rotary program, as written.
+struct Section {
+    /// Its first line in the program (1-based).
+    first_line: u64,
+    /// Its bytes in the program.
+    bytes: std::ops::Range<usize>,
+    /// Target voxels removed before the parser reached it.
+    gouges_before: u64,
+    plan: PlanSummary,
+}
+
+/// The one 3+2 program, written setup by setup *while the parser reads it*: when the
+/// parser has read every line so far (so the simulator has seen every move before them),
+/// the next setup is planned against the material the simulator left and its section is
+/// appended. So the program is parsed in one pass, with the modal state a controller
+/// would carry, and every setup is still planned against the simulated rest material.
+struct RotarySource<'a, 'p> {
+    ctx: &'a Ctx<'a>,
+    axes: RotaryAxes,
+    placements: &'a [Placement],
+    turn_z: f64,
+    progress: &'p mut dyn FnMut(Stage),
+    text: String,
+    pos: usize,
+    lines: u64,
+    sections: Vec<Section>,
+    /// The last programmed point, in program coordinates.
+    last: Option<Point3>,
+    error: Option<MillError>,
+    plan_seconds: f64,
+}
+
+impl RotarySource<'_, '_> {
+    fn write_next(&mut self) -> Result<(), MillError> {
+        let i = self.sections.len();
+        let (job, place) = (&self.ctx.jobs[i], &self.placements[i]);
+        let (remaining, gouges_before) = {
+            let mut sim = self.ctx.sim.borrow_mut();
+            let grid = sim.residual_grid();
+            (grid, sim.report().gouge_voxels)
+        };
+        (self.progress)(Stage::GcodeTranslation);
+        let t = Instant::now();
+        let program_err =
+            |e: &dyn std::fmt::Display| MillError::Program { setup: i + 1, message: e.to_string() };
+        // A writer per section, so that its text is complete when the parser needs it; the
+        // first writes the header, the last the footer, and every axis word and feed is
+        // stated again after a rotation anyway.
+        let wopts = WriterOptions {
+            rotary: Some(self.axes),
+            header: i == 0,
+            footer: i + 1 == self.ctx.jobs.len(),
+            ..self.ctx.wopts.clone()
+        };
+        let mut writer = GcodeWriter::new(Vec::new(), self.ctx.dialect, wopts);
+        // Safe retract before the rotation: straight up from where the tool is (above the
+        // origin before the first), high enough for the stock to turn under it.
+        let from = self.last.unwrap_or_else(Point3::origin);
+        let up = Point3::new(from.x, from.y, self.turn_z);
+        writer.motion(&Motion::Rapid { to: up }).map_err(|e| program_err(&e))?;
+        let rest = VoxelMaterial { grid: &remaining, setup: job.setup };
+        let mut sink = ToProgram { inner: &mut writer, place, last_in: None, last_out: None };
+        let plan = plan_setup_rest(self.ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut sink)
+            .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
+        self.last = Some(sink.last_out.unwrap_or(up));
+        writer.finish().map_err(|e| program_err(&e))?;
+        let mut text = String::from_utf8(writer.into_inner()).map_err(|e| program_err(&e))?;
+        if i > 0 {
+            // Each section's writer counts its setup as the first.
+            text = text.replacen("SETUP 1: ", &format!("SETUP {}: ", i + 1), 1);
+        }
+        let start = self.text.len();
+        self.text.push_str(&text);
+        self.sections.push(Section {
+            first_line: self.lines + 1,
+            bytes: start..self.text.len(),
+            gouges_before,
+            plan,
+        });
+        self.lines += text.lines().count() as u64;
+        self.plan_seconds += t.elapsed().as_secs_f64();
+        (self.progress)(Stage::Simulation);
+        Ok(())
+    }
+}
+
+impl Read for RotarySource<'_, '_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let avail = self.fill_buf()?;
+        let n = avail.len().min(buf.len());
+        buf[..n].copy_from_slice(&avail[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl BufRead for RotarySource<'_, '_> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.pos == self.text.len()
+            && self.sections.len() < self.ctx.jobs.len()
+            && self.error.is_none()
+            && let Err(e) = self.write_next()
+        {
+            let message = e.to_string();
+            self.error = Some(e);
+            return Err(std::io::Error::other(message));
+        }
+        Ok(&self.text.as_bytes()[self.pos..])
+    }
+
+    fn consume(&mut self, n: usize) {
+        self.pos = (self.pos + n).min(self.text.len());
+    }
+}
+
+/// One 3+2 program for all setups, parsed back in one pass with the rotary kinematics.
+fn mill_rotary(
+    ctx: &Ctx<'_>,
+    axes: RotaryAxes,
+    placements: &[Placement],
+    turn_z: f64,
+    trace: &mut PathTrace,
+    times: &mut StageSeconds,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<Vec<SetupProgram>, MillError> {
+    let t = Instant::now();
+    let mut source = RotarySource {
+        ctx,
+        axes,
+        placements,
+        turn_z,
+        progress,
+        text: String::new(),
+        pos: 0,
+        lines: 0,
+        sections: Vec::new(),
+        last: None,
+        error: None,
+        plan_seconds: 0.0,
+    };
+    let popts = ParseOptions { rotary: Some(axes), ..ParseOptions::default() };
+    let mut tee = Tee::new(ctx.sim, Some(trace));
+    let parsed = parse_reader(&mut source, &popts, &mut tee);
+    let section_of = |sections: &[Section], line: u64| sections.iter().rposition(|s| s.first_line <= line);
+    let summary = match parsed {
+        Ok(summary) => summary,
+        Err(e) => {
+            return Err(source.error.take().unwrap_or_else(|| MillError::Program {
+                setup: source.sections.len().max(1),
+                message: format!("re-reading the program: {e}"),
+            }));
+        }
+    };
+    if let Some(err) = summary.errors.first() {
+        return Err(MillError::Program {
+            setup: section_of(&source.sections, err.line).map_or(1, |s| s + 1),
+            message: format!("re-reading the program: {err}"),
+        });
+    }
+    if source.sections.len() < ctx.jobs.len() {
+        return Err(MillError::Program {
+            setup: source.sections.len() + 1,
+            message: "re-reading the program: it ended before this setup".into(),
+        });
+    }
+    // The parser finished the simulator, so its report is complete.
+    let sim = ctx.sim.borrow();
+    let report = sim.report();
+    let mut setups = Vec::with_capacity(ctx.jobs.len());
+    for (i, (sec, job)) in source.sections.iter().zip(ctx.jobs).enumerate() {
+        let next = source.sections.get(i + 1);
+        let gouges_after = next.map_or(report.gouge_voxels, |n| n.gouges_before);
+        let lines = sec.first_line..next.map_or(u64::MAX, |n| n.first_line);
+        setups.push(SetupProgram {
+            setup: Setup { frame: placements[i].frame },
+            action: job.action,
+            plan: sec.plan.clone(),
+            text: source.text[sec.bytes.clone()].to_owned(),
+            rotary_deg: Some(placements[i].angles),
+            gouge_voxels: gouges_after - sec.gouges_before,
+            rapid_collision_lines: report
+                .rapid_collision_lines
+                .iter()
+                .copied()
+                .filter(|l| lines.contains(l))
+                .collect(),
+        });
+    }
+    times.gcode_translation += source.plan_seconds;
+    times.simulation += (t.elapsed().as_secs_f64() - source.plan_seconds).max(0.0);
+    Ok(setups)
+}
+
+/// Planning-frame motions of one setup, as program coordinates of its rotary placement;
+/// its `Setup` becomes the placement's kinematic frame with its rotary angles.
+struct ToProgram<'a, S> {
+    inner: S,
+    place: &'a Placement,
+    /// The last programmed point before and after the transform.
+    last_in: Option<Point3>,
+    last_out: Option<Point3>,
+}
+
+impl<S: MotionSink> MotionSink for ToProgram<'_, S> {
+    type Error = S::Error;
+
+    fn motion(&mut self, m: &Motion<'_>) -> Result<(), S::Error> {
+        let t = self.place.to_program;
+        match m {
+            Motion::Setup { .. } => {
+                let a = self.place.angles;
+                let rotary = [Some(a[0]), Some(a[1]), Some(a[2])];
+                self.inner.motion(&Motion::Setup { frame: self.place.frame, rotary })?;
+                self.last_out = None;
+            }
+            Motion::Rapid { to } => self.inner.motion(&Motion::Rapid { to: t * to })?,
+            Motion::Linear { to, feed, extrude } => {
+                self.inner.motion(&Motion::Linear { to: t * to, feed: *feed, extrude: *extrude })?
+            }
+            Motion::Arc { to, center, plane: Plane::XY, direction, turns, feed, extrude } => {
+                // A turn about Z keeps XY arcs in the XY plane.
+                self.inner.motion(&Motion::Arc {
+                    to: t * to,
+                    center: t * center,
+                    plane: Plane::XY,
+                    direction: *direction,
+                    turns: *turns,
+                    feed: *feed,
+                    extrude: *extrude,
+                })?
+            }
+            Motion::Arc { to, feed, .. } => {
+                // Arcs in the other planes do not survive a turn about Z: straight moves
+                // instead (the planner writes none today). Without a start point, or for
+                // an arc too degenerate to split, the move goes straight to its end, as
+                // the simulator treats a zero-radius arc.
+                let mut points = Vec::new();
+                let ok = self.last_in.is_some_and(|from| {
+                    linearize_arc(&from, m, WriterOptions::default().arc_tolerance, |p| points.push(p))
+                        .is_ok()
+                });
+                if !ok || points.is_empty() {
+                    points = vec![*to];
+                }
+                for p in points {
+                    self.inner.motion(&Motion::Linear { to: t * p, feed: *feed, extrude: None })?;
+                }
+            }
+            Motion::Cycle(c) => {
+                let xy = t * Point3::new(c.x, c.y, 0.0);
+                let dz = t.translation.vector.z;
+                let c = crate::gcode::DrillCycle {
+                    x: xy.x,
+                    y: xy.y,
+                    clearance: c.clearance + dz,
+                    r_plane: c.r_plane + dz,
+                    bottom: c.bottom + dz,
+                    ..*c
+                };
+                self.inner.motion(&Motion::Cycle(c))?;
+                self.last_in = Some(Point3::new(c.x, c.y, c.clearance.max(c.r_plane)));
+                self.last_out = Some(Point3::new(xy.x, xy.y, c.clearance.max(c.r_plane)));
+                return Ok(());
+            }
+            other => self.inner.motion(other)?,
+        }
+        if let Some(p) = m.end_point() {
+            self.last_in = Some(p);
+            self.last_out = Some(t * p);
+        }
+        Ok(())
+    }
+
+    fn source_line(&mut self, line: u64) -> Result<(), S::Error> {
+        self.inner.source_line(line)
+    }
 }
 
 /// Feed and rapid rates (per minute, in planning units) of a preset.
@@ -540,25 +1049,40 @@ fn setup_features(
 
 /// Forwards motions to the simulator and records the first setup's path in part units.
 struct Tee<'a> {
-    sim: &'a mut Simulator,
+    sim: &'a RefCell<Simulator>,
     trace: Option<&'a mut PathTrace>,
+    /// The current frame and how many setups have begun.
     frame: Setup,
+    setups: usize,
     last: Option<Point3>,
+}
+
+impl<'a> Tee<'a> {
+    fn new(sim: &'a RefCell<Simulator>, trace: Option<&'a mut PathTrace>) -> Self {
+        Self { sim, trace, frame: Setup::top(), setups: 0, last: None }
+    }
 }
 
 impl MotionSink for Tee<'_> {
     type Error = crate::voxsim::SimError;
     fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
-        if let (Some(trace), Some(to)) = (self.trace.as_deref_mut(), m.end_point()) {
+        if let Motion::Setup { frame, .. } = m {
+            self.frame = Setup { frame: *frame };
+            self.setups += 1;
+            self.last = None;
+        } else if let (Some(trace), Some(to), 1) = (self.trace.as_deref_mut(), m.end_point(), self.setups) {
             let to = self.frame.to_part(&to);
             if let Some(from) = self.last {
                 trace.segments.push((from, to, !matches!(m, Motion::Rapid { .. })));
             }
             self.last = Some(to);
         }
-        self.sim.motion(m)
+        self.sim.borrow_mut().motion(m)
     }
     fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
-        self.sim.source_line(line)
+        self.sim.borrow_mut().source_line(line)
+    }
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        self.sim.borrow_mut().finish()
     }
 }

@@ -2,7 +2,7 @@
 
 mod e2e {
     pub mod common;
-    mod feature;
     mod fdm;
+    mod feature;
     mod mill;
 }

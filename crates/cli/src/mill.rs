@@ -6,11 +6,11 @@ use std::time::Duration;
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use shape2gcode::gcode::Dialect;
+use shape2gcode::gcode::{Dialect, RotaryAxes};
 use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    Action, FixedPolicy, HeuristicPolicy, MillOptions, Policy, Preset, RandomPolicy, SetupCount, Stage,
-    StrategyKind, mill, render_machining,
+    Action, FixedPolicy, HeuristicPolicy, MillOptions, Policy, Preset, ProgramLayout, RandomPolicy,
+    SetupCount, Stage, StrategyKind, mill, render_machining,
 };
 
 /// The bundled sample mesh.
@@ -21,9 +21,17 @@ pub const DEFAULT_MESH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../asset
 pub struct Args {
     /// The mesh to mill (STL, OBJ, glTF/GLB, PLY). Default: the bundled Stanford bunny.
     mesh: Option<PathBuf>,
-    /// Program path; with several setups, `NAME.N.EXT` per setup. Default: out/<mesh stem>.ngc.
+    /// Program path; with several setups in the per-setup layout, `NAME.N.EXT` per setup.
+    /// Default: out/<mesh stem>.ngc.
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Program layout: `per-setup` (one 3-axis program per setup, re-fixtured by hand), or
+    /// one 3+2 program for a table-table machine: `ac` (A then C) or `bc` (B then C).
+    #[arg(long, default_value = "per-setup")]
+    layout: String,
+    /// Travel of the tilt axis (A or B) of `--layout ac|bc`, in degrees: `MIN,MAX`.
+    #[arg(long, default_value = "-180,180", allow_hyphen_values = true)]
+    tilt_range: String,
     /// Units and action space: `paper` (unit cube) or `shop` (mm, shop tools).
     #[arg(long, default_value = "paper")]
     preset: String,
@@ -80,6 +88,13 @@ fn parse_policy(spec: &str, seed: u64) -> anyhow::Result<Box<dyn Policy>> {
     })
 }
 
+fn parse_range(spec: &str) -> anyhow::Result<[f64; 2]> {
+    let parts: Vec<&str> = spec.split(',').collect();
+    let [lo, hi] = parts[..] else { bail!("--tilt-range MIN,MAX in degrees, got {spec:?}") };
+    let num = |s: &str| s.trim().parse::<f64>().with_context(|| format!("--tilt-range: bad angle {s:?}"));
+    Ok([num(lo)?, num(hi)?])
+}
+
 fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
     if n == 1 {
         return vec![output.to_path_buf()];
@@ -108,11 +123,20 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         "fanuc" => Dialect::Fanuc,
         d => bail!("unknown dialect {d:?} (linuxcnc, grbl or fanuc)"),
     };
+    let layout = match args.layout.as_str() {
+        "per-setup" => ProgramLayout::PerSetup,
+        "ac" => ProgramLayout::Rotary(RotaryAxes::AC),
+        "bc" => ProgramLayout::Rotary(RotaryAxes::BC),
+        l => bail!("unknown layout {l:?} (per-setup, ac or bc)"),
+    };
+    let tilt_range = parse_range(&args.tilt_range)?;
     let mut policy = parse_policy(&args.policy, args.seed)?;
     let opts = MillOptions {
         preset,
         setups,
         dialect,
+        layout,
+        rotary_tilt_range_deg: tilt_range,
         resolution: args.res,
         seed: args.seed,
         orient_points: args.points,
@@ -151,6 +175,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mut report = milled.report_json(!args.reproducible);
     report["input"] = serde_json::json!(mesh_path.display().to_string());
     report["programs"] = serde_json::json!(paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>());
+    report["layout"] = serde_json::json!(args.layout);
+    if let Some(setups) = report["setups"].as_array_mut() {
+        for (s, sp) in setups.iter_mut().zip(&milled.setups) {
+            if let Some(a) = sp.rotary_deg {
+                s["rotary_deg"] = serde_json::json!(a);
+            }
+        }
+    }
     if let Some(p) = &args.residual {
         save_mesh(p, &milled.residual)?;
         report["residual"] = serde_json::json!(p.display().to_string());
@@ -173,8 +205,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!("{}: {} setup(s), policy {}", mesh_path.display(), milled.setups.len(), milled.policy);
         for (i, sp) in milled.setups.iter().enumerate() {
             let a = sp.setup.tool_axis();
+            let rotary = match (sp.rotary_deg, layout) {
+                (Some([a, _, c]), ProgramLayout::Rotary(RotaryAxes::AC)) => format!(" at A{a} C{c}"),
+                (Some([_, b, c]), ProgramLayout::Rotary(RotaryAxes::BC)) => format!(" at B{b} C{c}"),
+                _ => String::new(),
+            };
             println!(
-                "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}), radius {}, layer {:.6}, {}, {} layers -> {}",
+                "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}){rotary}, radius {}, layer {:.6}, {}, {} layers -> {}",
                 i + 1,
                 a.x,
                 a.y,

@@ -1,5 +1,5 @@
 //! `s2g reconstruct PRINT.gcode [--profile circle|rect|slot] [--width auto|W]
-//! [--layer-height auto|H] [--filament 1.75] [--solid|--tubes] [--res MM] -o OUT.(stl|obj|ply|step)
+//! [--layer-height auto|H] [--filament 1.75] [--solid|--tubes] [--res MM] -o OUT.(stl|obj|ply|3mf|step)
 //! [--json]`: rebuild the printed geometry from FDM G-code (seed 004).
 
 use std::path::PathBuf;
@@ -66,7 +66,7 @@ pub struct Args {
     /// Fail on the first bad G-code line instead of skipping it with a warning.
     #[arg(long)]
     strict: bool,
-    /// Output mesh (.stl, .obj, .ply, or .step: faceted B-rep AP214), written atomically.
+    /// Output mesh (.stl, .obj, .ply, .3mf, or .step: faceted B-rep AP214), written atomically.
     #[arg(short, long)]
     output: PathBuf,
     /// Write three shaded views of the result here (PNG).
@@ -98,11 +98,8 @@ fn size(text: &str, what: &str) -> anyhow::Result<Option<f64>> {
 /// Runs `s2g reconstruct`.
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let ext = args.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("stl" | "obj" | "ply" | "step" | "stp")) {
-        bail!(
-            "{}: output must end in .stl, .obj, .ply or .step (3MF is not written yet)",
-            args.output.display()
-        );
+    if !matches!(ext.as_deref(), Some("stl" | "obj" | "ply" | "3mf" | "step" | "stp")) {
+        bail!("{}: output must end in .stl, .obj, .ply, .3mf or .step", args.output.display());
     }
     let opts = FdmOptions {
         profile: match args.profile {

@@ -97,11 +97,16 @@ fn bad_input_is_one_line_and_a_failure_exit() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("missing.stl");
     let empty = data("meshes/stl_edge_cases/stl-models/broken/empty.stl");
-    let cases: [(Vec<String>, &str); 4] = [
+    let cases: [(Vec<String>, &str); 6] = [
         (vec!["mill".into(), missing.display().to_string()], "missing.stl"),
         (vec!["mill".into(), empty.clone()], "empty.stl"),
         (vec!["mill".into(), "--policy".into(), "fixed:abc".into()], "fixed"),
         (vec!["mill".into(), "--setups".into(), "many".into()], "setups"),
+        (vec!["mill".into(), "--layout".into(), "diagonal".into()], "layout"),
+        (
+            vec!["mill".into(), "--layout".into(), "ac".into(), "--tilt-range".into(), "-30".into()],
+            "tilt-range",
+        ),
     ];
     for (args, needle) in cases {
         let out = s2g().args(&args).current_dir(dir.path()).output().unwrap();
@@ -111,4 +116,49 @@ fn bad_input_is_one_line_and_a_failure_exit() {
         assert_eq!(lines.len(), 1, "{args:?}: expected one line, got {stderr:?}");
         assert!(lines[0].starts_with("s2g: error:") && lines[0].contains(needle), "{args:?}: {stderr}");
     }
+}
+
+/// `--layout ac|bc` writes one 3+2 program at `-o`, with a rotary block per setup; the
+/// report still lists every setup (with its angles) and the one program path.
+#[test]
+fn rotary_layout_writes_one_program_with_rotary_words() {
+    let dir = tempfile::tempdir().unwrap();
+    for (layout, letter) in [("ac", 'A'), ("bc", 'B')] {
+        let out = mill_letterblock(dir.path(), &["--json", "--layout", layout]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{layout}: exit {:?}: {stderr}", out.status);
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["layout"], layout, "{v}");
+        assert_eq!(v["gouge_voxels"], 0, "{layout}: {v}");
+        assert_eq!(v["rapid_collisions"], 0, "{layout}: {v}");
+        let programs = v["programs"].as_array().unwrap();
+        let expected = dir.path().join("block.ngc");
+        assert_eq!(programs.len(), 1, "{layout}: {v}");
+        assert_eq!(programs[0].as_str().unwrap(), expected.display().to_string());
+        let text = std::fs::read_to_string(&expected).unwrap();
+        let setups = v["setups"].as_array().unwrap();
+        assert_eq!(setups.len(), 2, "{layout}: {v}");
+        let blocks =
+            text.lines().filter(|l| l.starts_with(&format!("G0 {letter}")) && l.contains(" C")).count();
+        assert_eq!(blocks, setups.len(), "{layout}: one rotary block per setup");
+        // The setups' sections add up to the program.
+        let lines: u64 = setups.iter().map(|s| s["program_lines"].as_u64().unwrap()).sum();
+        assert_eq!(lines, text.lines().count() as u64, "{layout}");
+        for s in setups {
+            assert_eq!(s["rotary_deg"].as_array().map(Vec::len), Some(3), "{layout}: {s}");
+        }
+    }
+}
+
+/// A setup the machine's tilt axis cannot reach is one error line and exit 1.
+#[test]
+fn unreachable_setup_is_one_line_and_a_failure_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = mill_letterblock(dir.path(), &["--layout", "bc", "--tilt-range", "0,0"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one line, got {stderr:?}");
+    assert!(lines[0].starts_with("s2g: error:") && lines[0].contains("B range"), "{stderr}");
+    assert!(!dir.path().join("block.ngc").exists(), "no program for an unreachable setup");
 }

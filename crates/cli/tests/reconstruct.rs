@@ -1,4 +1,5 @@
-//! `s2g reconstruct`: solid and tubes from FDM G-code, JSON report, truncated input, errors.
+//! `s2g reconstruct`: solid and tubes from FDM G-code, JSON report, 3MF output, truncated
+//! input, errors.
 
 use std::process::Command;
 
@@ -45,6 +46,29 @@ fn solid_and_tubes_with_json_reports() {
 }
 
 #[test]
+fn solid_as_3mf_loads_back_watertight_with_the_reported_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("solid.3mf");
+    let o = s2g().args(["reconstruct", &data(CUBE), "--solid", "--json", "-o"]).arg(&path).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let mesh = shape2gcode::geom::load_mesh(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(mesh.triangles().len() as u64, v["triangles"].as_u64().unwrap());
+    let rep = shape2gcode::geom::report(&mesh);
+    assert!(rep.closed && rep.manifold && rep.consistently_oriented, "{rep:?}");
+    assert_eq!(v["watertight"], true);
+    let volume = v["solid_volume_mm3"].as_f64().unwrap();
+    assert!((rep.volume - volume).abs() <= 1e-6 * volume, "{} vs {volume}", rep.volume);
+    let extruded = v["extruded_volume_mm3"].as_f64().unwrap();
+    assert!((rep.volume / extruded - 1.0).abs() < 0.03, "{} vs extruded {extruded}", rep.volume);
+    // The same program gives the same bytes.
+    let again = dir.path().join("again.3mf");
+    let o = s2g().args(["reconstruct", &data(CUBE), "--solid", "-o"]).arg(&again).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read(&path).unwrap() == std::fs::read(&again).unwrap(), "3MF output is deterministic");
+}
+
+#[test]
 fn truncated_program_warns_and_bad_arguments_fail() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(data(CUBE)).unwrap();
@@ -64,7 +88,7 @@ fn truncated_program_warns_and_bad_arguments_fail() {
             "reconstruct".to_string(),
             data(CUBE),
             "-o".into(),
-            dir.path().join("x.3mf").display().to_string(),
+            dir.path().join("x.3ds").display().to_string(),
         ],
         vec!["reconstruct".into(), data(CUBE), "--width=-2".into(), "-o".into(), "x.stl".into()],
         vec!["reconstruct".into(), "/nonexistent.gcode".into(), "-o".into(), "x.stl".into()],

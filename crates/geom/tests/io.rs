@@ -1,6 +1,6 @@
 //! Mesh I/O and checks: every bundled mesh loads, every STL edge case loads or fails
 //! with a typed error naming the file and the defect, save/load round trips, glTF
-//! node transforms, PLY variants, content sniffing, and the mesh report.
+//! node transforms, PLY variants, 3MF packages, content sniffing, and the mesh report.
 
 use std::path::{Path, PathBuf};
 
@@ -315,7 +315,7 @@ mod round_trips {
     use super::*;
 
     /// The bunny rotated and shifted, so coordinates are not round decimals.
-    fn sample_mesh() -> Mesh {
+    pub(super) fn sample_mesh() -> Mesh {
         let m = load_mesh(data_dir().join("meshes/classic/stanford_bunny.stl")).unwrap();
         let t = Similarity3::new(Vector3::new(0.1, -7.3, 1e3), Vector3::new(0.3, 0.2, -0.1), 1.7);
         m.transformed(&t)
@@ -695,7 +695,7 @@ mod never_panics {
         let dir = tempfile::tempdir().unwrap();
         let m = box_mesh(Point3::origin(), Point3::new(1.0, 2.0, 3.0));
         let mut inputs: Vec<(String, Vec<u8>)> = Vec::new();
-        for ext in ["stl", "obj", "ply"] {
+        for ext in ["stl", "obj", "ply", "3mf"] {
             let p = dir.path().join(format!("m.{ext}"));
             save_mesh(&p, &m).unwrap();
             inputs.push((format!("m.{ext}"), std::fs::read(&p).unwrap()));
@@ -726,6 +726,223 @@ mod never_panics {
                 let _ = read_mesh(&b, Path::new(name), &LoadOptions::default());
             }
         }
+    }
+}
+
+mod threemf {
+    use super::*;
+    use std::io::Write;
+
+    /// A ZIP package with the given (name, content) entries, stored or deflated.
+    fn package(entries: &[(&str, &str)]) -> Vec<u8> {
+        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        for (i, (name, text)) in entries.iter().enumerate() {
+            let method =
+                if i % 2 == 0 { zip::CompressionMethod::Deflated } else { zip::CompressionMethod::Stored };
+            let opts = zip::write::SimpleFileOptions::DEFAULT.compression_method(method);
+            zip.start_file(*name, opts).unwrap();
+            zip.write_all(text.as_bytes()).unwrap();
+        }
+        zip.finish().unwrap().into_inner()
+    }
+
+    const RELS: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">
+<Relationship Id="r" Target="/3D/Model.model" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/>
+</Relationships>"#;
+
+    /// A unit cube as a 3MF mesh object with the given id and type.
+    fn cube_object(id: u32, ty: &str) -> String {
+        let m = box_mesh(Point3::origin(), Point3::new(1.0, 1.0, 1.0));
+        let mut s = format!("<object id=\"{id}\" type=\"{ty}\"><mesh><vertices>\n");
+        for p in m.vertices() {
+            s += &format!("<vertex x=\"{}\" y=\"{}\" z=\"{}\" />\n", p.x, p.y, p.z);
+        }
+        s += "</vertices>\n<triangles>\n";
+        for t in m.triangles() {
+            s += &format!("<triangle v1=\"{}\" v2=\"{}\" v3=\"{}\" pid=\"1\" p1=\"0\"/>\n", t[0], t[1], t[2]);
+        }
+        s + "</triangles></mesh></object>\n"
+    }
+
+    fn model(unit: &str, body: &str) -> String {
+        format!(
+            "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!-- a comment <object> -->\n\
+             <model unit=\"{unit}\" xmlns=\"http://schemas.microsoft.com/3dmanufacturing/core/2015/02\" \
+             xmlns:p=\"http://schemas.microsoft.com/3dmanufacturing/production/2015/06\">\n{body}</model>\n"
+        )
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = super::round_trips::sample_mesh();
+        let path = dir.path().join("out.3mf");
+        save_mesh(&path, &m).unwrap();
+        let back = load_mesh(&path).unwrap();
+        assert_eq!(back.vertices().len(), m.vertices().len());
+        assert_eq!(back.triangles().len(), m.triangles().len());
+        assert_eq!(back.signed_volume(), m.signed_volume());
+        assert_eq!(back, m, "3MF round trip must be exact");
+        // Detection by content: a 3MF under another extension still loads.
+        std::fs::rename(&path, dir.path().join("out.stl")).unwrap();
+        assert_eq!(load_mesh(dir.path().join("out.stl")).unwrap(), m);
+        // Triangles that repeat a vertex are not written (the spec forbids them).
+        let mut t = box_mesh(Point3::origin(), Point3::new(1.0, 2.0, 3.0)).triangles().to_vec();
+        t.push([0, 0, 1]);
+        let degenerate =
+            Mesh::new(box_mesh(Point3::origin(), Point3::new(1.0, 2.0, 3.0)).vertices().to_vec(), t).unwrap();
+        save_mesh(dir.path().join("d.3mf"), &degenerate).unwrap();
+        let back = load_mesh(dir.path().join("d.3mf")).unwrap();
+        assert_eq!(back.triangles().len(), 12);
+        assert!(rel_close(back.signed_volume(), 6.0, 1e-12));
+    }
+
+    #[test]
+    fn bytes_are_deterministic_and_the_package_is_opc() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = super::round_trips::sample_mesh();
+        let (a, b) = (dir.path().join("a.3mf"), dir.path().join("b.3mf"));
+        save_mesh(&a, &m).unwrap();
+        save_mesh(&b, &m).unwrap();
+        let bytes = std::fs::read(&a).unwrap();
+        assert!(bytes == std::fs::read(&b).unwrap(), "the same mesh must give the same bytes");
+        let mut zip = zip::ZipArchive::new(std::io::Cursor::new(&bytes)).unwrap();
+        let names: Vec<String> = zip.file_names().map(|n| n.unwrap().into_owned()).collect();
+        assert_eq!(names, ["[Content_Types].xml", "_rels/.rels", "3D/3dmodel.model"]);
+        for i in 0..zip.len() {
+            let f = zip.by_index(i).unwrap();
+            // A fixed timestamp, not the clock: 1980-01-01 00:00:00.
+            assert_eq!(f.last_modified(), Some(zip::DateTime::default()), "{:?}", f.name());
+            assert_eq!(f.compression(), zip::CompressionMethod::Deflated, "{:?}", f.name());
+        }
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut zip.by_name("3D/3dmodel.model").unwrap(), &mut text).unwrap();
+        assert!(text.contains("unit=\"millimeter\""), "{}", &text[..300]);
+        assert_eq!(text.matches("<object ").count(), 1);
+        assert!(text.contains("<object id=\"1\" type=\"model\">"));
+        assert_eq!(text.matches("<vertex ").count(), m.vertices().len());
+        assert_eq!(text.matches("<triangle ").count(), m.triangles().len());
+        let mut rels = String::new();
+        std::io::Read::read_to_string(&mut zip.by_name("_rels/.rels").unwrap(), &mut rels).unwrap();
+        assert!(rels.contains("Target=\"/3D/3dmodel.model\""), "{rels}");
+    }
+
+    #[test]
+    fn build_items_components_units_and_types() {
+        // Object 1: a unit cube; 2: a support (skipped); 3: two copies of 1, one moved
+        // by 2 in x; the build places 3 scaled by 2 and 1 moved by 10 in z, in cm.
+        let body = format!(
+            "<resources>\n{}{}<object id=\"3\" type=\"model\"><components>\n\
+             <component objectid=\"1\"/>\n\
+             <component objectid=\"1\" transform=\"1 0 0 0 1 0 0 0 1 2 0 0\"/>\n\
+             </components></object>\n</resources>\n<build>\n\
+             <item objectid=\"3\" transform=\"2 0 0 0 2 0 0 0 2 0 0 0\"/>\n\
+             <item objectid=\"1\" transform='1 0 0 0 1 0 0 0 1 0 0 10'/>\n\
+             <item objectid=\"2\"/>\n</build>\n",
+            cube_object(1, "model"),
+            cube_object(2, "support"),
+        );
+        let bytes = package(&[
+            ("_rels/.rels", RELS),
+            ("[Content_Types].xml", "<Types/>"),
+            ("3D/Model.model", &model("centimeter", &body)),
+        ]);
+        let m = read_mesh(&bytes, Path::new("parts.3mf"), &LoadOptions::default()).unwrap();
+        assert_eq!(m.triangles().len(), 36);
+        // Two cubes of 20 mm and one of 10 mm.
+        assert!(rel_close(m.signed_volume(), 2.0 * 8000.0 + 1000.0, 1e-12), "{}", m.signed_volume());
+        let bb = m.bbox().unwrap();
+        assert!(rel_close(bb.max.x, 60.0, 1e-12) && rel_close(bb.max.z, 110.0, 1e-12), "{bb:?}");
+    }
+
+    #[test]
+    fn corrupt_packages_give_typed_errors_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = box_mesh(Point3::origin(), Point3::new(1.0, 2.0, 3.0));
+        let good = dir.path().join("good.3mf");
+        save_mesh(&good, &m).unwrap();
+        let bytes = std::fs::read(&good).unwrap();
+        let bad_index = model(
+            "millimeter",
+            "<resources><object id=\"1\"><mesh><vertices>\n<vertex x=\"0\" y=\"0\" z=\"0\"/>\n</vertices>\n\
+             <triangles>\n<triangle v1=\"0\" v2=\"1\" v3=\"7\"/>\n</triangles></mesh></object></resources>\
+             <build><item objectid=\"1\"/></build>",
+        );
+        let mut cases: Vec<(&str, Vec<u8>, &str)> = vec![
+            ("truncated.3mf", bytes[..bytes.len() / 2].to_vec(), "ZIP"),
+            ("text.3mf", b"solid? no, just text".to_vec(), "ZIP"),
+            ("nomodel.3mf", package(&[("readme.txt", "hello")]), "no model part 3D/3dmodel.model"),
+            (
+                "index.3mf",
+                package(&[("_rels/.rels", RELS), ("3D/Model.model", &bad_index)]),
+                "refers to vertex 1",
+            ),
+            (
+                "unit.3mf",
+                package(&[("3D/3dmodel.model", &model("furlong", "<build/>"))]),
+                "3D/3dmodel.model:3: unknown unit",
+            ),
+            (
+                "nobuild.3mf",
+                package(&[("3D/3dmodel.model", &model("inch", "<resources/>"))]),
+                "no <build> items",
+            ),
+            (
+                "missing.3mf",
+                package(&[("3D/3dmodel.model", &model("inch", "<build><item objectid=\"4\"/></build>"))]),
+                "no object with id 4",
+            ),
+            (
+                "cycle.3mf",
+                package(&[(
+                    "3D/3dmodel.model",
+                    &model(
+                        "inch",
+                        "<resources><object id=\"1\"><components><component objectid=\"1\"/></components>\
+                         </object></resources><build><item objectid=\"1\"/></build>",
+                    ),
+                )]),
+                "nest too deep",
+            ),
+            (
+                "unclosed.3mf",
+                package(&[("3D/3dmodel.model", "<model unit=\"micron\"><build><item objectid=\"1")]),
+                "not closed",
+            ),
+        ];
+        // A "billion laughs" of components: each level places the next one twice.
+        let mut laughs = cube_object(1, "model");
+        for id in 2..=40 {
+            laughs += &format!(
+                "<object id=\"{id}\"><components><component objectid=\"{0}\"/><component objectid=\"{0}\"/>\
+                 </components></object>\n",
+                id - 1
+            );
+        }
+        let laughs = model(
+            "millimeter",
+            &format!("<resources>{laughs}</resources><build><item objectid=\"40\"/></build>"),
+        );
+        cases.push(("laughs.3mf", package(&[("3D/3dmodel.model", &laughs)]), "object instances"));
+        for (name, b, needle) in cases {
+            let path = dir.path().join(name);
+            std::fs::write(&path, &b).unwrap();
+            let e = load_mesh(&path).unwrap_err();
+            assert!(matches!(&e, GeomError::Parse { path: p, .. } if *p == path), "{name}: {e:?}");
+            let msg = e.to_string();
+            assert!(msg.starts_with(&path.display().to_string()), "{name}: {msg}");
+            assert!(msg.contains(needle), "{name}: {msg:?} should contain {needle:?}");
+        }
+        // The line of the bad triangle is named.
+        let e = read_mesh(
+            &package(&[("_rels/.rels", RELS), ("3D/Model.model", &bad_index)]),
+            Path::new("i.3mf"),
+            &LoadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("3D/Model.model:8: object 1: triangle 0 refers to vertex 1"), "{e}");
     }
 }
 

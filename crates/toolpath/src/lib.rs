@@ -43,8 +43,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod baseline;
-pub mod features;
 mod error;
+pub mod features;
 mod link;
 mod periphery;
 mod plan;

@@ -4,8 +4,12 @@
 mod common;
 
 use common::HeightField;
-use s2g_geom::{Aabb, GridSpec, Mesh, Setup, VoxelGrid, occupancy_iou, voxelize};
-use s2g_toolpath::{PlanOptions, PlanSummary, Strategy, Tool, VoxelMaterial, plan_setup, plan_setup_rest};
+use s2g_gcode::MotionRecorder;
+use s2g_geom::{Aabb, GridSpec, Mesh, Point3, Setup, VoxelGrid, occupancy_iou, voxelize};
+use s2g_toolpath::{
+    LayerPlan, PlanOptions, PlanSummary, Point2, Strategy, Tool, VoxelMaterial, plan_layers, plan_setup,
+    plan_setup_rest,
+};
 use s2g_voxsim::{Cutter, SimOptions, SimReport, Simulator, ToolTable};
 
 fn stepped_pocket() -> HeightField {
@@ -72,8 +76,98 @@ fn openscad(name: &str) -> Mesh {
     s2g_geom::normalize_unit_cube(&m).expect("normalise").0
 }
 
+/// The set voxels' centres of a part-frame grid in a setup's frame, bucketed by (x, y).
+struct Centres {
+    lo: Point2,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    buckets: Vec<Vec<Point3>>,
+}
+
+impl Centres {
+    fn new(grid: &VoxelGrid, setup: &Setup, cell: f64) -> Self {
+        let spec = *grid.spec();
+        let pts: Vec<Point3> =
+            grid.iter_set().map(|[i, j, k]| setup.to_setup(&spec.center(i, j, k))).collect();
+        let lo = pts
+            .iter()
+            .fold(Point2::new(f64::INFINITY, f64::INFINITY), |m, p| Point2::new(m.x.min(p.x), m.y.min(p.y)));
+        let hi = pts.iter().fold(Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY), |m, p| {
+            Point2::new(m.x.max(p.x), m.y.max(p.y))
+        });
+        let (nx, ny) = if pts.is_empty() {
+            (0, 0)
+        } else {
+            (((hi.x - lo.x) / cell) as usize + 1, ((hi.y - lo.y) / cell) as usize + 1)
+        };
+        let mut buckets = vec![Vec::new(); nx * ny];
+        for p in pts {
+            let i = ((p.x - lo.x) / cell) as usize;
+            let j = ((p.y - lo.y) / cell) as usize;
+            buckets[j * nx + i].push(p);
+        }
+        Self { lo, cell, nx, ny, buckets }
+    }
+
+    /// Whether some centre lies within `rad` of `p` horizontally, with `z0 <= z <= z1`.
+    fn any(&self, p: &Point2, rad: f64, z0: f64, z1: f64) -> bool {
+        if self.nx == 0 {
+            return false;
+        }
+        let range = |v: f64, lo: f64, n: usize| {
+            let a = ((v - rad - lo) / self.cell).floor().max(0.0) as usize;
+            let b = (((v + rad - lo) / self.cell).floor().max(-1.0) as isize).min(n as isize - 1);
+            (a, b)
+        };
+        let (i0, i1) = range(p.x, self.lo.x, self.nx);
+        let (j0, j1) = range(p.y, self.lo.y, self.ny);
+        for j in j0 as isize..=j1 {
+            for i in i0 as isize..=i1 {
+                let hit = self.buckets[j as usize * self.nx + i as usize].iter().any(|c| {
+                    c.z >= z0 && c.z <= z1 && (c.x - p.x).powi(2) + (c.y - p.y).powi(2) <= rad * rad
+                });
+                if hit {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+/// Length-weighted fraction of the layers' contour and clearing paths whose samples are in
+/// air by `air(p, z, z_above)`. The samples are the planner's own (midpoints of pieces of
+/// at most r/2 along each segment), so footprints nested around the planner's give
+/// fractions nested around its `air_cut_fraction` exactly.
+fn air_fraction(layers: &[LayerPlan], r: f64, air: impl Fn(&Point2, f64, f64) -> bool) -> f64 {
+    let (mut cut, mut out) = (0.0, 0.0);
+    for plan in layers {
+        for path in plan.contour.iter().chain(&plan.clearing) {
+            cut += path.length();
+            for (a, b) in path.segments() {
+                let len = (b - a).norm();
+                let n = ((len / (0.5 * r)).ceil() as usize).max(1);
+                let k = (0..n)
+                    .filter(|&k| air(&(a + (b - a) * ((k as f64 + 0.5) / n as f64)), plan.z, plan.z_above));
+                out += len * k.count() as f64 / n as f64;
+            }
+        }
+    }
+    if cut > 0.0 { out / cut } else { 0.0 }
+}
+
 /// Three parts, two setups (+Z then -Z with the remaining material from simulating the
 /// first): path length, time and air-cutting fraction of the second setup per strategy.
+///
+/// The planner's air fraction (no remaining voxel centre within half a voxel of the square
+/// of half-side r/2 under the cutter's centre, over the layer's slab) is checked against
+/// two independent estimates from the simulated voxels on the same samples: "cutter" (no
+/// voxel centre under the whole cutter, grown by half a voxel: a footprint containing the
+/// planner's, so never more air) and "centre" (none within r/2 of the centre line: a
+/// footprint inside the planner's, so never less air). "removable" (informational) is the
+/// air fraction against the remaining material that is not part of the target, under the
+/// whole cutter. Rest machining must never cut more than planning the second setup blind.
 #[test]
 fn strategy_comparison_table() {
     let parts: Vec<(&str, Mesh)> = vec![
@@ -82,9 +176,9 @@ fn strategy_comparison_table() {
         ("example002", openscad("openscad_Old_example002.stl")),
     ];
     println!(
-        "| part | strategy | setup-2 cutting length | rapid length | time (s) | air fraction | gouges | rapid collisions |"
+        "| part | strategy | setup-2 cutting length | blind | rapid length | time (s) | air fraction | cutter | centre | removable | gouges | rapid collisions |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, part) in &parts {
         let bb = part.bbox().expect("bbox");
         let e = bb.extent().max();
@@ -107,6 +201,11 @@ fn strategy_comparison_table() {
             plan_setup(part, &top, &tool, &base, sim).expect("plan top")
         });
         assert_eq!(r1.gouge_voxels, 0, "{name}: top setup gouges");
+        let r = tool.radius;
+        let material = Centres::new(&after_top, &bottom, 2.0 * r);
+        let mut removable_grid = after_top.clone();
+        removable_grid.andnot(&target).expect("same grid");
+        let removable = Centres::new(&removable_grid, &bottom, 2.0 * r);
         let mut lengths = Vec::new();
         for strategy in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Periphery, Strategy::Spiral] {
             // The stock box in the bottom setup's frame.
@@ -127,17 +226,38 @@ fn strategy_comparison_table() {
                 plan_setup_rest(part, &bottom, &tool, &opts, Some(&rest), sim).expect("plan bottom")
             });
             let air = summary.air_cut_fraction.expect("rest given");
+            let (_, layers) = plan_layers::<()>(part, &bottom, &tool, &opts, Some(&rest)).expect("layers");
+            let grown = (0.5 * r + 0.5 * h) * std::f64::consts::SQRT_2 + 1e-9;
+            let cutter = air_fraction(&layers, r, |p, z, za| !material.any(p, grown, z - h, za + h));
+            let centre = air_fraction(&layers, r, |p, z, za| !material.any(p, 0.5 * r, z, za));
+            let free = air_fraction(&layers, r, |p, z, za| !removable.any(p, r, z, za));
+            let mut blind_rec = MotionRecorder::default();
+            let blind = plan_setup(part, &bottom, &tool, &opts, &mut blind_rec).expect("plan bottom blind");
             println!(
-                "| {name} | {} | {:.3} | {:.3} | {:.2} | {:.3} | {} | {} |",
+                "| {name} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} |",
                 strategy.name(),
                 summary.cutting_length,
+                blind.cutting_length,
                 summary.rapid_length,
                 summary.estimated_time_s,
                 air,
+                cutter,
+                centre,
+                free,
                 report.gouge_voxels,
                 report.rapid_collision_voxels
             );
-            assert!((0.0..=1.0).contains(&air), "{name}: air fraction {air}");
+            let s = strategy.name();
+            assert!(
+                cutter <= air + 1e-9 && air <= centre + 1e-9,
+                "{name}/{s}: air fraction {air} outside [{cutter}, {centre}] of the independent estimates"
+            );
+            assert!(
+                summary.cutting_length <= blind.cutting_length * (1.0 + 1e-9),
+                "{name}/{s}: rest machining cuts {} vs {} planned blind",
+                summary.cutting_length,
+                blind.cutting_length
+            );
             assert_eq!(report.gouge_voxels, 0, "{name}/{}: gouges", strategy.name());
             assert_eq!(report.rapid_collision_voxels, 0, "{name}/{}: rapid collisions", strategy.name());
             lengths.push(summary.cutting_length);

@@ -2,12 +2,14 @@
 
 mod common;
 
-use common::{HeightField, cylinder, moves, samples, uncovered};
-use s2g_gcode::{Motion, MotionRecorder};
-use s2g_geom::{Aabb, Isometry3, Mesh, Point3, Rotation3, Setup, Vector3};
+use common::{
+    Above, HeightField, MeshAbove, Truth, check_program, cylinder, inside_stock, moves, samples, uncovered,
+};
+use s2g_gcode::MotionRecorder;
+use s2g_geom::{Aabb, Isometry3, Mesh, MeshIndex, Point3, Rotation3, Setup, Similarity3, Vector3};
 use s2g_toolpath::{
-    PlanOptions, Point2, Polyline2, Strategy, Tool, ToolKind, ToolpathError, plan_layers, plan_setup,
-    plan_setup_rest, slice_setup,
+    PlanOptions, PlanSummary, Point2, SetupSlices, Strategy, Tool, ToolKind, ToolpathError, plan_layers,
+    plan_setup, plan_setup_rest, slice_setup,
 };
 
 const STRATEGIES: [Strategy; 4] = [
@@ -90,13 +92,8 @@ fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
                 // The planner's own exact keep-out agrees.
                 let dk = common::sd(&ki, &p);
                 assert!(dk >= r - 1e-7, "{name}/{}: keep-out distance {dk} at {p:?}", strategy.name());
-                assert!(
-                    p.x >= lo.x - r - 1e-9
-                        && p.x <= hi.x + r + 1e-9
-                        && p.y >= lo.y - r - 1e-9
-                        && p.y <= hi.y + r + 1e-9,
-                    "{name}: {p:?} outside stock + r"
-                );
+                let q = Point3::new(p.x, p.y, plan.z);
+                assert!(inside_stock(&q, &stock, r, stock.max.z), "{name}: {q:?} outside stock + r");
             }
         }
         let miss = uncovered(plan, keep, lo, hi, r, 0.3 * r);
@@ -110,36 +107,15 @@ fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
             &miss[..miss.len().min(5)]
         );
     }
-    // The program: cutting inside stock + r, rapids only above the stock or straight down
-    // onto levels already cleared.
+    // The program: cutting inside the stock allowance (x, y and z) and clear of the part,
+    // rapids only above the stock or straight down onto levels already cleared.
     let mut rec = MotionRecorder::default();
     let summary = plan_setup(&part, &Setup::top(), &tool, &opts, &mut rec).expect("plan");
-    assert!(matches!(rec.motions[0].1, Motion::Setup { .. }), "{name}: first motion is the setup");
     assert_eq!(summary.layers, slices.levels.len());
-    let top = stock.max.z;
-    for (rapid, a, b) in moves(&rec) {
-        if rapid {
-            let above = a.z >= top - 1e-12 && b.z >= top - 1e-12;
-            let vertical = (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12;
-            assert!(above || vertical, "{name}: horizontal rapid below the stock top {a:?} -> {b:?}");
-            if !above {
-                // Descending onto (x, y): no material above the lowest point within r.
-                let p = Point2::new(b.x, b.y);
-                let lowest = a.z.min(b.z);
-                let d = hf.distance_above(&p, lowest, 1e-9);
-                assert!(d >= r - 1e-7, "{name}: rapid down to {b:?} meets the part ({d})");
-            }
-        } else {
-            for p in [a, b] {
-                assert!(
-                    p.x >= stock.min.x - r - 1e-9
-                        && p.x <= stock.max.x + r + 1e-9
-                        && p.z >= stock.min.z - 1e-9,
-                    "{name}: cutting move outside the stock + r: {p:?}"
-                );
-            }
-        }
-    }
+    let clear_z = stock.max.z + opts.clearance_height;
+    let what = format!("{name}/{}", strategy.name());
+    let counts = check_program(&what, &rec, &stock, r, clear_z, hf, None, 0.25 * r);
+    assert!(counts.cutting_points > 0 && counts.rapids_below_top > 0, "{what}: {counts:?}");
 }
 
 #[test]
@@ -207,48 +183,126 @@ fn openscad(name: &str) -> Mesh {
     s2g_geom::normalize_unit_cube(&m).expect("normalise").0
 }
 
-/// Exact checks on a bundled mesh: every path point is at least r from the keep-out (the
-/// projection of the part above the level), verified brute force against the part's
-/// triangles clipped above the level.
-fn check_mesh(name: &str, part: &Mesh, setup: &Setup) {
+/// Every property on a bundled mesh, against oracles independent of the planner's regions
+/// (`truth` is the part as it really is; `part` is what the planner is given):
+/// - every contour and clearing point, on every layer, sampled every r/2 along the paths,
+///   is at least r from the part's material above the level (geom's BVH closest point to
+///   the part's triangles clipped above the level, [`MeshAbove`]); the planner's own
+///   keep-out agrees with the oracle there;
+/// - the emitted program's cutting moves (sampled every r) pass the same oracle, and the
+///   part's signed distance clears the tool axis ([`Truth::check_tip`], every 4r);
+/// - cutting stays inside the stock allowance in x, y and z; rapids stay above the stock or
+///   go straight down onto cleared levels, clear of the part ([`check_program`]);
+/// - no reachable material point of a layer is missed by the paths ([`uncovered`]).
+fn check_mesh(
+    name: &str,
+    part: &Mesh,
+    truth: &Mesh,
+    setup: &Setup,
+    strategy: Strategy,
+) -> (SetupSlices, PlanSummary) {
     let tool = Tool::flat(0.02);
     let r = tool.radius;
-    let opts = PlanOptions { layer_height: 1.0 / 16.0, stock_margin: 0.05, ..Default::default() };
+    let opts = PlanOptions { layer_height: 1.0 / 16.0, stock_margin: 0.05, strategy, ..Default::default() };
+    let name = format!("{name}/{strategy:?}");
     let (slices, layers) = plan_layers::<()>(part, setup, &tool, &opts, None).expect("plans");
-    assert!(!layers.is_empty());
-    let inv = setup.frame.inverse();
-    let tris: Vec<[Point3; 3]> = part.triangle_points().map(|t| t.map(|p| inv * p)).collect();
-    for plan in layers.iter().step_by(3) {
-        // Independent of the planner's regions: part vertices above the level, bucketed;
-        // no path point may be within r of one (a necessary condition, exact for vertices).
-        let above: Vec<Polyline2> = tris
-            .iter()
-            .flatten()
-            .filter(|v| v.z > plan.z + 1e-6)
-            .map(|v| Polyline2::open(vec![Point2::new(v.x, v.y)]))
-            .collect();
-        let refs: Vec<&Polyline2> = above.iter().collect();
-        let grid = common::PathGrid::new(&refs, Point2::new(-1.0, -1.0), Point2::new(1.0, 1.0), r);
-        let ki = slices.keepouts[plan.index].index();
+    assert!(layers.len() >= 8, "{name}: {} layers", layers.len());
+    let above = MeshAbove::new(truth, setup, &slices.levels, opts.level_tolerance);
+    let index = MeshIndex::new(truth).expect("index");
+    let truth = Truth { sdf: &index, setup: *setup, every: 4 };
+    let stock = slices.stock;
+    let clear_z = stock.max.z + opts.clearance_height;
+    let lo = Point2::new(stock.min.x, stock.min.y);
+    let hi = Point2::new(stock.max.x, stock.max.y);
+    let mut points = 0;
+    for (plan, keep) in layers.iter().zip(&slices.keepouts) {
+        let ki = keep.index();
+        let what = format!("{name}: layer {} z {}", plan.index, plan.z);
         for path in plan.contour.iter().chain(&plan.clearing) {
             for p in samples(path, 0.5 * r) {
-                assert!(
-                    !grid.within(&p, r - 1e-7),
-                    "{name}: layer {} point {p:?} is within r of a part vertex above",
-                    plan.index
-                );
+                points += 1;
+                let d = above.above(&p, plan.z);
+                assert!(d >= r - 1e-7, "{what}: point {p:?} is {d} from the part above (< r = {r})");
                 let dk = common::sd(&ki, &p);
-                assert!(dk >= r - 1e-7, "{name}: layer {} point {p:?} keep-out distance {dk}", plan.index);
+                assert!(dk >= r - 1e-7, "{what}: point {p:?} keep-out distance {dk}");
+                assert!(
+                    dk == d || (dk - d).abs() <= 1e-6 * (1.0 + d),
+                    "{what}: keep-out distance {dk} but part distance {d}"
+                );
+                let q = Point3::new(p.x, p.y, plan.z);
+                assert!(inside_stock(&q, &stock, r, clear_z), "{what}: {q:?} outside the stock allowance");
             }
         }
+        let miss = uncovered(plan, keep, lo, hi, r, 0.5 * r);
+        assert!(
+            miss.is_empty(),
+            "{what}: {} uncovered material points, e.g. {:?}",
+            miss.len(),
+            &miss[..miss.len().min(5)]
+        );
     }
-    let _ = slices;
+    assert!(points > 1000, "{name}: only {points} path points");
+    let mut rec = MotionRecorder::default();
+    let summary = plan_setup(part, setup, &tool, &opts, &mut rec).expect("plan");
+    assert_eq!(summary.layers, slices.levels.len());
+    // The emitted program: the same paths plus links and entries, sampled every r of
+    // travel; the signed distance every 4th sample (it dominates the test's time).
+    let counts = check_program(&name, &rec, &stock, r, clear_z, &above, Some(&truth), r);
+    assert!(counts.cutting_points > 0 && counts.rapids_below_top > 0, "{name}: {counts:?}");
+    (slices, summary)
 }
 
 #[test]
 fn bundled_meshes_keep_the_tool_radius() {
-    check_mesh("bunny", &bunny(), &Setup::top());
-    check_mesh("example001 from +X", &openscad("openscad_Old_example001.stl"), &Setup::six_axes()[2]);
+    let bunny = bunny();
+    let ex1 = openscad("openscad_Old_example001.stl");
+    for s in STRATEGIES {
+        check_mesh("bunny", &bunny, &bunny, &Setup::top(), s);
+        check_mesh("example001 from +X", &ex1, &ex1, &Setup::six_axes()[2], s);
+    }
+}
+
+/// The full property checks re-run on moved and reversed copies of a bundled part.
+#[test]
+fn rotated_and_reversed_parts_pass_every_property() {
+    let part = openscad("openscad_Old_example002.stl");
+    let top = Setup::top();
+    for s in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Spiral] {
+        let (base, b) = check_mesh("example002", &part, &part, &top, s);
+        // Turned 37 degrees about the setup's Z axis: a different plan (passes meet the
+        // walls at new angles), the same cross-section areas.
+        let spin = Isometry3::rotation(Vector3::z() * 37f64.to_radians());
+        let spun = part.transformed(&Similarity3::from_isometry(spin, 1.0));
+        let (turned, _) = check_mesh("example002 turned 37 deg about Z", &spun, &spun, &top, s);
+        assert_eq!(base.levels.len(), turned.levels.len());
+        for (l, (a, c)) in base.keepouts.iter().zip(&turned.keepouts).enumerate() {
+            let rel = (a.area() - c.area()).abs() / a.area().max(1e-12);
+            assert!(rel <= 1e-6, "turned: layer {l} keep-out area {} vs {}", a.area(), c.area());
+        }
+        // Moved rigidly (a general rotation and a shift) with the setup moved with it: the
+        // setup-frame geometry, and so the program, is the same.
+        let iso = Isometry3::from_parts(
+            nalgebra::Translation3::new(0.2, -0.1, 0.05),
+            Rotation3::from_euler_angles(0.3, -0.7, 1.1),
+        );
+        let moved = part.transformed(&Similarity3::from_isometry(iso, 1.0));
+        let setup = Setup { frame: iso * top.frame };
+        let (_, m) = check_mesh("example002 moved with its setup", &moved, &moved, &setup, s);
+        assert!(
+            (m.cutting_length - b.cutting_length).abs() <= 1e-6 * b.cutting_length,
+            "moved {m:?} vs {b:?}"
+        );
+        // Every triangle's orientation reversed: the same part, the same program.
+        let (_, f) = check_mesh("example002 reversed", &part.flipped(), &part, &top, s);
+        assert!(
+            (f.cutting_length - b.cutting_length).abs() <= 1e-9 * b.cutting_length,
+            "reversed {f:?} vs {b:?}"
+        );
+        assert_eq!(
+            (f.retracts, f.helix_entries, f.ramp_entries),
+            (b.retracts, b.helix_entries, b.ramp_entries)
+        );
+    }
 }
 
 #[test]

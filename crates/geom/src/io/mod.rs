@@ -1,8 +1,8 @@
-//! Mesh files: STL (ASCII and binary), OBJ, glTF/GLB and PLY in; binary STL, OBJ and
-//! binary PLY out.
+//! Mesh files: STL (ASCII and binary), OBJ, glTF/GLB, PLY and 3MF in; binary STL, OBJ,
+//! binary PLY and 3MF out.
 //!
 //! The format comes from the file extension, checked against the content: a file
-//! whose bytes clearly say another format (GLB or PLY magic, glTF JSON, a binary STL
+//! whose bytes clearly say another format (GLB, PLY or ZIP magic, glTF JSON, a binary STL
 //! whose size matches its triangle count, an ASCII STL `solid ... facet`) is read as
 //! what it is. Loading never panics on malformed input; it returns
 //! [`GeomError::Parse`] naming the file, the line where the format has lines, and the
@@ -12,6 +12,7 @@ mod gltf;
 mod obj;
 mod ply;
 mod stl;
+mod threemf;
 
 use std::path::Path;
 
@@ -19,6 +20,7 @@ pub use self::gltf::read_gltf;
 pub use self::obj::{read_obj, write_obj};
 pub use self::ply::{read_ply, write_ply};
 pub use self::stl::{read_stl, read_stl_with, write_stl};
+pub use self::threemf::{read_3mf, write_3mf};
 
 use crate::atomic::write_atomic;
 use crate::error::{GeomError, Result};
@@ -35,6 +37,8 @@ pub enum MeshFormat {
     Gltf,
     /// PLY, ASCII or binary little/big endian.
     Ply,
+    /// 3MF (core specification): a ZIP package holding an XML model.
+    ThreeMf,
 }
 
 impl MeshFormat {
@@ -46,6 +50,7 @@ impl MeshFormat {
             "obj" => Self::Obj,
             "gltf" | "glb" => Self::Gltf,
             "ply" => Self::Ply,
+            "3mf" => Self::ThreeMf,
             _ => return None,
         })
     }
@@ -58,6 +63,10 @@ impl MeshFormat {
         }
         if bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r") {
             return Some(Self::Ply);
+        }
+        // A ZIP archive: the only one among our formats.
+        if bytes.starts_with(b"PK\x03\x04") {
+            return Some(Self::ThreeMf);
         }
         if stl::binary_size_matches(bytes) {
             return Some(Self::Stl);
@@ -103,7 +112,7 @@ pub fn load_mesh(path: impl AsRef<Path>) -> Result<Mesh> {
     load_mesh_with(path, &LoadOptions::default())
 }
 
-/// Loads a mesh (STL, OBJ, glTF/GLB or PLY); see the module docs for format detection.
+/// Loads a mesh (STL, OBJ, glTF/GLB, PLY or 3MF); see the module docs for format detection.
 pub fn load_mesh_with(path: impl AsRef<Path>, options: &LoadOptions) -> Result<Mesh> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| GeomError::Io { path: path.to_path_buf(), source })?;
@@ -126,6 +135,7 @@ pub fn read_mesh(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Mes
         MeshFormat::Obj => read_obj(bytes, path)?,
         MeshFormat::Gltf => read_gltf(bytes, path)?,
         MeshFormat::Ply => read_ply(bytes, path)?,
+        MeshFormat::ThreeMf => read_3mf(bytes, path)?,
     };
     if mesh.is_empty() && !options.allow_empty {
         return Err(parse_error(path, None, "the file holds no triangles"));
@@ -147,7 +157,7 @@ pub fn detect_format(bytes: &[u8], path: &Path) -> Result<MeshFormat> {
             } else {
                 Err(GeomError::UnsupportedFormat {
                     path: path.to_path_buf(),
-                    reason: "unknown extension and content (expected STL, OBJ, glTF/GLB or PLY)".into(),
+                    reason: "unknown extension and content (expected STL, OBJ, glTF/GLB, PLY or 3MF)".into(),
                 })
             }
         }
@@ -156,12 +166,13 @@ pub fn detect_format(bytes: &[u8], path: &Path) -> Result<MeshFormat> {
 
 /// Saves a mesh by extension: `.stl` binary STL (f32 coordinates), `.obj` OBJ
 /// (shortest exact decimal of every f64), `.ply` binary little-endian PLY (f64
-/// coordinates, exact). The file is written atomically.
+/// coordinates, exact), `.3mf` 3MF in millimetres (shortest exact decimals, one
+/// object, deterministic bytes). The file is written atomically.
 pub fn save_mesh(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
     let path = path.as_ref();
     let format = MeshFormat::from_extension(path).ok_or_else(|| GeomError::UnsupportedFormat {
         path: path.to_path_buf(),
-        reason: "saving needs a .stl, .obj or .ply extension".into(),
+        reason: "saving needs a .stl, .obj, .ply or .3mf extension".into(),
     })?;
     save_mesh_as(path, mesh, format)
 }
@@ -173,9 +184,10 @@ pub fn save_mesh_as(path: impl AsRef<Path>, mesh: &Mesh, format: MeshFormat) -> 
         MeshFormat::Stl => write_atomic(path, |w| write_stl(w, mesh)),
         MeshFormat::Obj => write_atomic(path, |w| write_obj(w, mesh)),
         MeshFormat::Ply => write_atomic(path, |w| write_ply(w, mesh)),
+        MeshFormat::ThreeMf => write_atomic(path, |w| write_3mf(w, mesh)),
         MeshFormat::Gltf => Err(GeomError::UnsupportedFormat {
             path: path.to_path_buf(),
-            reason: "glTF is read but not written; save as .stl, .obj or .ply".into(),
+            reason: "glTF is read but not written; save as .stl, .obj, .ply or .3mf".into(),
         }),
     }
 }

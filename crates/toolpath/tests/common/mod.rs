@@ -1,8 +1,8 @@
 //! Shared helpers: analytic parts built in code, independent checks.
 #![allow(dead_code)] // Each test binary uses a different subset.
 
-use s2g_gcode::{Motion, MotionRecorder};
-use s2g_geom::{Mesh, Point3};
+use s2g_gcode::{Marker, Motion, MotionRecorder, Plane};
+use s2g_geom::{Aabb, Mesh, MeshIndex, Point3, Setup, SignedDistance};
 use s2g_toolpath::{LayerPlan, Point2, Polyline2, RegionIndex, point_segment_distance};
 
 /// Signed distance to an indexed region's boundary (negative inside).
@@ -266,4 +266,238 @@ pub fn moves(rec: &MotionRecorder) -> Vec<(bool, Point3, Point3)> {
         pos = Some(to);
     }
     out
+}
+
+/// An oracle, independent of the planner's regions, of what the tool body (a vertical
+/// cylinder from the tip up) must stay out of: the horizontal distance from `p` to the
+/// part's material above the level `z` (0 where `p` lies under the part).
+pub trait Above {
+    fn above(&self, p: &Point2, z: f64) -> f64;
+}
+
+impl Above for HeightField {
+    fn above(&self, p: &Point2, z: f64) -> f64 {
+        self.distance_above(p, z, 1e-7)
+    }
+}
+
+/// [`Above`] for a triangle mesh through geom's BVH closest-point query: at each level the
+/// part's triangles (setup frame) are clipped to `z >= level + tol` and flattened onto the
+/// plane z = 0, so the 3-D distance from `(x, y, 0)` to that flat soup is exactly the
+/// horizontal distance to the material above the level. A query between two levels uses
+/// the level below it (more material: conservative).
+pub struct MeshAbove {
+    levels: Vec<f64>,
+    index: Vec<Option<MeshIndex>>,
+}
+
+impl MeshAbove {
+    pub fn new(part: &Mesh, setup: &Setup, levels: &[f64], tol: f64) -> Self {
+        let tris: Vec<[Point3; 3]> = part.triangle_points().map(|t| t.map(|p| setup.to_setup(&p))).collect();
+        let index = levels
+            .iter()
+            .map(|&z| {
+                let mut soup = Vec::new();
+                for t in &tris {
+                    let poly = clip_above(t, z + tol);
+                    for k in 1..poly.len().saturating_sub(1) {
+                        soup.push([poly[0], poly[k], poly[k + 1]].map(|p| Point3::new(p.x, p.y, 0.0)));
+                    }
+                }
+                (!soup.is_empty())
+                    .then(|| MeshIndex::new(&Mesh::from_soup(&soup).expect("finite")).expect("index"))
+            })
+            .collect();
+        Self { levels: levels.to_vec(), index }
+    }
+}
+
+impl Above for MeshAbove {
+    fn above(&self, p: &Point2, z: f64) -> f64 {
+        // Levels descend: the first one at or below z.
+        let l = self.levels.partition_point(|&lv| lv > z + 1e-12);
+        assert!(l < self.levels.len(), "query at z {z} below the lowest level {:?}", self.levels.last());
+        match &self.index[l] {
+            Some(idx) => idx.closest_point(&Point3::new(p.x, p.y, 0.0)).distance,
+            None => f64::INFINITY,
+        }
+    }
+}
+
+/// The part of a triangle with `z >= bound` (Sutherland-Hodgman; a convex polygon).
+fn clip_above(tri: &[Point3; 3], bound: f64) -> Vec<Point3> {
+    let mut out = Vec::with_capacity(4);
+    for i in 0..3 {
+        let (a, b) = (tri[i], tri[(i + 1) % 3]);
+        let (ia, ib) = (a.z >= bound, b.z >= bound);
+        if ia {
+            out.push(a);
+        }
+        if ia != ib {
+            let mut p = a + (b - a) * ((bound - a.z) / (b.z - a.z));
+            p.z = bound;
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// The true part for 3-D signed-distance checks: a distance field in the part frame, the
+/// setup that maps setup coordinates into it, and how sparsely [`check_program`] asks it
+/// (every `every`-th cutting sample: the winding-number sign near the surface is the
+/// test's costliest query).
+pub struct Truth<'a> {
+    pub sdf: &'a dyn SignedDistance,
+    pub setup: Setup,
+    pub every: usize,
+}
+
+impl Truth<'_> {
+    /// Checks a tool-tip position (setup frame) against the part's signed distance: the tip
+    /// is not inside the part, and the point on the tool axis one radius above the tip is
+    /// outside the part and at least `r` from its surface (everything above the level is
+    /// at least `r` away horizontally, everything below at least `r` vertically).
+    pub fn check_tip(&self, what: &str, tip: &Point3, r: f64) {
+        let d0 = self.sdf.distance(&self.setup.to_part(tip));
+        assert!(d0 >= -1e-6, "{what}: tool tip {tip:?} is inside the part (signed distance {d0})");
+        let lifted = Point3::new(tip.x, tip.y, tip.z + r);
+        let d1 = self.sdf.distance(&self.setup.to_part(&lifted));
+        assert!(d1 >= r - 1e-7, "{what}: tool axis at {lifted:?} is {d1} from the part (< r = {r})");
+    }
+}
+
+/// Allowed tool-centre positions while cutting: within the stock's outline grown by the
+/// tool radius in x and y (the cutter's side may reach the stock's side faces from
+/// outside, never further), and between the stock bottom and the clearance plane in z.
+pub fn inside_stock(p: &Point3, stock: &Aabb, r: f64, clear_z: f64) -> bool {
+    let e = 1e-9;
+    p.x >= stock.min.x - r - e
+        && p.x <= stock.max.x + r + e
+        && p.y >= stock.min.y - r - e
+        && p.y <= stock.max.y + r + e
+        && p.z >= stock.min.z - e
+        && p.z <= clear_z + e
+}
+
+/// What a program check saw.
+#[derive(Debug, Default)]
+pub struct ProgramCounts {
+    pub cutting_points: usize,
+    pub sd_checks: usize,
+    pub rapids_below_top: usize,
+    pub helices: usize,
+}
+
+/// Checks a recorded single-setup program (setup-frame coordinates):
+/// - every feed move (lines sampled every `step` of travel, helices over their whole circle) keeps
+///   the tool centre inside the stock allowance ([`inside_stock`]) and at least `r` from
+///   the material above its tip (`above`; and the part's signed distance with `truth`);
+/// - rapids run either at or above the stock top, or straight down, never below the
+///   deepest level machined before the current layer began (material below it remains),
+///   or straight up from the tool's position, and never with part material above within
+///   `r` of the tool centre.
+#[allow(clippy::too_many_arguments)] // A test helper: each argument is one piece of the setup.
+pub fn check_program(
+    name: &str,
+    rec: &MotionRecorder,
+    stock: &Aabb,
+    r: f64,
+    clear_z: f64,
+    above: &dyn Above,
+    truth: Option<&Truth<'_>>,
+    step: f64,
+) -> ProgramCounts {
+    assert!(
+        matches!(rec.motions.first(), Some((_, Motion::Setup { .. }))),
+        "{name}: first motion is the setup"
+    );
+    let top = stock.max.z;
+    let mut counts = ProgramCounts::default();
+    let mut pos: Option<Point3> = None;
+    let mut layer: Option<f64> = None;
+    let mut machined = top;
+    let mut travelled = 0.0;
+    let check_cut = |q: &Point3, counts: &mut ProgramCounts| {
+        counts.cutting_points += 1;
+        let sd_check = truth.filter(|t| counts.cutting_points.is_multiple_of(t.every.max(1)));
+        assert!(
+            inside_stock(q, stock, r, clear_z),
+            "{name}: cutting at {q:?} outside the stock allowance {stock:?} (r {r})"
+        );
+        let d = above.above(&Point2::new(q.x, q.y), q.z);
+        assert!(d >= r - 1e-7, "{name}: cutting at {q:?} is {d} from the part above (< r = {r})");
+        if let Some(t) = sd_check {
+            counts.sd_checks += 1;
+            t.check_tip(name, q, r);
+        }
+    };
+    for (_, m) in &rec.motions {
+        match m {
+            Motion::Marker(Marker::Layer { z: Some(z), .. }) => {
+                if let Some(prev) = layer {
+                    machined = prev;
+                }
+                layer = Some(*z);
+            }
+            Motion::Rapid { to } => {
+                if let Some(a) = pos {
+                    let b = *to;
+                    let over = a.z >= top - 1e-12 && b.z >= top - 1e-12;
+                    let vertical = (a.x - b.x).abs() < 1e-12 && (a.y - b.y).abs() < 1e-12;
+                    assert!(over || vertical, "{name}: horizontal rapid below the stock top {a:?} -> {b:?}");
+                    if !over {
+                        counts.rapids_below_top += 1;
+                        let lowest = a.z.min(b.z);
+                        // Retracts leave from the tool's own position; descents must stop
+                        // above the material that remains.
+                        assert!(
+                            b.z >= a.z || b.z >= machined - 1e-9,
+                            "{name}: rapid to {b:?} goes below {machined}, the deepest level machined so far"
+                        );
+                        let d = above.above(&Point2::new(b.x, b.y), lowest);
+                        assert!(d >= r - 1e-7, "{name}: rapid down to {b:?} meets the part ({d} < r = {r})");
+                    }
+                }
+                pos = Some(*to);
+            }
+            Motion::Linear { to, .. } => {
+                // Every end point against the stock; the oracles at points spaced `step`
+                // along the travelled path (not per move: arcs come as many tiny moves).
+                let a = pos.unwrap_or(*to);
+                assert!(
+                    inside_stock(to, stock, r, clear_z),
+                    "{name}: cutting to {to:?} outside the stock allowance {stock:?} (r {r})"
+                );
+                let len = (to - a).norm();
+                let total = travelled + len;
+                let n = (total / step).floor() as usize;
+                for k in 1..=n {
+                    let t = (k as f64 * step - travelled) / len;
+                    check_cut(&(a + (to - a) * t), &mut counts);
+                }
+                travelled = total - n as f64 * step;
+                pos = Some(*to);
+            }
+            Motion::Arc { to, center, plane, .. } => {
+                assert_eq!(*plane, Plane::XY, "{name}: arcs only in the XY plane");
+                let a = pos.expect("an arc starts somewhere");
+                counts.helices += 1;
+                // The whole circle (superset of the swept arc) at the lower end of the helix.
+                let rad = ((a.x - center.x).powi(2) + (a.y - center.y).powi(2)).sqrt();
+                let n = ((std::f64::consts::TAU * rad / step).ceil() as usize).max(8);
+                let z = a.z.min(to.z);
+                for k in 0..n {
+                    let t = std::f64::consts::TAU * k as f64 / n as f64;
+                    check_cut(
+                        &Point3::new(center.x + rad * t.cos(), center.y + rad * t.sin(), z),
+                        &mut counts,
+                    );
+                }
+                check_cut(&Point3::new(a.x, a.y, a.z.max(to.z)), &mut counts);
+                pos = Some(*to);
+            }
+            _ => {}
+        }
+    }
+    counts
 }

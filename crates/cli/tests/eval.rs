@@ -1,0 +1,165 @@
+//! `s2g eval`: the paper's tables (issue 5: Table 1 columns per policy, Table 2
+//! orientation strategies, Table 3 fixed / chosen policies, Table 4 one clearing strategy
+//! removed at a time) as JSON and Markdown, on one small part with tiny settings.
+//!
+//! Every table row is a full `mill` run (about five seconds each whatever the
+//! resolution), and the heuristic policy is run six times for Table 4: these are the
+//! slowest CLI tests, so both outputs are produced by two concurrent processes.
+
+use std::process::{Command, Output};
+
+fn s2g() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_s2g"))
+}
+
+fn data(rel: &str) -> String {
+    format!("{}/../../tests/data/{rel}", env!("CARGO_MANIFEST_DIR"))
+}
+
+const MESH: &str = "fdm/models/cube10.stl";
+
+fn eval(format: &str) -> std::process::Child {
+    s2g()
+        .args([
+            "eval",
+            &data(MESH),
+            "--res",
+            "16",
+            "--points",
+            "256",
+            "--policies",
+            "heuristic,coarse",
+            format,
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+fn done(child: std::process::Child) -> Output {
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "exit {:?}: {}", out.status, String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+const ROW_KEYS: [&str; 7] =
+    ["name", "iou", "f1", "chamfer_x1000", "normal_consistency", "machining_time_s", "unsafe_parts"];
+
+fn check_row(r: &serde_json::Value) {
+    for k in ROW_KEYS {
+        assert!(r.get(k).is_some(), "row lacks {k}: {r}");
+    }
+    let x = |k: &str| r[k].as_f64().unwrap();
+    for k in ["iou", "f1", "normal_consistency"] {
+        assert!((0.0..=1.0).contains(&x(k)), "{k} out of [0, 1]: {r}");
+    }
+    // A cube milled from a cube of stock at 16^3: close to exact, and safe.
+    assert!(x("iou") > 0.9 && x("f1") > 0.9 && x("normal_consistency") > 0.9, "{r}");
+    assert!(x("chamfer_x1000") >= 0.0 && x("chamfer_x1000") < 20.0, "{r}");
+    assert!(x("machining_time_s") > 0.0 && x("machining_time_s").is_finite(), "{r}");
+    assert_eq!(r["unsafe_parts"], 0, "{r}");
+}
+
+/// A Markdown table row as `to_markdown` prints it.
+fn md_row(r: &serde_json::Value) -> String {
+    let x = |k: &str| r[k].as_f64().unwrap();
+    format!(
+        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {} |",
+        r["name"].as_str().unwrap(),
+        x("iou"),
+        x("f1"),
+        x("chamfer_x1000"),
+        x("normal_consistency"),
+        x("machining_time_s"),
+        r["unsafe_parts"]
+    )
+}
+
+#[test]
+fn json_and_markdown_tables() {
+    let (json, md) = (eval("--json"), eval("--markdown"));
+    let (json, md) = (done(json), done(md));
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let md = String::from_utf8(md.stdout).unwrap();
+    // Progress goes to stderr, one line per run: 2 policies + 4 ablations.
+    assert_eq!(
+        String::from_utf8_lossy(&json.stderr).lines().count(),
+        6,
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+
+    assert_eq!(v["parts"], serde_json::json!(["cube10"]), "{v}");
+    // Tables 1 and 3: one row per policy, in the order asked.
+    let t1 = v["table1_policies"].as_array().unwrap();
+    let names: Vec<&str> = t1.iter().map(|r| r["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["heuristic", "coarse"], "{v}");
+    t1.iter().for_each(check_row);
+    // Table 2: coverage fractions, each at most the upper bound; ours at least the greedy.
+    let t2 = &v["table2_orientation"];
+    let c = |k: &str| t2[k].as_f64().unwrap_or_else(|| panic!("table 2 lacks {k}: {t2}"));
+    let ub = c("upper_bound");
+    assert!(ub > 0.0 && ub <= 1.0, "{t2}");
+    for k in ["six_axes", "random5", "random6", "plain_greedy", "ours"] {
+        assert!((0.0..=ub + 1e-12).contains(&c(k)), "{k}: {t2}");
+    }
+    assert!(c("ours") + 1e-12 >= c("plain_greedy"), "{t2}");
+    // Table 4: the heuristic with nothing removed, then without each strategy and the contour.
+    let t4 = v["table4_strategy_ablation"].as_array().unwrap();
+    let names: Vec<&str> = t4.iter().map(|r| r["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        ["none removed", "without zigzag", "without periphery", "without spiral", "without contour"],
+        "{v}"
+    );
+    t4.iter().for_each(check_row);
+    // "none removed" is the heuristic row of Table 1 (the same runs).
+    for k in &ROW_KEYS[1..] {
+        assert_eq!(t4[0][k], t1[0][k], "{k}: {v}");
+    }
+
+    // The Markdown has the same tables, with the same numbers (the runs are deterministic).
+    for h in [
+        "### Tables 1 and 3: policies",
+        "### Table 2: orientation selection (surface coverage)",
+        "### Table 4: clearing strategies removed one at a time",
+        "| | IoU | F1 | CD x1000 | NC | T (s) | unsafe |",
+        "| 6-axes | Rand(5) | Rand(6) | plain greedy | ours | upper bound |",
+    ] {
+        assert!(md.contains(h), "markdown lacks {h:?}:\n{md}");
+    }
+    assert!(md.starts_with("Parts: cube10\n"), "{md}");
+    for r in t1.iter().chain(t4) {
+        let row = md_row(r);
+        assert!(md.lines().any(|l| l == row), "markdown lacks {row:?}:\n{md}");
+    }
+    let cov = format!(
+        "| {:.2}% | {:.2}% | {:.2}% | {:.2}% | {:.2}% | {:.2}% |",
+        100.0 * c("six_axes"),
+        100.0 * c("random5"),
+        100.0 * c("random6"),
+        100.0 * c("plain_greedy"),
+        100.0 * c("ours"),
+        100.0 * ub
+    );
+    assert!(md.lines().any(|l| l == cov), "markdown lacks {cov:?}:\n{md}");
+}
+
+#[test]
+fn bad_arguments_fail_fast_with_one_line() {
+    let out = s2g()
+        .args(["eval", &data(MESH), "--res", "16", "--points", "256", "--policies", "bogus"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.lines().any(|l| l.starts_with("s2g: error:") && l.contains("bogus")), "{err}");
+    assert!(out.stdout.is_empty());
+    let dir = tempfile::tempdir().unwrap();
+    let out = s2g().args(["eval", "--corpus"]).arg(dir.path()).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("no mesh files"), "{err}");
+}
