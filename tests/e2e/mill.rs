@@ -8,7 +8,8 @@ use shape2gcode::geom::{
 };
 use shape2gcode::voxsim::{Cutter, SimOptions, Simulator, ToolTable};
 use shape2gcode::{
-    ActionSpace, HeuristicPolicy, MillError, MillOptions, Milled, ProgramLayout, SetupCount, mill,
+    ActionSpace, HeuristicPolicy, MillError, MillOptions, Milled, ProgramLayout, SetupCount, SetupProgram,
+    mill,
 };
 
 use super::common::{closed_meshes, data, rs274_errors};
@@ -18,6 +19,17 @@ fn mill_file(path: &std::path::Path, opts: &MillOptions) -> (Mesh, Milled) {
     let milled = mill(&mesh, &mut HeuristicPolicy::default(), opts, &mut |_| {})
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     (mesh, milled)
+}
+
+/// Setup `i` of `name` neither gouges the part nor rapids through material.
+fn assert_setup_safe(name: &str, i: usize, s: &SetupProgram) {
+    assert_eq!(s.gouge_voxels, 0, "{name}: setup {} gouges the part", i + 1);
+    assert!(
+        s.rapid_collision_lines.is_empty(),
+        "{name}: setup {} rapids through material at lines {:?}",
+        i + 1,
+        s.rapid_collision_lines
+    );
 }
 
 /// Every closed mesh mills with zero gouges and zero rapid collisions, every program
@@ -38,13 +50,7 @@ fn every_closed_mesh_mills_safely_and_meets_the_quality_targets() {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let (_, m) = mill_file(&path, &opts);
         for (i, s) in m.setups.iter().enumerate() {
-            assert_eq!(s.gouge_voxels, 0, "{name}: setup {} gouges the part", i + 1);
-            assert!(
-                s.rapid_collision_lines.is_empty(),
-                "{name}: setup {} rapids through material at lines {:?}",
-                i + 1,
-                s.rapid_collision_lines
-            );
+            assert_setup_safe(&name, i, s);
             let program = dir.path().join(format!("{name}.{}.ngc", i + 1));
             std::fs::write(&program, &s.text).unwrap();
             let errors = rs274_errors(&program);
@@ -200,13 +206,7 @@ fn rotary_layout_is_one_safe_program_scoring_like_the_per_setup_programs() {
             assert!(blocks[i].contains(" C"), "{name}: {}", blocks[i]);
             let d = (s.setup.tool_axis().into_inner() - p.setup.tool_axis().into_inner()).norm();
             assert!(d < 1e-5, "{name}: setup {} tool axis differs by {d}", i + 1);
-            assert_eq!(s.gouge_voxels, 0, "{name}: setup {} gouges", i + 1);
-            assert!(
-                s.rapid_collision_lines.is_empty(),
-                "{name}: setup {} rapids {:?}",
-                i + 1,
-                s.rapid_collision_lines
-            );
+            assert_setup_safe(&name, i, s);
         }
         assert_eq!(rot.simulation.gouge_voxels, 0, "{name}: gouges");
         assert_eq!(rot.rapid_collisions(), 0, "{name}: rapid collisions");
