@@ -208,10 +208,20 @@ pub enum Stage {
     Orientation,
     /// Features and the policy's choice.
     ActionSelection,
-    /// Planning and writing G-code.
-    GcodeTranslation,
-    /// Parsing the programs back and simulating them.
-    Simulation,
+    /// Planning and writing G-code of one setup.
+    GcodeTranslation {
+        /// The setup, 1-based.
+        setup: usize,
+        /// Number of setups.
+        setups: usize,
+    },
+    /// Parsing one setup's program back and simulating it.
+    Simulation {
+        /// The setup, 1-based.
+        setup: usize,
+        /// Number of setups.
+        setups: usize,
+    },
     /// Metrics.
     Scoring,
 }
@@ -435,7 +445,8 @@ pub fn mill(
         .collect();
     let wopts = WriterOptions { decimals, ..WriterOptions::default() };
     let mut trace = PathTrace::default();
-    let ctx = Ctx { part: &part, jobs: &jobs, sim: &sim, dialect: opts.dialect, wopts: &wopts };
+    let ctx =
+        Ctx { part: &part, target: &target, jobs: &jobs, sim: &sim, dialect: opts.dialect, wopts: &wopts };
     let setups = match (opts.layout, placements) {
         (ProgramLayout::Rotary(axes), Some(placements)) => {
             // Above this height (program +Z, rotary centre at the origin) the tool clears
@@ -563,10 +574,23 @@ impl Job {
 /// What both layouts share.
 struct Ctx<'a> {
     part: &'a Mesh,
+    /// The part's voxels on the simulation grid.
+    target: &'a VoxelGrid,
     jobs: &'a [Job],
     sim: &'a RefCell<Simulator>,
     dialect: Dialect,
     wopts: &'a WriterOptions,
+}
+
+impl Ctx<'_> {
+    /// The material still to cut: the simulated stock less the part. The part is never
+    /// cut, so counting it as material would make later setups trace the finished walls
+    /// again in air (rest machining skips what is gone, not what must stay).
+    fn excess(&self) -> Result<VoxelGrid, MillError> {
+        let mut g = self.sim.borrow_mut().residual_grid();
+        g.andnot(self.target).map_err(|e| MillError::Simulation(e.to_string()))?;
+        Ok(g)
+    }
 }
 
 fn sim_error(e: crate::voxsim::SimError) -> MillError {
@@ -581,9 +605,9 @@ fn mill_per_setup(
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Vec<SetupProgram>, MillError> {
     let mut setups = Vec::with_capacity(ctx.jobs.len());
-    let mut remaining = ctx.sim.borrow_mut().residual_grid();
+    let mut remaining = ctx.excess()?;
     for (i, job) in ctx.jobs.iter().enumerate() {
-        progress(Stage::GcodeTranslation);
+        progress(Stage::GcodeTranslation { setup: i + 1, setups: ctx.jobs.len() });
         let t = Instant::now();
         let rest = VoxelMaterial { grid: &remaining, setup: job.setup };
         let mut writer = GcodeWriter::new(Vec::new(), ctx.dialect, ctx.wopts.clone());
@@ -594,7 +618,7 @@ fn mill_per_setup(
             .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
         times.gcode_translation += t.elapsed().as_secs_f64();
 
-        progress(Stage::Simulation);
+        progress(Stage::Simulation { setup: i + 1, setups: ctx.jobs.len() });
         let t = Instant::now();
         // The simulator was flushed at the end of the previous setup: its counts so far
         // belong to earlier programs.
@@ -620,7 +644,7 @@ fn mill_per_setup(
             });
         }
         // Flushes the simulator, so its report is complete for this setup.
-        remaining = ctx.sim.borrow_mut().residual_grid();
+        remaining = ctx.excess()?;
         let sim = ctx.sim.borrow();
         let report = sim.report();
         let gouge_voxels = report.gouge_voxels - gouges_before;
@@ -747,12 +771,9 @@ impl RotarySource<'_, '_> {
     fn write_next(&mut self) -> Result<(), MillError> {
         let i = self.sections.len();
         let (job, place) = (&self.ctx.jobs[i], &self.placements[i]);
-        let (remaining, gouges_before) = {
-            let mut sim = self.ctx.sim.borrow_mut();
-            let grid = sim.residual_grid();
-            (grid, sim.report().gouge_voxels)
-        };
-        (self.progress)(Stage::GcodeTranslation);
+        let remaining = self.ctx.excess()?;
+        let gouges_before = self.ctx.sim.borrow().report().gouge_voxels;
+        (self.progress)(Stage::GcodeTranslation { setup: i + 1, setups: self.ctx.jobs.len() });
         let t = Instant::now();
         let program_err =
             |e: &dyn std::fmt::Display| MillError::Program { setup: i + 1, message: e.to_string() };
@@ -792,7 +813,7 @@ impl RotarySource<'_, '_> {
         });
         self.lines += text.lines().count() as u64;
         self.plan_seconds += t.elapsed().as_secs_f64();
-        (self.progress)(Stage::Simulation);
+        (self.progress)(Stage::Simulation { setup: i + 1, setups: self.ctx.jobs.len() });
         Ok(())
     }
 }

@@ -2,7 +2,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, RotaryAxes, parse_reader, parse_str};
+use s2g_gcode::{
+    Motion, MotionRecorder, MotionSink, ParseDialect, ParseOptions, RotaryAxes, parse_reader, parse_str,
+    parse_str_two_stage,
+};
 
 /// Counts motions and checks that move end points are finite.
 struct Count(u64);
@@ -45,4 +48,10 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(sa.lines, sb.lines);
         assert_eq!(a.0, b.0);
     }
+    // The two-stage parser (taken for inputs of 1 MiB and more) must agree exactly.
+    let (mut one, mut two) = (MotionRecorder::default(), MotionRecorder::default());
+    let s1 = parse_str(&text, &opts, &mut one).expect("infallible sink");
+    let s2 = parse_str_two_stage(&text, &opts, &mut two).expect("infallible sink");
+    assert_eq!(s1, s2);
+    assert_eq!(one.motions, two.motions);
 });

@@ -143,20 +143,30 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..MillOptions::default()
     };
 
-    let bar = ProgressBar::new_spinner();
+    // Steps: orientation, action selection, then planning and simulation per setup, then
+    // scoring; the number of setups is known once planning starts.
+    let bar = ProgressBar::new(3);
     bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        ProgressStyle::with_template("{spinner} {elapsed} [{bar:24}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.enable_steady_tick(Duration::from_millis(120));
     let mut progress = |stage: Stage| {
-        bar.set_message(match stage {
-            Stage::Orientation => "choosing tool orientations",
-            Stage::ActionSelection => "choosing tool, layer height and strategy",
-            Stage::GcodeTranslation => "planning toolpaths and writing G-code",
-            Stage::Simulation => "re-reading the G-code and simulating it",
-            Stage::Scoring => "scoring the residual stock",
-        });
+        let (pos, msg) = match stage {
+            Stage::Orientation => (0, "choosing tool orientations".to_string()),
+            Stage::ActionSelection => (1, "choosing tool, layer height and strategy".to_string()),
+            Stage::GcodeTranslation { setup, setups } => {
+                bar.set_length(3 + 2 * setups as u64);
+                (2 * setup as u64, format!("setup {setup}/{setups}: planning toolpaths and writing G-code"))
+            }
+            Stage::Simulation { setup, setups } => (
+                1 + 2 * setup as u64,
+                format!("setup {setup}/{setups}: re-reading the G-code and simulating it"),
+            ),
+            Stage::Scoring => (bar.length().unwrap_or(3) - 1, "scoring the residual stock".to_string()),
+        };
+        bar.set_position(pos);
+        bar.set_message(msg);
     };
     let milled = mill(&mesh, policy.as_mut(), &opts, &mut progress)
         .with_context(|| format!("milling {}", mesh_path.display()))?;

@@ -28,6 +28,8 @@ pub use crate::motion::{
     ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionRecorder, MotionSink,
     PECK_CLEARANCE_MM, Plane, SpindleDirection,
 };
+#[doc(hidden)]
+pub use crate::parser::parse_str_two_stage;
 pub use crate::parser::{ParseDialect, ParseOptions, ParseSummary, parse_file, parse_reader, parse_str};
 pub use crate::rotary::{rotary_angles, rotary_frame, rotary_twist};
 pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};

@@ -62,6 +62,8 @@ use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, Sp
 use crate::rotary::rotary_frame;
 use crate::writer::RotaryAxes;
 
+mod pipeline;
+
 const INCH: f64 = 25.4;
 /// LinuxCNC `RADIUS_TOLERANCE_INCH * MM_PER_INCH`: zero-radius and R-arc reach tolerance.
 const RADIUS_TOLERANCE_MM: f64 = 0.00005 * INCH;
@@ -161,6 +163,11 @@ pub struct ParseSummary {
 
 /// Parses G-code text into `sink`.
 ///
+/// Inputs of 1 MiB and more, on a machine with two or more cores, are parsed in two
+/// stages: a scoped second thread splits and lexes lines while this thread interprets
+/// them and calls `sink` (which therefore need not be `Send`). Summary, motions, errors
+/// and their columns are the same as in one stage; only the speed differs.
+///
 /// ```
 /// use s2g_gcode::{parse_str, Motion, MotionRecorder, ParseOptions};
 /// let mut rec = MotionRecorder::default();
@@ -174,7 +181,23 @@ pub fn parse_str<S: MotionSink>(
     opts: &ParseOptions,
     sink: &mut S,
 ) -> Result<ParseSummary, ParseError<S::Error>> {
-    parse_bytes(text.as_bytes(), opts, sink, true)
+    let b = text.as_bytes();
+    if pipeline::worthwhile(b.len()) {
+        return pipeline::parse_two_stage(b, opts, sink);
+    }
+    parse_bytes(b, opts, sink, true)
+}
+
+/// [`parse_str`] always in two stages (a lexing thread beside the interpreter), whatever
+/// the input's size. For the fuzz target, which checks it against [`parse_str`]; not
+/// part of the stable API.
+#[doc(hidden)]
+pub fn parse_str_two_stage<S: MotionSink>(
+    text: &str,
+    opts: &ParseOptions,
+    sink: &mut S,
+) -> Result<ParseSummary, ParseError<S::Error>> {
+    pipeline::parse_two_stage(text.as_bytes(), opts, sink)
 }
 
 /// [`parse_str`] over bytes; `fast_path: false` sends every block through the general
@@ -616,12 +639,22 @@ impl<'o> Interp<'o> {
     }
 
     fn line<S: MotionSink>(&mut self, line: &[u8], sink: &mut S) -> Result<(), ParseError<S::Error>> {
+        self.line_pre(line, None, sink)
+    }
+
+    /// [`Self::line`] with the line's words already lexed, when `pre` is given.
+    fn line_pre<S: MotionSink>(
+        &mut self,
+        line: &[u8],
+        pre: Option<pipeline::Pre<'_>>,
+        sink: &mut S,
+    ) -> Result<(), ParseError<S::Error>> {
         self.lineno += 1;
         self.summary.lines += 1;
         if self.done {
             return Ok(());
         }
-        match self.process(line, sink) {
+        match self.process(line, pre, sink) {
             Ok(()) => Ok(()),
             Err(Fail::Sink(e)) => Err(ParseError::Sink(e)),
             Err(Fail::Line(col, kind)) => self.record(col, kind),
@@ -873,6 +906,39 @@ impl<'o> Interp<'o> {
         Ok(true)
     }
 
+    /// Takes a line the pre-lexer took, as [`Self::lex`] would have left it.
+    #[inline]
+    fn load_pre(&mut self, pre: pipeline::Pre<'_>) -> bool {
+        let blk = &mut self.block;
+        blk.mask = 0;
+        blk.novalue = 0;
+        blk.ng = 0;
+        blk.nm = 0;
+        self.comments.clear();
+        self.assigns.clear();
+        let pipeline::Pre::Lexed { words, comments } = pre else { return false };
+        for w in words {
+            match w.letter {
+                b'g' => {
+                    blk.g[blk.ng] = (w.code, w.col);
+                    blk.ng += 1;
+                }
+                b'm' => {
+                    blk.m[blk.nm] = (w.code, w.col);
+                    blk.nm += 1;
+                }
+                l => {
+                    let k = (l - b'a') as usize;
+                    blk.mask |= bit(l);
+                    blk.vals[k] = w.value;
+                    blk.cols[k] = w.col;
+                }
+            }
+        }
+        self.comments.extend(comments.iter().map(|&(s, e)| (s as usize, e as usize)));
+        true
+    }
+
     /// Stores one word of the line being lexed (`l` lowercase, `at` its column).
     #[inline(always)]
     fn store_word(&mut self, l: u8, v: f64, at: usize) -> Res<(), ()> {
@@ -1008,11 +1074,21 @@ impl<'o> Interp<'o> {
 
     // ---------------------------------------------------------- interpretation
 
-    fn process<S: MotionSink>(&mut self, line: &[u8], sink: &mut S) -> Res<(), S::Error> {
+    fn process<S: MotionSink>(
+        &mut self,
+        line: &[u8],
+        pre: Option<pipeline::Pre<'_>>,
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
         if self.skip_o.is_some() && self.skipped_o_line(line) {
             return Ok(());
         }
-        let has = match self.lex(line) {
+        let lexed = match pre {
+            // Inside a skipped O-word block the full lexer decides.
+            Some(p) if self.skip_o.is_none() => Ok(self.load_pre(p)),
+            _ => self.lex(line),
+        };
+        let has = match lexed {
             Ok(h) => h,
             Err(Fail::Line(c, k)) => return Err(Fail::Line(c, k)),
             Err(Fail::Sink(())) => return Ok(()),

@@ -2,7 +2,10 @@
 
 use s2g_geom::{Point3, Setup, VoxelGrid};
 
-/// The material that remains before this setup, queried in the SETUP frame.
+/// The material that remains to be cut before this setup, queried in the SETUP frame:
+/// the stock left by earlier setups *less the finished part*. (The part may be included,
+/// and then walls that are already finished are traced again in air, but never cut
+/// into: the keep-out, not this map, protects the part.)
 ///
 /// One required method; it must be conservative (answer `true` when unsure), since a
 /// `false` makes the planner skip that area.
@@ -18,9 +21,9 @@ impl<F: Fn(&Point3, &Point3) -> bool + Sync> RemainingMaterial for F {
 }
 
 /// Remaining material as a voxel grid in the PART frame (e.g. voxsim's stock after the
-/// earlier setups), seen from a setup. A voxel holds material when its bit is set; a box
-/// query looks at every voxel whose centre lies within half a voxel of the box's
-/// part-frame bounding box.
+/// earlier setups, less the part's voxels), seen from a setup. A voxel holds material
+/// when its bit is set; a box query looks at every voxel whose centre lies within half a
+/// voxel of the box's part-frame bounding box.
 #[derive(Debug, Clone, Copy)]
 pub struct VoxelMaterial<'a> {
     /// The remaining material, part frame.

@@ -157,17 +157,20 @@ fn air_fraction(layers: &[LayerPlan], r: f64, air: impl Fn(&Point2, f64, f64) ->
     if cut > 0.0 { out / cut } else { 0.0 }
 }
 
-/// Three parts, two setups (+Z then -Z with the remaining material from simulating the
-/// first): path length, time and air-cutting fraction of the second setup per strategy.
+/// Three parts, two setups per strategy (+Z from the full stock, then -Z with the
+/// remaining material from simulating the first): path length and time of both setups,
+/// and the air-cutting fraction of the second.
 ///
-/// The planner's air fraction (no remaining voxel centre within half a voxel of the square
-/// of half-side r/2 under the cutter's centre, over the layer's slab) is checked against
-/// two independent estimates from the simulated voxels on the same samples: "cutter" (no
-/// voxel centre under the whole cutter, grown by half a voxel: a footprint containing the
-/// planner's, so never more air) and "centre" (none within r/2 of the centre line: a
-/// footprint inside the planner's, so never less air). "removable" (informational) is the
-/// air fraction against the remaining material that is not part of the target, under the
-/// whole cutter. Rest machining must never cut more than planning the second setup blind.
+/// The remaining material given to the planner is the simulated stock less the target
+/// (what is still to be cut). The planner's air fraction (no such voxel centre within half
+/// a voxel of the square of half-side r/2 under the cutter's centre, over the layer's
+/// slab) is checked against two independent estimates from the same voxels on the same
+/// samples: "cutter" (no voxel centre under the whole cutter, grown by half a voxel: a
+/// footprint containing the planner's, so never more air) and "centre" (none within r/2
+/// of the centre line: a footprint inside the planner's, so never less air). Rest
+/// machining must never cut more than planning the second setup blind, nor more than
+/// planning it with the part counted as material ("with part": finished walls traced
+/// again in air).
 #[test]
 fn strategy_comparison_table() {
     let parts: Vec<(&str, Mesh)> = vec![
@@ -176,9 +179,9 @@ fn strategy_comparison_table() {
         ("example002", openscad("openscad_Old_example002.stl")),
     ];
     println!(
-        "| part | strategy | setup-2 cutting length | blind | rapid length | time (s) | air fraction | cutter | centre | removable | gouges | rapid collisions |"
+        "| part | strategy | setup-1 length | setup-1 time (s) | setup-2 cutting length | with part | blind | rapid length | time (s) | air fraction | cutter | centre | gouges | rapid collisions |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, part) in &parts {
         let bb = part.bbox().expect("bbox");
         let e = bb.extent().max();
@@ -197,17 +200,17 @@ fn strategy_comparison_table() {
         let top = Setup::top();
         let bottom = Setup::six_axes()[1];
         let base = PlanOptions { layer_height: e / 16.0, stock: Some(stock), ..Default::default() };
-        let (_, r1, after_top) = simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
-            plan_setup(part, &top, &tool, &base, sim).expect("plan top")
-        });
-        assert_eq!(r1.gouge_voxels, 0, "{name}: top setup gouges");
         let r = tool.radius;
-        let material = Centres::new(&after_top, &bottom, 2.0 * r);
-        let mut removable_grid = after_top.clone();
-        removable_grid.andnot(&target).expect("same grid");
-        let removable = Centres::new(&removable_grid, &bottom, 2.0 * r);
-        let mut lengths = Vec::new();
+        let (mut lengths, mut removed) = (Vec::new(), Vec::new());
         for strategy in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Periphery, Strategy::Spiral] {
+            let top_opts = PlanOptions { strategy, ..base.clone() };
+            let (s1, r1, after_top) = simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
+                plan_setup(part, &top, &tool, &top_opts, sim).expect("plan top")
+            });
+            assert_eq!(r1.gouge_voxels, 0, "{name}: top setup gouges");
+            let mut removable_grid = after_top.clone();
+            removable_grid.andnot(&target).expect("same grid");
+            let removable = Centres::new(&removable_grid, &bottom, 2.0 * r);
             // The stock box in the bottom setup's frame.
             let inv = bottom.frame.inverse();
             let corners: Vec<_> = (0..8)
@@ -221,29 +224,36 @@ fn strategy_comparison_table() {
                 .collect();
             let sb = Aabb::from_points(&corners).expect("corners");
             let opts = PlanOptions { strategy, stock: Some(sb), ..base.clone() };
-            let rest = VoxelMaterial { grid: &after_top, setup: bottom };
+            let rest = VoxelMaterial { grid: &removable_grid, setup: bottom };
             let (summary, report, _) = simulate(after_top.clone(), &target, &tool, |sim| {
                 plan_setup_rest(part, &bottom, &tool, &opts, Some(&rest), sim).expect("plan bottom")
             });
             let air = summary.air_cut_fraction.expect("rest given");
             let (_, layers) = plan_layers::<()>(part, &bottom, &tool, &opts, Some(&rest)).expect("layers");
             let grown = (0.5 * r + 0.5 * h) * std::f64::consts::SQRT_2 + 1e-9;
-            let cutter = air_fraction(&layers, r, |p, z, za| !material.any(p, grown, z - h, za + h));
-            let centre = air_fraction(&layers, r, |p, z, za| !material.any(p, 0.5 * r, z, za));
-            let free = air_fraction(&layers, r, |p, z, za| !removable.any(p, r, z, za));
-            let mut blind_rec = MotionRecorder::default();
-            let blind = plan_setup(part, &bottom, &tool, &opts, &mut blind_rec).expect("plan bottom blind");
+            let cutter = air_fraction(&layers, r, |p, z, za| !removable.any(p, grown, z - h, za + h));
+            let centre = air_fraction(&layers, r, |p, z, za| !removable.any(p, 0.5 * r, z, za));
+            let with_part_rest = VoxelMaterial { grid: &after_top, setup: bottom };
+            let mut with_part_rec = MotionRecorder::default();
+            let with_part =
+                plan_setup_rest(part, &bottom, &tool, &opts, Some(&with_part_rest), &mut with_part_rec)
+                    .expect("plan bottom with the part as material");
+            let (blind, blind_report, _) = simulate(after_top.clone(), &target, &tool, |sim| {
+                plan_setup(part, &bottom, &tool, &opts, sim).expect("plan bottom blind")
+            });
             println!(
-                "| {name} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} |",
+                "| {name} | {} | {:.3} | {:.2} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {:.3} | {:.3} | {:.3} | {} | {} |",
                 strategy.name(),
+                s1.cutting_length,
+                s1.estimated_time_s,
                 summary.cutting_length,
+                with_part.cutting_length,
                 blind.cutting_length,
                 summary.rapid_length,
                 summary.estimated_time_s,
                 air,
                 cutter,
                 centre,
-                free,
                 report.gouge_voxels,
                 report.rapid_collision_voxels
             );
@@ -258,10 +268,31 @@ fn strategy_comparison_table() {
                 summary.cutting_length,
                 blind.cutting_length
             );
+            assert!(
+                summary.cutting_length <= with_part.cutting_length * (1.0 + 1e-9),
+                "{name}/{s}: rest machining cuts {} vs {} with the part as material",
+                summary.cutting_length,
+                with_part.cutting_length
+            );
             assert_eq!(report.gouge_voxels, 0, "{name}/{}: gouges", strategy.name());
             assert_eq!(report.rapid_collision_voxels, 0, "{name}/{}: rapid collisions", strategy.name());
             lengths.push(summary.cutting_length);
+            removed.push((report.removed_voxels, blind_report.removed_voxels));
         }
-        assert!(lengths.iter().all(|&l| l > 0.0), "{name}: every strategy cuts something: {lengths:?}");
+        // The blind plan goes everywhere, so what it removes is what the setup can reach:
+        // rest machining removes the same material (within a voxel layer along the paths
+        // it skipped as air), and cuts nothing only when the blind plan removes nothing.
+        for (s, (rest_removed, blind_removed)) in removed.iter().enumerate() {
+            let slack = 0.01 * *blind_removed as f64 + 8.0;
+            assert!(
+                *rest_removed as f64 >= *blind_removed as f64 - slack,
+                "{name}/strategy {s}: rest machining removes {rest_removed} voxels, blind {blind_removed}"
+            );
+            assert_eq!(
+                lengths[s] == 0.0,
+                *blind_removed == 0,
+                "{name}/strategy {s}: {lengths:?} {removed:?}"
+            );
+        }
     }
 }
