@@ -117,6 +117,18 @@ pub struct VisibilityContext<'a> {
     opts: VisibilityOptions,
     /// Samples on supporting triangles (bitset), when the hull cull is on.
     supported: Option<Vec<u64>>,
+    /// The mesh's vertices, for the support height of a direction.
+    vertices: Vec<Point3>,
+}
+
+/// What the rays of one direction share.
+struct Probe {
+    /// `orthonormal_basis(v)`, for the offset rays of tool-aware mode.
+    basis: (Vector3, Vector3),
+    /// The support height `max over vertices of v . x`, plus the grown margin: past the
+    /// plane `v . x = top` a ray along `v` cannot meet the part, so rays stop there (on
+    /// oblique directions well before the bounding box's exit).
+    top: Real,
 }
 
 impl std::fmt::Debug for VisibilityContext<'_> {
@@ -187,6 +199,7 @@ impl<'a> VisibilityContext<'a> {
             eps,
             opts: *opts,
             supported,
+            vertices: mesh.vertices().to_vec(),
         })
     }
 
@@ -225,17 +238,25 @@ impl<'a> VisibilityContext<'a> {
         if t.is_finite() { t.max(0.0) } else { 0.0 }
     }
 
-    /// Whether a ray from `o` along `v` leaves the box without hitting the part.
+    /// The shared data of direction `v`'s rays.
+    fn probe(&self, v: &UnitVector3) -> Probe {
+        let top = self.vertices.iter().map(|p| v.dot(&p.coords)).fold(Real::NEG_INFINITY, Real::max);
+        let grow = self.eps + self.opts.tool_radius.unwrap_or(0.0);
+        Probe { basis: orthonormal_basis(v), top: top + grow }
+    }
+
+    /// Whether a ray from `o` along `v` leaves the box, or passes the support plane of
+    /// `probe`, without hitting the part.
     #[inline]
-    fn free(&self, o: &Point3, v: &Vector3) -> bool {
-        let t = self.exit_distance(o, v);
+    fn free(&self, o: &Point3, v: &Vector3, probe: &Probe) -> bool {
+        let t = self.exit_distance(o, v).min(probe.top - v.dot(&o.coords));
         t <= 0.0 || !self.index.ray_hits_any(o, v, t)
     }
 
     /// Whether sample `i` is visible from tool axis `v` (see the module docs).
-    /// `basis` is `orthonormal_basis(v)`, only used in tool-aware mode.
+    /// `probe` is `self.probe(v)`.
     #[inline]
-    fn visible_with(&self, i: usize, v: &Vector3, basis: &(Vector3, Vector3)) -> bool {
+    fn visible_with(&self, i: usize, v: &Vector3, probe: &Probe) -> bool {
         let n = &self.normals[i];
         if n.dot(v).partial_cmp(&self.opts.min_cos) != Some(std::cmp::Ordering::Greater) {
             return false;
@@ -246,18 +267,18 @@ impl<'a> VisibilityContext<'a> {
                 if self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1) {
                     return true;
                 }
-                self.free(&(p + n * self.eps), v)
+                self.free(&(p + n * self.eps), v, probe)
             }
             Some(r) => {
                 let c = p + n * (r + self.eps);
-                if !self.free(&c, v) {
+                if !self.free(&c, v, probe) {
                     return false;
                 }
                 let k = self.opts.tool_rays;
                 (0..k).all(|j| {
                     let t = std::f64::consts::TAU * j as Real / k as Real;
-                    let off = (basis.0 * t.cos() + basis.1 * t.sin()) * r;
-                    self.free(&(c + off), v)
+                    let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
+                    self.free(&(c + off), v, probe)
                 })
             }
         }
@@ -265,26 +286,24 @@ impl<'a> VisibilityContext<'a> {
 
     /// Whether sample `i` is visible from tool axis `v`.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        let basis = orthonormal_basis(v);
-        i < self.points.len() && self.visible_with(i, v, &basis)
+        i < self.points.len() && self.visible_with(i, v, &self.probe(v))
     }
 
     /// Writes the bitset of samples visible from `v` into `out` (`words()` long),
     /// sequentially.
     pub fn row_into(&self, v: &UnitVector3, out: &mut [u64]) {
-        let basis = orthonormal_basis(v);
-        self.fill_words(v, &basis, 0, out);
+        self.fill_words(v, &self.probe(v), 0, out);
     }
 
-    fn fill_words(&self, v: &UnitVector3, basis: &(Vector3, Vector3), first_word: usize, out: &mut [u64]) {
-        self.fill_words_masked(v, basis, first_word, out, None);
+    fn fill_words(&self, v: &UnitVector3, probe: &Probe, first_word: usize, out: &mut [u64]) {
+        self.fill_words_masked(v, probe, first_word, out, None);
     }
 
     /// Fills `out` with visibility bits, skipping (leaving clear) the samples set in `skip`.
     fn fill_words_masked(
         &self,
         v: &UnitVector3,
-        basis: &(Vector3, Vector3),
+        probe: &Probe,
         first_word: usize,
         out: &mut [u64],
         skip: Option<&[u64]>,
@@ -298,7 +317,7 @@ impl<'a> VisibilityContext<'a> {
             while todo != 0 {
                 let b = todo.trailing_zeros() as usize;
                 todo &= todo - 1;
-                if self.visible_with(base + b, v, basis) {
+                if self.visible_with(base + b, v, probe) {
                     bits |= 1 << b;
                 }
             }
@@ -318,20 +337,20 @@ impl<'a> VisibilityContext<'a> {
                 self.words()
             )));
         }
-        let basis = orthonormal_basis(v);
+        let probe = self.probe(v);
         let mut out = vec![0u64; self.words()];
         out.par_chunks_mut(8)
             .enumerate()
-            .for_each(|(c, chunk)| self.fill_words_masked(v, &basis, c * 8, chunk, Some(skip)));
+            .for_each(|(c, chunk)| self.fill_words_masked(v, &probe, c * 8, chunk, Some(skip)));
         Ok(out)
     }
 
     /// The bitset of samples visible from `v`, computed in parallel over the samples
     /// (for one direction at a time, e.g. refinement).
     pub fn row(&self, v: &UnitVector3) -> Vec<u64> {
-        let basis = orthonormal_basis(v);
+        let probe = self.probe(v);
         let mut out = vec![0u64; self.words()];
-        out.par_chunks_mut(8).enumerate().for_each(|(c, chunk)| self.fill_words(v, &basis, c * 8, chunk));
+        out.par_chunks_mut(8).enumerate().for_each(|(c, chunk)| self.fill_words(v, &probe, c * 8, chunk));
         out
     }
 
@@ -349,14 +368,14 @@ impl<'a> VisibilityContext<'a> {
     /// direction for a block of 64 samples); the alternative schedule to [`Self::matrix`].
     pub fn matrix_by_points(&self, dirs: &[UnitVector3]) -> VisibilityMatrix {
         let words = self.words();
-        let bases: Vec<(Vector3, Vector3)> = dirs.iter().map(orthonormal_basis).collect();
+        let probes: Vec<Probe> = dirs.iter().map(|v| self.probe(v)).collect();
         // Column blocks: block w holds word w of every direction.
         let blocks: Vec<Vec<u64>> = (0..words)
             .into_par_iter()
             .map(|w| {
                 let mut col = vec![0u64; dirs.len()];
                 for (d, v) in dirs.iter().enumerate() {
-                    self.fill_words(v, &bases[d], w, std::slice::from_mut(&mut col[d]));
+                    self.fill_words(v, &probes[d], w, std::slice::from_mut(&mut col[d]));
                 }
                 col
             })
