@@ -71,10 +71,63 @@ pub(crate) struct Cursor<'a> {
 
 type R<T> = Result<T, (usize, GcodeErrorKind)>;
 
-pub(crate) const POW10: [f64; 23] = [
+const POW10: [f64; 23] = [
     1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18,
     1e19, 1e20, 1e21, 1e22,
 ];
+
+/// Reads the digits at `b[i..]` into `mant` (wrapping: the caller checks the count).
+/// Returns how many there were and where they end.
+#[inline(always)]
+fn digits(b: &[u8], mut i: usize, mant: &mut u64) -> (u32, usize) {
+    let mut nd = 0;
+    while let Some(&c) = b.get(i) {
+        let d = c.wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        *mant = mant.wrapping_mul(10).wrapping_add(d as u64);
+        nd += 1;
+        i += 1;
+    }
+    (nd, i)
+}
+
+/// A number `[sign]digits[.digits]` at `b[i..]` (no leading blanks) read exactly by
+/// Clinger's fast path, and where it ends: at most 19 digits, mantissa below 2^53, one
+/// correctly rounded division by an exact power of ten (none for integers: codes, feeds
+/// and line numbers are mostly whole). `None` for anything else, including blanks inside
+/// the number (`X1 2`), which the general reader handles.
+#[inline(always)]
+pub(crate) fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
+    let neg = match b.get(i) {
+        Some(&c @ (b'-' | b'+')) => {
+            i += 1;
+            c == b'-'
+        }
+        _ => false,
+    };
+    let mut mant = 0u64;
+    let (mut nd, end) = digits(b, i, &mut mant);
+    i = end;
+    let mut frac = 0;
+    if b.get(i) == Some(&b'.') {
+        (frac, i) = digits(b, i + 1, &mut mant);
+        nd += frac;
+    }
+    let mut j = i;
+    while let Some(b' ' | b'\t') = b.get(j) {
+        j += 1;
+    }
+    let blank_continues = j > i && matches!(b.get(j), Some(b'0'..=b'9' | b'.'));
+    if nd == 0 || nd > 19 || mant >= (1 << 53) || frac as usize >= POW10.len() || blank_continues {
+        return None;
+    }
+    // `mant < 2^53`: the signed conversion is exact and one instruction.
+    let m = mant as i64 as f64;
+    let v = if frac == 0 { m } else { m / POW10[frac as usize] };
+    Some((if neg { -v } else { v }, i))
+}
 
 impl<'a> Cursor<'a> {
     #[inline]
@@ -97,63 +150,21 @@ impl<'a> Cursor<'a> {
 
     /// A plain decimal number with optional sign; blanks between its characters are skipped.
     ///
-    /// Fast path: `[sign]digits[.digits]` with at most 19 digits, converted exactly
-    /// (Clinger); anything else goes through [`Self::number_general`].
+    /// Fast path: [`plain_number`] after leading blanks; anything else goes through
+    /// [`Self::number_general`].
     #[inline]
     pub fn number(&mut self) -> R<f64> {
-        let b = self.b;
-        let n = b.len();
         let mut i = self.i;
-        while i < n && (b[i] == b' ' || b[i] == b'\t') {
+        while let Some(b' ' | b'\t') = self.b.get(i) {
             i += 1;
         }
-        let mut neg = false;
-        if i < n && (b[i] == b'-' || b[i] == b'+') {
-            neg = b[i] == b'-';
-            i += 1;
-        }
-        let mut mant: u64 = 0;
-        let mut nd = 0u32;
-        while i < n {
-            let d = b[i].wrapping_sub(b'0');
-            if d > 9 {
-                break;
+        match plain_number(self.b, i) {
+            Some((v, end)) => {
+                self.i = end;
+                Ok(v)
             }
-            mant = mant.wrapping_mul(10).wrapping_add(d as u64);
-            nd += 1;
-            i += 1;
+            None => self.number_general(),
         }
-        let mut frac = 0u32;
-        if i < n && b[i] == b'.' {
-            i += 1;
-            while i < n {
-                let d = b[i].wrapping_sub(b'0');
-                if d > 9 {
-                    break;
-                }
-                mant = mant.wrapping_mul(10).wrapping_add(d as u64);
-                nd += 1;
-                frac += 1;
-                i += 1;
-            }
-        }
-        let blank_continues = i < n && (b[i] == b' ' || b[i] == b'\t') && {
-            let mut j = i;
-            while j < n && (b[j] == b' ' || b[j] == b'\t') {
-                j += 1;
-            }
-            j < n && (b[j].is_ascii_digit() || b[j] == b'.')
-        };
-        if nd == 0 || nd > 19 || blank_continues || mant >= (1u64 << 53) || frac as usize >= POW10.len() {
-            return self.number_general();
-        }
-        self.i = i;
-        // Clinger's fast path: both operands exact, one correctly rounded division
-        // (none for integers: codes, feeds and line numbers are mostly whole).
-        // `mant < 2^53`: the signed conversion is exact and one instruction.
-        let m = mant as i64 as f64;
-        let v = if frac == 0 { m } else { m / POW10[frac as usize] };
-        Ok(if neg { -v } else { v })
     }
 
     /// The general number reader: blanks inside the number, many digits.

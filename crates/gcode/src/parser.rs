@@ -2334,9 +2334,35 @@ mod tests {
         assert_eq!(a.motions, b.motions, "{what}: motions differ\n{}", String::from_utf8_lossy(text));
     }
 
-    fn dialects() -> [ParseOptions; 3] {
+    pub(super) fn dialects() -> [ParseOptions; 3] {
         [ParseDialect::Auto, ParseDialect::Cnc, ParseDialect::Fdm]
             .map(|dialect| ParseOptions { dialect, ..ParseOptions::default() })
+    }
+
+    /// Every program of tests/data (CNC programs, FDM G-code, odd files): name and bytes.
+    pub(super) fn sample_files() -> Vec<(String, Vec<u8>)> {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
+        let mut out = Vec::new();
+        for dir in ["cnc/programs", "fdm/gcode", "cnc/odd"] {
+            let entries = std::fs::read_dir(root.join(dir)).unwrap_or_else(|e| panic!("{dir}: {e}"));
+            for e in entries {
+                let path = e.expect("dir entry").path();
+                out.push((path.display().to_string(), std::fs::read(&path).expect("read")));
+            }
+        }
+        assert!(out.len() >= 8, "only {} sample files", out.len());
+        out
+    }
+
+    /// A SplitMix64 stream from `seed`.
+    pub(super) fn splitmix(mut state: u64) -> impl FnMut() -> u64 {
+        move || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
     }
 
     #[test]
@@ -2373,33 +2399,17 @@ mod tests {
 
     #[test]
     fn fast_path_agrees_with_the_general_interpreter_on_samples() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
-        let mut n = 0;
-        for dir in ["cnc/programs", "fdm/gcode", "cnc/odd"] {
-            let entries = std::fs::read_dir(root.join(dir)).unwrap_or_else(|e| panic!("{dir}: {e}"));
-            for e in entries {
-                let path = e.expect("dir entry").path();
-                let text = std::fs::read(&path).expect("read");
-                for opts in dialects() {
-                    both(&text, &opts, &path.display().to_string());
-                }
-                n += 1;
+        for (name, text) in sample_files() {
+            for opts in dialects() {
+                both(&text, &opts, &name);
             }
         }
-        assert!(n >= 8, "only {n} sample files");
     }
 
     #[test]
     fn fast_path_agrees_with_the_general_interpreter_on_random_blocks() {
-        // SplitMix64: random blocks of the words the fast path takes and of their neighbours.
-        let mut state = 0x5EED_u64;
-        let mut next = move || {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        };
+        // Random blocks of the words the fast path takes and of their neighbours.
+        let mut next = splitmix(0x5EED);
         let words = [
             "G0", "G1", "G2", "G3", "G20", "G21", "G90", "G91", "G80", "G53", "G4", "G92", "G10", "G11",
             "M3", "M82", "M83", "X", "Y", "Z", "E", "F", "N", "S", "T", "R", "I", "J", "P", "A", "(c)", ";t",

@@ -9,7 +9,7 @@
 use std::sync::mpsc;
 
 use super::{Interp, MotionSink, ParseError, ParseOptions, ParseSummary, find_eol, plain_code};
-use crate::expr::{Cursor, POW10};
+use crate::expr::{Cursor, plain_number};
 
 /// Inputs at least this long are parsed in two stages when two cores are available.
 pub(super) const MIN_BYTES: usize = 1 << 20;
@@ -133,59 +133,6 @@ fn quick_lex(b: &[u8], words: &mut Vec<Word>, comments: &mut Vec<(u32, u32)>) ->
     Some(Kind::Lexed)
 }
 
-/// A number `[sign]digits[.digits]` at `b[i..]` that [`Cursor::number`] reads exactly on
-/// its fast path (Clinger: at most 19 digits, mantissa below 2^53), with the same value,
-/// and where it ends; `None` for anything else.
-#[inline(always)]
-fn plain_number(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
-    let neg = match b.get(i) {
-        Some(b'-') => {
-            i += 1;
-            true
-        }
-        Some(b'+') => {
-            i += 1;
-            false
-        }
-        _ => false,
-    };
-    let (mut mant, mut nd, mut frac) = (0u64, 0u32, 0u32);
-    while let Some(&c) = b.get(i) {
-        let d = c.wrapping_sub(b'0');
-        if d > 9 {
-            break;
-        }
-        mant = mant.wrapping_mul(10).wrapping_add(d as u64);
-        nd += 1;
-        i += 1;
-    }
-    if b.get(i) == Some(&b'.') {
-        i += 1;
-        while let Some(&c) = b.get(i) {
-            let d = c.wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            mant = mant.wrapping_mul(10).wrapping_add(d as u64);
-            nd += 1;
-            frac += 1;
-            i += 1;
-        }
-    }
-    // Blanks inside the number (`X1 2`) are the general reader's.
-    let mut j = i;
-    while let Some(b' ' | b'\t') = b.get(j) {
-        j += 1;
-    }
-    let blank_continues = j > i && matches!(b.get(j), Some(b'0'..=b'9' | b'.'));
-    if nd == 0 || nd > 19 || mant >= (1 << 53) || frac as usize >= POW10.len() || blank_continues {
-        return None;
-    }
-    let m = mant as i64 as f64;
-    let v = if frac == 0 { m } else { m / POW10[frac as usize] };
-    Some((if neg { -v } else { v }, i))
-}
-
 /// Splits `b[from..]` into lines (the one-thread parser's rule: `\n`, `\r\n` or a lone
 /// `\r`) and pre-lexes up to [`CHUNK_LINES`] of them into `chunk`. Returns where the
 /// next chunk starts.
@@ -282,7 +229,8 @@ pub(super) fn parse_two_stage<S: MotionSink>(
 mod tests {
     use super::*;
     use crate::motion::MotionRecorder;
-    use crate::parser::{ParseDialect, parse_bytes};
+    use crate::parser::parse_bytes;
+    use crate::parser::tests::{dialects, sample_files, splitmix};
 
     /// The two-stage parser against the one-thread one, on the same bytes.
     fn agree(text: &[u8], opts: &ParseOptions, what: &str) {
@@ -294,42 +242,22 @@ mod tests {
         assert_eq!(a.motions, b.motions, "{what}: motions differ");
     }
 
-    fn dialects() -> [ParseOptions; 3] {
-        [ParseDialect::Auto, ParseDialect::Cnc, ParseDialect::Fdm]
-            .map(|dialect| ParseOptions { dialect, ..ParseOptions::default() })
-    }
-
     #[test]
     fn two_stages_agree_with_one_on_every_sample_file() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
-        let mut n = 0;
-        for dir in ["cnc/programs", "fdm/gcode", "cnc/odd"] {
-            for e in std::fs::read_dir(root.join(dir)).unwrap_or_else(|e| panic!("{dir}: {e}")) {
-                let path = e.expect("dir entry").path();
-                let text = std::fs::read(&path).expect("read");
-                for opts in dialects() {
-                    agree(&text, &opts, &path.display().to_string());
-                    let stop = ParseOptions { stop_at_program_end: false, ..opts.clone() };
-                    agree(&text, &stop, &path.display().to_string());
-                }
-                n += 1;
+        for (name, text) in sample_files() {
+            for opts in dialects() {
+                agree(&text, &opts, &name);
+                let stop = ParseOptions { stop_at_program_end: false, ..opts.clone() };
+                agree(&text, &stop, &name);
             }
         }
-        assert!(n >= 8, "only {n} sample files");
     }
 
     #[test]
     fn two_stages_agree_with_one_on_random_text_across_chunks() {
         // SplitMix64 over a vocabulary that mixes lines the pre-lexer takes with lines it
         // leaves to the full lexer, long enough to span several chunks.
-        let mut state = 0xC0FFEE_u64;
-        let mut next = move || {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        };
+        let mut next = splitmix(0xC0FFEE);
         let words = [
             "G0",
             "G1",
