@@ -309,7 +309,7 @@ mod tests {
                     if w.len() == 1 || w.ends_with(['-', '+']) {
                         text.push_str(&format!("{}", (next() % 4000) as f64 / 8.0));
                     }
-                    if next() % 3 != 0 {
+                    if !next().is_multiple_of(3) {
                         text.push(' ');
                     }
                 }
