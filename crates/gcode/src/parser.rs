@@ -696,9 +696,9 @@ impl<'o> Interp<'o> {
 
     // ----------------------------------------------------------------- lexing
 
-    /// Splits a line into words, comments and parameter assignments. Returns `false` for
-    /// a line with nothing to execute.
-    fn lex(&mut self, b: &[u8]) -> Res<bool, ()> {
+    /// Forgets the previous line's words, comments and assignments.
+    #[inline]
+    fn clear_line(&mut self) {
         let blk = &mut self.block;
         blk.mask = 0;
         blk.novalue = 0;
@@ -706,6 +706,12 @@ impl<'o> Interp<'o> {
         blk.nm = 0;
         self.comments.clear();
         self.assigns.clear();
+    }
+
+    /// Splits a line into words, comments and parameter assignments. Returns `false` for
+    /// a line with nothing to execute.
+    fn lex(&mut self, b: &[u8]) -> Res<bool, ()> {
+        self.clear_line();
         let mut c = Cursor { b, i: 0 };
         c.skip_ws();
         if c.i >= b.len() {
@@ -909,13 +915,8 @@ impl<'o> Interp<'o> {
     /// Takes a line the pre-lexer took, as [`Self::lex`] would have left it.
     #[inline]
     fn load_pre(&mut self, pre: pipeline::Pre<'_>) -> bool {
+        self.clear_line();
         let blk = &mut self.block;
-        blk.mask = 0;
-        blk.novalue = 0;
-        blk.ng = 0;
-        blk.nm = 0;
-        self.comments.clear();
-        self.assigns.clear();
         let pipeline::Pre::Lexed { words, comments } = pre else { return false };
         for w in words {
             match w.letter {
@@ -2325,13 +2326,26 @@ mod tests {
     use super::*;
     use crate::motion::MotionRecorder;
 
-    fn both(text: &[u8], opts: &ParseOptions, what: &str) {
+    /// Asserts that `other` parses `text` exactly as the one-stage fast path does.
+    pub(super) fn assert_same_parse(
+        text: &[u8],
+        opts: &ParseOptions,
+        what: &str,
+        other: impl Fn(&[u8], &ParseOptions, &mut MotionRecorder) -> ParseSummary,
+    ) {
         let mut a = MotionRecorder::default();
         let mut b = MotionRecorder::default();
         let sa = parse_bytes(text, opts, &mut a, true).expect("infallible sink");
-        let sb = parse_bytes(text, opts, &mut b, false).expect("infallible sink");
+        let sb = other(text, opts, &mut b);
         assert_eq!(sa, sb, "{what}: summaries differ\n{}", String::from_utf8_lossy(text));
         assert_eq!(a.motions, b.motions, "{what}: motions differ\n{}", String::from_utf8_lossy(text));
+    }
+
+    /// The fast path against the general interpreter.
+    fn both(text: &[u8], opts: &ParseOptions, what: &str) {
+        assert_same_parse(text, opts, what, |t, o, rec| {
+            parse_bytes(t, o, rec, false).expect("infallible sink")
+        });
     }
 
     pub(super) fn dialects() -> [ParseOptions; 3] {

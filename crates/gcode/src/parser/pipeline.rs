@@ -228,18 +228,11 @@ pub(super) fn parse_two_stage<S: MotionSink>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::MotionRecorder;
-    use crate::parser::parse_bytes;
-    use crate::parser::tests::{dialects, sample_files, splitmix};
+    use crate::parser::tests::{assert_same_parse, dialects, sample_files, splitmix};
 
     /// The two-stage parser against the one-thread one, on the same bytes.
     fn agree(text: &[u8], opts: &ParseOptions, what: &str) {
-        let mut a = MotionRecorder::default();
-        let mut b = MotionRecorder::default();
-        let sa = parse_bytes(text, opts, &mut a, true).expect("infallible sink");
-        let sb = parse_two_stage(text, opts, &mut b).expect("infallible sink");
-        assert_eq!(sa, sb, "{what}: summaries differ");
-        assert_eq!(a.motions, b.motions, "{what}: motions differ");
+        assert_same_parse(text, opts, what, |t, o, rec| parse_two_stage(t, o, rec).expect("infallible sink"));
     }
 
     #[test]
