@@ -351,6 +351,16 @@ fn find_eol(b: &[u8]) -> Option<usize> {
     chunks.remainder().iter().position(|&c| c == b'\n' || c == b'\r').map(|k| i + k)
 }
 
+/// Whether a plain number (digit or dot, after at most a sign) starts at `b[i]`.
+#[inline(always)]
+fn starts_plain_number(b: &[u8], i: usize) -> bool {
+    match b.get(i) {
+        Some(b'0'..=b'9' | b'.') => true,
+        Some(b'-' | b'+') => matches!(b.get(i + 1), Some(b'0'..=b'9' | b'.')),
+        _ => false,
+    }
+}
+
 /// A G code (× 10: `G91.1` is 911) or M code written as plain digits at `b[i..]`
 /// (`1`, `01`, `91.1`), and where it ends; `None` for anything else (signs, blanks inside,
 /// more decimals, out of range), which the general number reader then handles.
@@ -815,12 +825,7 @@ impl<'o> Interp<'o> {
                     let l = ch.to_ascii_lowercase();
                     c.i += 1;
                     // Fast path: a plain number right after the letter (`X12.5`, `Y-3`, `F.5`).
-                    let plain = match b.get(c.i) {
-                        Some(b'0'..=b'9' | b'.') => true,
-                        Some(b'-' | b'+') => matches!(b.get(c.i + 1), Some(b'0'..=b'9' | b'.')),
-                        _ => false,
-                    };
-                    if plain && l != b'o' {
+                    if starts_plain_number(b, c.i) && l != b'o' {
                         if (l == b'g' || l == b'm')
                             && let Some((code, next)) = plain_code(b, c.i, l == b'g')
                         {

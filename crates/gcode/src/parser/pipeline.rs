@@ -8,7 +8,9 @@
 
 use std::sync::mpsc;
 
-use super::{Interp, MotionSink, ParseError, ParseOptions, ParseSummary, find_eol, plain_code};
+use super::{
+    Interp, MotionSink, ParseError, ParseOptions, ParseSummary, find_eol, plain_code, starts_plain_number,
+};
 use crate::expr::{Cursor, plain_number};
 
 /// Inputs at least this long are parsed in two stages when two cores are available.
@@ -96,12 +98,7 @@ fn quick_lex(b: &[u8], words: &mut Vec<Word>, comments: &mut Vec<(u32, u32)>) ->
             _ if ch.is_ascii_alphabetic() => {
                 let l = ch.to_ascii_lowercase();
                 c.i += 1;
-                let plain = match b.get(c.i) {
-                    Some(b'0'..=b'9' | b'.') => true,
-                    Some(b'-' | b'+') => matches!(b.get(c.i + 1), Some(b'0'..=b'9' | b'.')),
-                    _ => false,
-                };
-                if !plain || l == b'o' {
+                if !starts_plain_number(b, c.i) || l == b'o' {
                     return None;
                 }
                 if l == b'g' || l == b'm' {
