@@ -284,9 +284,12 @@ impl<'a> VisibilityContext<'a> {
         }
     }
 
-    /// Whether sample `i` is visible from tool axis `v`.
+    /// Whether sample `i` is visible from tool axis `v`. One sample does not pay for the
+    /// support plane (a pass over every vertex): its rays run to the box's exit, which
+    /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        i < self.points.len() && self.visible_with(i, v, &self.probe(v))
+        let probe = Probe { basis: orthonormal_basis(v), top: Real::INFINITY };
+        i < self.points.len() && self.visible_with(i, v, &probe)
     }
 
     /// Writes the bitset of samples visible from `v` into `out` (`words()` long),
