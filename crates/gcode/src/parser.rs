@@ -752,6 +752,9 @@ impl<'o> Interp<'o> {
             self.seen_percent = true;
             return Ok(false);
         }
+        // The end of the last run of letters scanned for a function call, and whether a '['
+        // follows it.
+        let mut letter_run = (0usize, false);
         loop {
             c.skip_ws();
             let Some(&ch) = b.get(c.i) else { break };
@@ -873,16 +876,18 @@ impl<'o> Interp<'o> {
                     let value = match nx {
                         None | Some(b';' | b'(' | b'*') => None,
                         Some(n) if n.is_ascii_alphabetic() => {
-                            let mut j = c.i;
-                            while j < b.len() && (b[j].is_ascii_alphabetic() || b[j] == b' ' || b[j] == b'\t')
-                            {
-                                j += 1;
+                            // Every letter of one run of letters and blanks ends at the same
+                            // place, so the run is scanned once, not once per letter.
+                            if c.i >= letter_run.0 {
+                                let mut j = c.i;
+                                while j < b.len()
+                                    && (b[j].is_ascii_alphabetic() || b[j] == b' ' || b[j] == b'\t')
+                                {
+                                    j += 1;
+                                }
+                                letter_run = (j, b.get(j) == Some(&b'['));
                             }
-                            if b.get(j) == Some(&b'[') {
-                                Some(c.real_value(&mut self.params, 0)?)
-                            } else {
-                                None
-                            }
+                            if letter_run.1 { Some(c.real_value(&mut self.params, 0)?) } else { None }
                         }
                         Some(_) => Some(c.real_value(&mut self.params, 0)?),
                     };

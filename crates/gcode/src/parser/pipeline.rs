@@ -1,11 +1,17 @@
-//! Two-stage parsing of large in-memory programs: a second thread splits the text into
-//! lines and lexes the plain ones (letters with plain numbers and comments, which are
-//! nearly all lines of real programs), while the calling thread interprets them and
-//! feeds the sink. Lexing a plain line needs no interpreter state, so the result is the
-//! same as the one-thread parser's, line for line; any line the pre-lexer does not take
-//! (parameters, expressions, O words, checksums, block delete, errors) is lexed again by
-//! the full lexer on the interpreting thread, so its errors and columns are the same too.
+//! Two-stage parsing of large in-memory programs. The text is cut into chunks of about
+//! [`CHUNK_BYTES`], each ending just after a `\n`, so every chunk starts a line and can be
+//! split into lines and lexed on its own. Lexing a plain line (letters with plain numbers
+//! and comments, which are nearly all lines of real programs) needs no interpreter state.
+//! A second thread lexes chunks ahead, while the calling thread interprets them in order and
+//! feeds the sink; whenever the next chunk is not lexed yet, the calling thread lexes one
+//! itself instead of waiting, so the two cores share the lexing and neither idles.
+//!
+//! The result is the one-thread parser's, line for line: any line the pre-lexer does not
+//! take (parameters, expressions, O words, checksums, block delete, errors) is lexed again
+//! by the full lexer on the interpreting thread, so its errors and columns are the same too.
 
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 
 use super::{
@@ -16,8 +22,11 @@ use crate::expr::{Cursor, plain_number};
 /// Inputs at least this long are parsed in two stages when two cores are available.
 pub(super) const MIN_BYTES: usize = 1 << 20;
 
-/// Lines per chunk handed from the lexing thread to the interpreter.
-const CHUNK_LINES: usize = 4096;
+/// Bytes per chunk, before it is stretched to the end of its last line.
+const CHUNK_BYTES: usize = 128 << 10;
+
+/// Lexed chunks the second thread may hold ready before it waits for the interpreter.
+const AHEAD: usize = 4;
 
 /// One pre-lexed word: a G or M code (`code`, G × 10) or a letter with its value.
 #[derive(Clone, Copy)]
@@ -130,16 +139,37 @@ fn quick_lex(b: &[u8], words: &mut Vec<Word>, comments: &mut Vec<(u32, u32)>) ->
     Some(Kind::Lexed)
 }
 
-/// Splits `b[from..]` into lines (the one-thread parser's rule: `\n`, `\r\n` or a lone
-/// `\r`) and pre-lexes up to [`CHUNK_LINES`] of them into `chunk`. Returns where the
-/// next chunk starts.
-fn fill(b: &[u8], from: usize, chunk: &mut Chunk) -> usize {
+/// Where the chunk boundary at or after byte `at` is: just after the first `\n` at or after
+/// `at - 1`, the start or the end of `b`. Cutting only after a `\n` keeps `\r\n` together
+/// and never splits a line, whatever its terminator.
+fn boundary(b: &[u8], at: usize) -> usize {
+    if at == 0 || at >= b.len() {
+        return at.min(b.len());
+    }
+    b[at - 1..].iter().position(|&c| c == b'\n').map_or(b.len(), |k| at + k)
+}
+
+/// The bytes of chunk `k`.
+fn chunk_range(b: &[u8], k: usize) -> std::ops::Range<usize> {
+    let at = |k: usize| boundary(b, k.saturating_mul(CHUNK_BYTES));
+    at(k)..at(k + 1)
+}
+
+/// Number of chunks of `b`. A line longer than a chunk leaves the chunks it swallows
+/// empty; they cost nothing.
+fn chunk_count(b: &[u8]) -> usize {
+    b.len().div_ceil(CHUNK_BYTES)
+}
+
+/// Splits `b[range]` into lines (the one-thread parser's rule: `\n`, `\r\n` or a lone
+/// `\r`) and pre-lexes them into `chunk`.
+fn fill(b: &[u8], range: std::ops::Range<usize>, chunk: &mut Chunk) {
     chunk.lines.clear();
     chunk.words.clear();
     chunk.comments.clear();
-    let mut i = from;
-    while i < b.len() && chunk.lines.len() < CHUNK_LINES {
-        let rest = &b[i..];
+    let (mut i, to) = (range.start, range.end);
+    while i < to {
+        let rest = &b[i..to];
         let end = i + find_eol(rest).unwrap_or(rest.len());
         let (w0, c0) = (chunk.words.len(), chunk.comments.len());
         let kind = quick_lex(&b[i..end], &mut chunk.words, &mut chunk.comments).unwrap_or(Kind::Full);
@@ -157,14 +187,13 @@ fn fill(b: &[u8], from: usize, chunk: &mut Chunk) -> usize {
             kind,
         });
         i = end;
-        if i < b.len() {
+        if i < to {
             if b[i] == b'\r' && b.get(i + 1) == Some(&b'\n') {
                 i += 1;
             }
             i += 1;
         }
     }
-    i
 }
 
 /// Whether [`parse_two_stage`] should take an input of `len` bytes.
@@ -179,25 +208,58 @@ pub(super) fn parse_two_stage<S: MotionSink>(
     sink: &mut S,
 ) -> Result<ParseSummary, ParseError<S::Error>> {
     let mut it = Interp::new(opts, None);
+    let chunks = chunk_count(b);
+    // The next chunk either thread may claim; claims go up one at a time, so the lexing
+    // thread's chunks arrive in order.
+    let next = AtomicUsize::new(0);
     std::thread::scope(|scope| {
-        // Two chunks in flight each way: the lexer stays one chunk ahead.
-        let (full_tx, full_rx) = mpsc::sync_channel::<Chunk>(2);
-        let (empty_tx, empty_rx) = mpsc::sync_channel::<Chunk>(4);
-        for _ in 0..3 {
-            let _ = empty_tx.send(Chunk::default());
-        }
+        let (full_tx, full_rx) = mpsc::sync_channel::<(usize, Chunk)>(AHEAD);
+        let (empty_tx, empty_rx) = mpsc::channel::<Chunk>();
+        let next = &next;
         scope.spawn(move || {
-            let mut at = 0;
-            while at < b.len() {
+            loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                if k >= chunks {
+                    return;
+                }
+                let mut chunk = empty_rx.try_recv().unwrap_or_default();
+                fill(b, chunk_range(b, k), &mut chunk);
                 // The interpreter hung up (program end or an error): stop.
-                let Ok(mut chunk) = empty_rx.recv() else { return };
-                at = fill(b, at, &mut chunk);
-                if full_tx.send(chunk).is_err() {
+                if full_tx.send((k, chunk)).is_err() {
                     return;
                 }
             }
         });
-        for chunk in full_rx.iter() {
+        // Chunks lexed ahead of the one being interpreted, by either thread, and a spare
+        // buffer for this thread's own lexing.
+        let mut ready: BTreeMap<usize, Chunk> = BTreeMap::new();
+        let mut spare: Option<Chunk> = None;
+        for k in 0..chunks {
+            let chunk = loop {
+                if let Some(c) = ready.remove(&k) {
+                    break c;
+                }
+                if let Ok((j, c)) = full_rx.try_recv() {
+                    ready.insert(j, c);
+                    continue;
+                }
+                // Chunk `k` is not lexed yet: lex the next unclaimed chunk here rather than
+                // wait; once every chunk is claimed, `k` is in flight on the other thread.
+                let j = next.fetch_add(1, Ordering::Relaxed);
+                if j < chunks {
+                    let mut c = spare.take().unwrap_or_default();
+                    fill(b, chunk_range(b, j), &mut c);
+                    ready.insert(j, c);
+                } else if let Ok((j, c)) = full_rx.recv() {
+                    ready.insert(j, c);
+                } else {
+                    // The other thread is gone without sending `k` (it cannot be, short of a
+                    // panic there): lex it here.
+                    let mut c = spare.take().unwrap_or_default();
+                    fill(b, chunk_range(b, k), &mut c);
+                    break c;
+                }
+            };
             for r in &chunk.lines {
                 let line = &b[r.start..r.end];
                 let pre = match r.kind {
@@ -213,8 +275,12 @@ pub(super) fn parse_two_stage<S: MotionSink>(
                     return Ok(());
                 }
             }
-            // Hand the buffers back; the lexer may already have finished.
-            let _ = empty_tx.send(chunk);
+            // Keep one buffer, hand the others back; the lexer may already have finished.
+            if spare.is_none() {
+                spare = Some(chunk);
+            } else {
+                let _ = empty_tx.send(chunk);
+            }
         }
         Ok(())
     })?;
@@ -239,6 +305,38 @@ mod tests {
                 agree(&text, &opts, &name);
                 let stop = ParseOptions { stop_at_program_end: false, ..opts.clone() };
                 agree(&text, &stop, &name);
+            }
+        }
+    }
+
+    #[test]
+    fn chunks_tile_the_input_and_end_after_a_newline() {
+        let long_line = format!("G1 X1 ({})", "a".repeat(2 * CHUNK_BYTES)); // longer than two chunks
+        let crlf_at_cut = format!("{}\r\nG1 X1\n", "a".repeat(CHUNK_BYTES - 1));
+        let cases = [
+            String::new(),
+            "G1 X1".into(),
+            "G1 X1\rG1 X2\r".repeat(CHUNK_BYTES / 4), // only lone \r: one chunk
+            format!("G0\n{long_line}\nG1 X2\n{long_line}"),
+            crlf_at_cut,
+            "G1 X1 Y2\n".repeat(CHUNK_BYTES / 3),
+        ];
+        for text in &cases {
+            let b = text.as_bytes();
+            let n = chunk_count(b);
+            let mut at = 0;
+            for k in 0..n {
+                let r = chunk_range(b, k);
+                assert_eq!(r.start, at, "chunk {k} starts where {} ended", k.wrapping_sub(1));
+                if !r.is_empty() && r.end < b.len() {
+                    assert_eq!(b[r.end - 1], b'\n', "chunk {k} ends after a newline");
+                }
+                at = r.end;
+            }
+            assert_eq!(at, b.len(), "the chunks cover the input");
+            assert!(chunk_range(b, n).is_empty(), "nothing after the last chunk");
+            for opts in dialects() {
+                agree(b, &opts, "chunk edge case");
             }
         }
     }
@@ -292,7 +390,7 @@ mod tests {
         ];
         for case in 0..40 {
             let mut text = String::new();
-            while text.len() < 3 * CHUNK_LINES * 12 {
+            while text.len() < 3 * CHUNK_BYTES {
                 for _ in 0..(next() % 5) {
                     let w = words[(next() % words.len() as u64) as usize];
                     text.push_str(w);
