@@ -1,0 +1,59 @@
+//! `s2g-field`: SIREN implicit neural fields in [Burn](https://burn.dev) on the CPU, with
+//! exact input derivatives, and neural signed distance fields of meshes (seed 002,
+//! "implicit multi-axis manufacturing").
+//!
+//! # Design
+//!
+//! - [`Siren`] is the network: sine layers with Sitzmann's initialisation, a first-layer
+//!   frequency `ω0` and a hidden frequency `ω` ([`SirenConfig`], §7.5.1 of seed 002,
+//!   [`omega_for_scale`]). Its forward passes propagate the Jacobian and the Hessian through
+//!   the layers as tensor operations ([`Siren::forward_gradient`],
+//!   [`Siren::forward_hessian`]), so losses on gradients and curvatures need only Burn's
+//!   first-order autodiff. Burn 0.22 cannot differentiate a loss built from `x.grad(..)`.
+//! - [`SirenF64`] holds the same weights and evaluates value, gradient and Hessian point by
+//!   point on the host in `f64`, without Burn: fast single queries, and the reference the
+//!   tests check the tensor derivatives against (by finite differences in `f64`).
+//! - [`NeuralSdf`] (§6.2) is a trained SIREN for a mesh's signed distance: Adam on the
+//!   surface-value, surface-normal, general-point-value and Eikonal losses
+//!   ([`fit_sdf_opt`], [`SdfOptions`]); it implements [`s2g_geom::SignedDistance`] with the
+//!   network's exact gradient, and saves to a file with Burn's record format
+//!   ([`NeuralSdf::save`], atomic). [`sdf_error`] and [`validation_points`] measure it.
+//! - Reproducible: seeds drive this crate's own generator for weights, samples and batches,
+//!   and the CPU backends run single-threaded, so the same options give the same field.
+//! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a
+//!   [`FieldError`], never a panic.
+//!
+//! # Example
+//!
+//! ```
+//! use burn::tensor::{Tensor, TensorData};
+//! use s2g_field::{Backend, Siren, SirenConfig};
+//!
+//! let device = Backend::default().device();
+//! let net = Siren::new(&SirenConfig { width: 16, sine_layers: 2, ..SirenConfig::default() }, &device)?;
+//! let x = Tensor::<2>::from_data(TensorData::new(vec![0.1f32, -0.2, 0.3], [1, 3]), &device);
+//! let out = net.forward_hessian(x);
+//! assert_eq!(out.hessian.dims(), [1, 3, 3]);
+//! // The host copy agrees with the tensor forward pass.
+//! let host = net.to_f64()?;
+//! let v: f32 = out.value.into_scalar();
+//! assert!((host.value([0.1, -0.2, 0.3]) - v as f64).abs() < 1e-5);
+//! # Ok::<(), s2g_field::FieldError>(())
+//! ```
+
+#[cfg(not(any(feature = "flex", feature = "ndarray")))]
+compile_error!("s2g-field needs a Burn backend: enable the `flex` (default) or `ndarray` feature");
+
+mod backend;
+mod checkpoint;
+mod error;
+mod eval;
+mod rng;
+mod sdf;
+mod siren;
+
+pub use backend::Backend;
+pub use error::{FieldError, Result};
+pub use eval::{SdfError, sdf_error, validation_points};
+pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
+pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};

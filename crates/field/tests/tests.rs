@@ -1,0 +1,5 @@
+//! Integration tests of s2g-field: one binary, one module per topic.
+
+mod derivatives;
+mod errors;
+mod sdf;
