@@ -35,18 +35,14 @@ pub struct VoxelMaterial<'a> {
 impl RemainingMaterial for VoxelMaterial<'_> {
     fn any_in_box(&self, min: &Point3, max: &Point3) -> bool {
         let spec = self.grid.spec();
-        let mut lo = Point3::from([f64::INFINITY; 3]);
-        let mut hi = Point3::from([f64::NEG_INFINITY; 3]);
-        for c in 0..8 {
-            let p = Point3::new(
-                if c & 1 == 0 { min.x } else { max.x },
-                if c & 2 == 0 { min.y } else { max.y },
-                if c & 4 == 0 { min.z } else { max.z },
-            );
-            let q = self.setup.to_part(&p);
-            lo = lo.inf(&q);
-            hi = hi.sup(&q);
-        }
+        // The part-frame bounding box of the rotated box: its centre moved, and its half
+        // extents through |R| (the same box the eight corners would span, for one
+        // transform instead of eight).
+        let centre = self.setup.to_part(&nalgebra::center(min, max));
+        let half = (max - min) * 0.5;
+        let r = self.setup.frame.rotation.to_rotation_matrix().into_inner().abs();
+        let reach = r * half;
+        let (lo, hi) = (centre - reach, centre + reach);
         let mut range = [(0, 0); 3];
         for a in 0..3 {
             let h = 0.5 * spec.voxel[a];
