@@ -8,8 +8,10 @@
 use serde_json::{Value, json};
 
 use crate::geom::Mesh;
+use crate::learn::LearnedPolicy;
 use crate::pipeline::{MillError, MillOptions, Milled, Preset, mill};
 use crate::policy::{Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, StrategyKind};
+use crate::voxsim::RewardWeights;
 
 /// The mean metrics of one row over the evaluated parts.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -28,6 +30,8 @@ pub struct Row {
     pub machining_time_s: f64,
     /// Parts whose programs gouged or rapided through material.
     pub unsafe_parts: usize,
+    /// Mean total reward (Eq. 13, the paper's weights; see [`Milled::total_reward`]).
+    pub reward: f64,
 }
 
 /// Mean surface coverage of the orientation strategies (Table 2).
@@ -60,8 +64,9 @@ pub struct Tables {
     pub ablation: Vec<Row>,
 }
 
-/// The policies of Tables 1 and 3, by name: `heuristic`, `random`, `fine` (smallest
-/// tool and layer), `coarse` (largest tool and layer).
+/// The policies of Tables 1 and 3, by name: `heuristic`, `random`, `fixed-fine` or `fine` (smallest tool and layer), `fixed-coarse`
+/// or `coarse` (largest tool and layer), `fixed:RADIUS,LAYER,STRATEGY` (planning units), or
+/// the path of a policy file written by `s2g train`. `None` for anything else.
 pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<dyn Policy>> {
     let fixed = |r: usize, h: usize| -> Box<dyn Policy> {
         Box::new(FixedPolicy(Action {
@@ -70,12 +75,24 @@ pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<
             strategy: StrategyKind::Zigzag,
         }))
     };
+    if space.is_empty() {
+        return None;
+    }
     match name {
         "heuristic" => Some(Box::new(HeuristicPolicy::default())),
         "random" => Some(Box::new(RandomPolicy::new(seed))),
-        "fine" => Some(fixed(0, 0)),
-        "coarse" => Some(fixed(space.radii.len() - 1, space.layer_heights.len() - 1)),
-        _ => None,
+        "fine" | "fixed-fine" => Some(fixed(0, 0)),
+        "coarse" | "fixed-coarse" => Some(fixed(space.radii.len() - 1, space.layer_heights.len() - 1)),
+        s if s.starts_with("fixed:") => {
+            let parts: Vec<&str> = s["fixed:".len()..].split(',').collect();
+            let [r, h, st] = parts[..] else { return None };
+            Some(Box::new(FixedPolicy(Action {
+                tool_radius: r.trim().parse().ok().filter(|v: &f64| v.is_finite() && *v > 0.0)?,
+                layer_height: h.trim().parse().ok().filter(|v: &f64| v.is_finite() && *v > 0.0)?,
+                strategy: StrategyKind::from_name(st.trim())?,
+            })))
+        }
+        path => LearnedPolicy::load(std::path::Path::new(path)).ok().map(|p| Box::new(p) as Box<dyn Policy>),
     }
 }
 
@@ -90,6 +107,7 @@ fn mean_row(name: &str, runs: &[Milled]) -> Row {
         normal_consistency: avg(&|m| m.metrics.normal_consistency),
         machining_time_s: avg(&|m| m.simulation.machining_time_s),
         unsafe_parts: runs.iter().filter(|m| !m.is_safe()).count(),
+        reward: avg(&|m| m.total_reward(&RewardWeights::default())),
     }
 }
 
@@ -161,7 +179,7 @@ fn row_json(r: &Row) -> Value {
     json!({
         "name": r.name, "iou": r.iou, "f1": r.f1, "chamfer_x1000": r.chamfer_x1000,
         "normal_consistency": r.normal_consistency, "machining_time_s": r.machining_time_s,
-        "unsafe_parts": r.unsafe_parts,
+        "unsafe_parts": r.unsafe_parts, "reward": r.reward,
     })
 }
 
@@ -171,6 +189,7 @@ impl Tables {
         let o = &self.orientation;
         json!({
             "parts": self.parts,
+            "policies": self.policies.iter().map(|r| (r.name.clone(), row_json(r))).collect::<serde_json::Map<_, _>>(),
             "table1_policies": self.policies.iter().map(row_json).collect::<Vec<_>>(),
             "table2_orientation": {
                 "six_axes": o.six_axes, "random5": o.random5, "random6": o.random6,
@@ -186,19 +205,21 @@ impl Tables {
             rows.iter()
                 .map(|r| {
                     format!(
-                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {} |\n",
+                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {:.4} | {} |\n",
                         r.name,
                         r.iou,
                         r.f1,
                         r.chamfer_x1000,
                         r.normal_consistency,
                         r.machining_time_s,
+                        r.reward,
                         r.unsafe_parts
                     )
                 })
                 .collect()
         };
-        let head = "| | IoU | F1 | CD x1000 | NC | T (s) | unsafe |\n|---|---|---|---|---|---|---|\n";
+        let head =
+            "| | IoU | F1 | CD x1000 | NC | T (s) | reward | unsafe |\n|---|---|---|---|---|---|---|---|\n";
         let o = &self.orientation;
         format!(
             "Parts: {}\n\n### Tables 1 and 3: policies\n\n{head}{}\n### Table 2: orientation selection (surface coverage)\n\n\

@@ -6,12 +6,14 @@
 pub use s2g_gcode as gcode;
 pub use s2g_geom as geom;
 pub use s2g_orient as orient;
+pub use s2g_rl as rl;
 pub use s2g_toolpath as toolpath;
 pub use s2g_voxsim as voxsim;
 
 mod eval;
 pub mod fdm;
 mod feature;
+mod learn;
 mod pipeline;
 mod policy;
 mod render;
@@ -28,9 +30,13 @@ pub use crate::feature::{
     FeatureCheck, FeatureError, FeatureProgram, FeatureResidual, JobSpec, feature_program,
     feature_writer_options, load_job, parse_job,
 };
+pub use crate::learn::{
+    GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, TrainOptions, episode_return, observation,
+    train_policy,
+};
 pub use crate::pipeline::{
-    MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
-    mill,
+    MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
+    StageSeconds, mill,
 };
 pub use crate::policy::{
     Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,

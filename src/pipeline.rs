@@ -266,6 +266,9 @@ pub struct SetupProgram {
     /// Lines of this setup's program where a rapid move removed material (in the rotary
     /// layout: lines of the one program, within this setup's section).
     pub rapid_collision_lines: Vec<u64>,
+    /// The paper's preservation `R_s` (Eq. 10) after this setup: the fraction of the part's
+    /// voxels still there.
+    pub preservation: f64,
 }
 
 /// The outcome of [`mill`].
@@ -307,6 +310,15 @@ impl Milled {
         self.setups.iter().map(|s| s.rapid_collision_lines.len()).sum()
     }
 
+    /// The paper's total reward (Eq. 13) of the run with `weights`:
+    /// `λ_s Σ_s R_s + λ_f R_f + λ_MRR R_MRR`, one `R_s` per setup, `R_MRR` in cm³ of
+    /// material removed per minute of machining (the machined part's units).
+    pub fn total_reward(&self, weights: &RewardWeights) -> f64 {
+        weights.lambda_s * self.setups.iter().map(|s| s.preservation).sum::<f64>()
+            + weights.lambda_f * self.rewards.final_iou
+            + weights.lambda_mrr * self.simulation.mrr_mm3_per_min / 1000.0
+    }
+
     /// Whether the programs are safe: no gouge into the part and no rapid through material.
     pub fn is_safe(&self) -> bool {
         self.simulation.gouge_voxels == 0 && self.rapid_collisions() == 0
@@ -315,195 +327,403 @@ impl Milled {
 
 /// Mills `mesh` with `policy`. See the module docs for the stages; `progress` is told
 /// when each stage starts.
+///
+/// In the per-setup layout the policy chooses each setup's action after the earlier
+/// setups were simulated, so [`SetupFeatures::removal_fraction`] is what is really left;
+/// the rotary layout parses its one program in one pass, so every action is chosen
+/// before the first setup is cut (see [`MillRun`]).
 pub fn mill(
     mesh: &Mesh,
     policy: &mut dyn Policy,
     opts: &MillOptions,
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Milled, MillError> {
-    if opts.resolution < 8 || opts.resolution > 2048 {
-        return Err(MillError::InvalidOption(format!(
-            "resolution must be 8..=2048, got {}",
-            opts.resolution
-        )));
+    let mut run = MillRun::new(mesh, opts, progress)?;
+    while run.next_setup().is_some() {
+        let t = Instant::now();
+        let features = run.features()?;
+        let ctx = run.context(&features);
+        let action = policy.choose(&ctx);
+        run.times.action_selection += t.elapsed().as_secs_f64();
+        run.machine(action, progress)?;
     }
-    if mesh.is_empty() {
-        return Err(crate::geom::GeomError::EmptyMesh.into());
-    }
-    if let ProgramLayout::Rotary(_) = opts.layout {
-        if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
-            return Err(MillError::InvalidOption(format!(
-                "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
-                opts.dialect
-            )));
-        }
-        let [lo, hi] = opts.rotary_tilt_range_deg;
-        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-            return Err(MillError::InvalidOption(format!(
-                "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
-            )));
-        }
-    }
-    let mut times = StageSeconds::default();
-    let decimals = 4;
+    run.finish(&policy.name(), progress)
+}
 
-    // Units: the paper plans in the unit cube; the shop in part units. `to_input`
-    // maps planning units back to the input mesh's units.
-    let unit: Normalization = unit_cube_normalization(mesh)?;
-    let (part, space, stock, to_input) = match opts.preset {
-        Preset::Paper => {
-            let k = opts.paper_scale_mm;
-            if !(k.is_finite() && k > 0.0) {
-                return Err(MillError::InvalidOption(format!("paper_scale_mm must be positive, got {k}")));
+/// A milling run one setup at a time: what [`mill`] does, opened up so that a caller (the
+/// learning environment, an interactive tool) picks each setup's [`Action`] after seeing
+/// what the earlier setups left.
+///
+/// [`MillRun::new`] normalises the part, selects the orientations and prepares the
+/// simulator; then, while [`next_setup`](Self::next_setup) is `Some`, read
+/// [`features`](Self::features) and [`machine`](Self::machine) an action; then
+/// [`finish`](Self::finish) scores the result. In the per-setup layout `machine` plans,
+/// writes, parses back and simulates the setup at once, so [`rewards`](Self::rewards) is
+/// up to date after each setup. The rotary layout's one program is parsed in one pass, so
+/// its setups are cut in `finish`, and until then `rewards` and the features' removal
+/// fraction describe the uncut stock.
+pub struct MillRun {
+    opts: MillOptions,
+    /// The input mesh in the unit cube, for scoring.
+    unit_part: Mesh,
+    unit: Normalization,
+    /// The part in planning units.
+    part: Mesh,
+    space: ActionSpace,
+    stock: Aabb,
+    to_input: Normalization,
+    orientation: OrientationResult,
+    placements: Option<Vec<Placement>>,
+    /// The geometric features of each setup (the removal fraction is filled in later).
+    features: Vec<SetupFeatures>,
+    target: VoxelGrid,
+    sim: RefCell<Simulator>,
+    jobs: Vec<Job>,
+    setups: Vec<SetupProgram>,
+    /// The material still to cut after the setups machined so far.
+    remaining: VoxelGrid,
+    trace: PathTrace,
+    times: StageSeconds,
+    wopts: WriterOptions,
+    diag: f64,
+    feed: f64,
+    rapid: f64,
+    clearance: f64,
+}
+
+impl MillRun {
+    /// Loads `mesh` into a run: checks the options, normalises the part, selects the
+    /// setups (stage [`Stage::Orientation`]), computes every setup's features (stage
+    /// [`Stage::ActionSelection`]) and prepares the simulation grid and the part's voxels.
+    pub fn new(mesh: &Mesh, opts: &MillOptions, progress: &mut dyn FnMut(Stage)) -> Result<Self, MillError> {
+        if opts.resolution < 8 || opts.resolution > 2048 {
+            return Err(MillError::InvalidOption(format!(
+                "resolution must be 8..=2048, got {}",
+                opts.resolution
+            )));
+        }
+        if mesh.is_empty() {
+            return Err(crate::geom::GeomError::EmptyMesh.into());
+        }
+        if let ProgramLayout::Rotary(_) = opts.layout {
+            if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
+                return Err(MillError::InvalidOption(format!(
+                    "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
+                    opts.dialect
+                )));
             }
-            let norm = Normalization { scale: unit.scale * k, translation: unit.translation * k };
-            let part = mesh.transformed(&norm.as_similarity());
-            let half = 0.5 * k;
-            let stock = Aabb::new(Point3::new(-half, -half, -half), Point3::new(half, half, half));
-            (part, ActionSpace::paper().scaled(k), stock, norm)
+            let [lo, hi] = opts.rotary_tilt_range_deg;
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(MillError::InvalidOption(format!(
+                    "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
+                )));
+            }
         }
-        Preset::Shop => {
-            let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
-            let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
-            (mesh.clone(), ActionSpace::shop(), bbox.inflated(margin), Normalization::identity())
+        let mut times = StageSeconds::default();
+        let decimals = 4;
+
+        // Units: the paper plans in the unit cube; the shop in part units. `to_input`
+        // maps planning units back to the input mesh's units.
+        let unit: Normalization = unit_cube_normalization(mesh)?;
+        let (part, space, stock, to_input) = match opts.preset {
+            Preset::Paper => {
+                let k = opts.paper_scale_mm;
+                if !(k.is_finite() && k > 0.0) {
+                    return Err(MillError::InvalidOption(format!(
+                        "paper_scale_mm must be positive, got {k}"
+                    )));
+                }
+                let norm = Normalization { scale: unit.scale * k, translation: unit.translation * k };
+                let part = mesh.transformed(&norm.as_similarity());
+                let half = 0.5 * k;
+                let stock = Aabb::new(Point3::new(-half, -half, -half), Point3::new(half, half, half));
+                (part, ActionSpace::paper().scaled(k), stock, norm)
+            }
+            Preset::Shop => {
+                let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
+                let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
+                (mesh.clone(), ActionSpace::shop(), bbox.inflated(margin), Normalization::identity())
+            }
+        };
+        let mut space = space;
+        space.strategies.retain(|s| opts.strategies.contains(s));
+        if space.strategies.is_empty() {
+            return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
         }
-    };
-    let mut space = space;
-    space.strategies.retain(|s| opts.strategies.contains(s));
-    if space.strategies.is_empty() {
-        return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
+
+        // Orientation selection.
+        progress(Stage::Orientation);
+        let t = Instant::now();
+        let mut oopts = OrientOptions {
+            points: opts.orient_points,
+            candidates: opts.orient_candidates,
+            seed: opts.seed,
+            ..OrientOptions::default()
+        };
+        if let SetupCount::Exactly(n) = opts.setups {
+            oopts.max_setups = n.max(1);
+            oopts.coverage_target = 1.0;
+        }
+        let orientation = select_orientations(&part, &oopts)?;
+        // The rotary layout fails here, before any planning, on a setup its machine cannot reach.
+        let placements = match opts.layout {
+            ProgramLayout::PerSetup => None,
+            ProgramLayout::Rotary(axes) => Some(
+                orientation
+                    .setups
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| Placement::new(axes, s, opts.rotary_tilt_range_deg, decimals, i))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+        };
+        times.orientation = t.elapsed().as_secs_f64();
+
+        // What the policy will look at.
+        progress(Stage::ActionSelection);
+        let t = Instant::now();
+        let index = MeshIndex::new(&part)?;
+        let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed)?;
+        let diag = stock.extent().norm();
+        let voxel = stock.extent().max() / opts.resolution as f64;
+        let features = orientation
+            .setups
+            .iter()
+            .map(|setup| SetupFeatures {
+                voxel,
+                ..setup_features(&index, &samples, setup, &space, diag, &stock)
+            })
+            .collect();
+        times.action_selection = t.elapsed().as_secs_f64();
+
+        // The simulator knows every tool of the action space: T1 is the smallest radius.
+        let (feed, rapid) = feeds(opts.preset);
+        let t = Instant::now();
+        let spec = GridSpec::cubic(&stock, opts.resolution)?;
+        let target = voxelize(&part, &spec)?;
+        let mut tools = ToolTable::single(Cutter::flat(space.radii.first().copied().unwrap_or(1.0), diag));
+        for (i, &r) in space.radii.iter().enumerate() {
+            tools = tools.with(i as u32 + 1, Cutter::flat(r, diag));
+        }
+        let sim_opts =
+            SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
+        let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
+            .map_err(sim_error)?
+            .with_target(&target)
+            .map_err(sim_error)?;
+        let mut remaining = sim.residual_grid();
+        remaining.andnot(&target).map_err(|e| MillError::Simulation(e.to_string()))?;
+        times.simulation += t.elapsed().as_secs_f64();
+
+        Ok(Self {
+            opts: opts.clone(),
+            unit_part: mesh.transformed(&unit.as_similarity()),
+            unit,
+            part,
+            space,
+            stock,
+            to_input,
+            orientation,
+            placements,
+            features,
+            target,
+            sim: RefCell::new(sim),
+            jobs: Vec::new(),
+            setups: Vec::new(),
+            remaining,
+            trace: PathTrace::default(),
+            times,
+            wopts: WriterOptions { decimals, ..WriterOptions::default() },
+            diag,
+            feed,
+            rapid,
+            // Appendix A.1: start 0.1 (of the normalised part) above the top.
+            clearance: 0.1 * stock.extent().max(),
+        })
     }
 
-    // Orientation selection.
-    progress(Stage::Orientation);
-    let t = Instant::now();
-    let mut oopts = OrientOptions {
-        points: opts.orient_points,
-        candidates: opts.orient_candidates,
-        seed: opts.seed,
-        ..OrientOptions::default()
-    };
-    if let SetupCount::Exactly(n) = opts.setups {
-        oopts.max_setups = n.max(1);
-        oopts.coverage_target = 1.0;
+    /// The action space, in planning units.
+    pub fn space(&self) -> &ActionSpace {
+        &self.space
     }
-    let orientation = select_orientations(&part, &oopts)?;
-    // The rotary layout fails here, before any planning, on a setup its machine cannot reach.
-    let placements = match opts.layout {
-        ProgramLayout::PerSetup => None,
-        ProgramLayout::Rotary(axes) => Some(
-            orientation
-                .setups
-                .iter()
-                .enumerate()
-                .map(|(i, s)| Placement::new(axes, s, opts.rotary_tilt_range_deg, decimals, i))
-                .collect::<Result<Vec<_>, _>>()?,
-        ),
-    };
-    times.orientation = t.elapsed().as_secs_f64();
 
-    // Actions.
-    progress(Stage::ActionSelection);
-    let t = Instant::now();
-    let index = MeshIndex::new(&part)?;
-    let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed)?;
-    let diag = stock.extent().norm();
-    let mut actions = Vec::with_capacity(orientation.setups.len());
-    for (i, setup) in orientation.setups.iter().enumerate() {
-        let mut features = setup_features(&index, &samples, setup, &space, diag, &stock);
-        features.voxel = stock.extent().max() / opts.resolution as f64;
-        let ctx = SetupContext { index: i, space: &space, features: &features };
-        actions.push(policy.choose(&ctx));
+    /// Orientation selection's result: the setups in machining order.
+    pub fn orientation(&self) -> &OrientationResult {
+        &self.orientation
     }
-    times.action_selection = t.elapsed().as_secs_f64();
 
-    // Per setup: plan against the material earlier setups left (rest machining), write
-    // the program, then parse the written text back into the simulator.
-    let (feed, rapid) = feeds(opts.preset);
-    let t = Instant::now();
-    let spec = GridSpec::cubic(&stock, opts.resolution)?;
-    let target = voxelize(&part, &spec)?;
-    let mut tools = ToolTable::single(Cutter::flat(actions.first().map_or(1.0, |a| a.tool_radius), diag));
-    for a in &actions {
-        tools = tools.with(tool_number(&space, a), Cutter::flat(a.tool_radius, diag));
+    /// Number of setups.
+    pub fn setup_count(&self) -> usize {
+        self.orientation.setups.len()
     }
-    let sim_opts = SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
-    let sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
-        .map_err(sim_error)?
-        .with_target(&target)
-        .map_err(sim_error)?;
-    let sim = RefCell::new(sim);
-    times.simulation += t.elapsed().as_secs_f64();
 
-    // Appendix A.1: start 0.1 (of the normalised part) above the top.
-    let clearance = 0.1 * stock.extent().max();
-    let jobs: Vec<Job> = orientation
-        .setups
-        .iter()
-        .zip(&actions)
-        .map(|(setup, action)| Job::new(setup, action, &space, &stock, diag, feed, rapid, clearance, opts))
-        .collect();
-    let wopts = WriterOptions { decimals, ..WriterOptions::default() };
-    let mut trace = PathTrace::default();
-    let ctx =
-        Ctx { part: &part, target: &target, jobs: &jobs, sim: &sim, dialect: opts.dialect, wopts: &wopts };
-    let setups = match (opts.layout, placements) {
-        (ProgramLayout::Rotary(axes), Some(placements)) => {
+    /// The 0-based setup [`machine`](Self::machine) cuts next; `None` once every setup has
+    /// its action.
+    pub fn next_setup(&self) -> Option<usize> {
+        let i = self.jobs.len();
+        (i < self.setup_count()).then_some(i)
+    }
+
+    /// The features of the next setup (those of the last one once all are machined), with
+    /// the removal fraction of the material left now.
+    pub fn features(&self) -> Result<SetupFeatures, MillError> {
+        let i = self.jobs.len().min(self.features.len().saturating_sub(1));
+        let mut f = self.features.get(i).cloned().unwrap_or_default();
+        let stock = self.target.spec().len() as f64;
+        f.removal_fraction = if stock > 0.0 { self.remaining.count() as f64 / stock } else { 0.0 };
+        Ok(f)
+    }
+
+    /// The policy's view of the next setup, given its `features`.
+    pub fn context<'a>(&'a self, features: &'a SetupFeatures) -> SetupContext<'a> {
+        SetupContext { index: self.jobs.len(), setups: self.setup_count(), space: &self.space, features }
+    }
+
+    /// The paper's rewards (Eq. 10-12 and the one-step total of Eq. 13, default weights)
+    /// of the stock as simulated so far against the part.
+    pub fn rewards(&self, weights: &RewardWeights) -> Result<Rewards, MillError> {
+        let residual = self.sim.borrow_mut().residual_grid();
+        let report = self.sim.borrow().report().clone();
+        crate::voxsim::rewards(&residual, &self.target, &report, weights).map_err(sim_error)
+    }
+
+    /// The simulator's report so far (complete for the setups machined in the per-setup
+    /// layout).
+    pub fn report(&self) -> SimReport {
+        self.sim.borrow().report().clone()
+    }
+
+    /// The setups machined so far (per-setup layout; empty for the rotary layout until
+    /// [`finish`](Self::finish)).
+    pub fn machined(&self) -> &[SetupProgram] {
+        &self.setups
+    }
+
+    /// Cuts the next setup with `action`: plans it against the material left, writes its
+    /// program, parses the text back and simulates it (per-setup layout), or records the
+    /// action for [`finish`](Self::finish) (rotary layout). Errors when every setup already
+    /// has its action.
+    pub fn machine(&mut self, action: Action, progress: &mut dyn FnMut(Stage)) -> Result<(), MillError> {
+        let Some(i) = self.next_setup() else {
+            return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
+        };
+        let o = &self.opts;
+        let job = Job::new(
+            &self.orientation.setups[i],
+            &action,
+            &self.space,
+            &self.stock,
+            self.diag,
+            self.feed,
+            self.rapid,
+            self.clearance,
+            o,
+        );
+        self.jobs.push(job);
+        if self.placements.is_some() {
+            return Ok(());
+        }
+        let ctx = Ctx {
+            part: &self.part,
+            target: &self.target,
+            jobs: &self.jobs,
+            sim: &self.sim,
+            setups: self.orientation.setups.len(),
+            dialect: o.dialect,
+            wopts: &self.wopts,
+        };
+        let trace = (i == 0).then_some(&mut self.trace);
+        let (program, remaining) = machine_setup(&ctx, i, &self.remaining, trace, &mut self.times, progress)?;
+        self.setups.push(program);
+        self.remaining = remaining;
+        Ok(())
+    }
+
+    /// Finishes the run: the rotary layout's program is written and simulated now, then
+    /// the residual stock is meshed and scored (stage [`Stage::Scoring`]). `policy` names
+    /// the policy in the result. Errors when a setup has no action yet.
+    pub fn finish(mut self, policy: &str, progress: &mut dyn FnMut(Stage)) -> Result<Milled, MillError> {
+        if let Some(i) = self.next_setup() {
+            return Err(MillError::InvalidOption(format!(
+                "setup {} of {} has no action yet",
+                i + 1,
+                self.setup_count()
+            )));
+        }
+        let opts = &self.opts;
+        if let (ProgramLayout::Rotary(axes), Some(placements)) = (opts.layout, &self.placements) {
+            let ctx = Ctx {
+                part: &self.part,
+                target: &self.target,
+                jobs: &self.jobs,
+                sim: &self.sim,
+                setups: self.orientation.setups.len(),
+                dialect: opts.dialect,
+                wopts: &self.wopts,
+            };
             // Above this height (program +Z, rotary centre at the origin) the tool clears
             // every point of the stock in every orientation of the table.
-            let turn_z = (0..8).map(|i| corner(&stock, i).coords.norm()).fold(0.0, f64::max) + clearance;
-            mill_rotary(&ctx, axes, &placements, turn_z, &mut trace, &mut times, progress)?
+            let turn_z =
+                (0..8).map(|i| corner(&self.stock, i).coords.norm()).fold(0.0, f64::max) + self.clearance;
+            self.setups =
+                mill_rotary(&ctx, axes, placements, turn_z, &mut self.trace, &mut self.times, progress)?;
         }
-        _ => mill_per_setup(&ctx, &mut trace, &mut times, progress)?,
-    };
-    let t = Instant::now();
-    let simulated = sim.into_inner().into_simulation().map_err(sim_error)?;
-    let rewards = simulated.rewards(&target, &RewardWeights::default()).map_err(sim_error)?;
-    let simulation = simulated.report().clone();
-    let programs: Vec<String> = match opts.layout {
-        ProgramLayout::PerSetup => setups.iter().map(|s| s.text.clone()).collect(),
-        ProgramLayout::Rotary(_) => vec![setups.iter().map(|s| s.text.as_str()).collect()],
-    };
-    times.simulation += t.elapsed().as_secs_f64();
+        let part_voxels = self.target.count() as f64;
+        let mut gouged = 0;
+        for s in &mut self.setups {
+            gouged += s.gouge_voxels;
+            s.preservation = if part_voxels > 0.0 { 1.0 - gouged as f64 / part_voxels } else { 1.0 };
+        }
+        let t = Instant::now();
+        let simulated = self.sim.into_inner().into_simulation().map_err(sim_error)?;
+        let rewards = simulated.rewards(&self.target, &RewardWeights::default()).map_err(sim_error)?;
+        let simulation = simulated.report().clone();
+        let programs: Vec<String> = match opts.layout {
+            ProgramLayout::PerSetup => self.setups.iter().map(|s| s.text.clone()).collect(),
+            ProgramLayout::Rotary(_) => vec![self.setups.iter().map(|s| s.text.as_str()).collect()],
+        };
+        self.times.simulation += t.elapsed().as_secs_f64();
 
-    // Score in the unit cube.
-    progress(Stage::Scoring);
-    let t = Instant::now();
-    let mut residual_plan = marching_cubes_voxels(simulated.residual())?;
-    if opts.residual_smoothing > 0 {
-        residual_plan = taubin_smooth(&residual_plan, opts.residual_smoothing, TAUBIN_LAMBDA, TAUBIN_MU)?;
+        // Score in the unit cube.
+        progress(Stage::Scoring);
+        let t = Instant::now();
+        let mut residual_plan = marching_cubes_voxels(simulated.residual())?;
+        if opts.residual_smoothing > 0 {
+            residual_plan = taubin_smooth(&residual_plan, opts.residual_smoothing, TAUBIN_LAMBDA, TAUBIN_MU)?;
+        }
+        let to_input = self.to_input;
+        let residual = residual_plan.transformed(&to_input.inverse_similarity());
+        let metrics = compare(
+            &residual.transformed(&self.unit.as_similarity()),
+            &self.unit_part,
+            &MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() },
+        )?;
+        self.times.scoring = t.elapsed().as_secs_f64();
+
+        let stock = Aabb::new(to_input.from_unit(&self.stock.min), to_input.from_unit(&self.stock.max));
+        let trace_axis = self.orientation.setups.first().map_or(Vector3::z(), |s| s.tool_axis().into_inner());
+        let back = to_input.inverse_similarity();
+        let mut trace = self.trace;
+        trace.segments.iter_mut().for_each(|(a, b, _)| {
+            *a = back * *a;
+            *b = back * *b;
+        });
+        Ok(Milled {
+            preset: opts.preset,
+            policy: policy.to_owned(),
+            programs,
+            setups: self.setups,
+            orientation: self.orientation,
+            simulation,
+            rewards,
+            metrics,
+            residual,
+            stock,
+            trace,
+            trace_axis,
+            stage_seconds: self.times,
+        })
     }
-    let to_unit = |m: &Mesh| m.transformed(&unit.as_similarity());
-    let residual = residual_plan.transformed(&to_input.inverse_similarity());
-    let metrics = compare(
-        &to_unit(&residual),
-        &to_unit(mesh),
-        &MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() },
-    )?;
-    times.scoring = t.elapsed().as_secs_f64();
-
-    let stock_input = Aabb::new(to_input.from_unit(&stock.min), to_input.from_unit(&stock.max));
-    let trace_axis = orientation.setups.first().map_or(Vector3::z(), |s| s.tool_axis().into_inner());
-    let back = to_input.inverse_similarity();
-    trace.segments.iter_mut().for_each(|(a, b, _)| {
-        *a = back * *a;
-        *b = back * *b;
-    });
-    Ok(Milled {
-        preset: opts.preset,
-        policy: policy.name(),
-        programs,
-        setups,
-        orientation,
-        simulation,
-        rewards,
-        metrics,
-        residual,
-        stock: stock_input,
-        trace,
-        trace_axis,
-        stage_seconds: times,
-    })
 }
 
 /// Corner `i` (bits: x, y, z at max) of a box.
@@ -578,6 +798,8 @@ struct Ctx<'a> {
     target: &'a VoxelGrid,
     jobs: &'a [Job],
     sim: &'a RefCell<Simulator>,
+    /// Number of setups of the run (`jobs` may hold only those chosen so far).
+    setups: usize,
     dialect: Dialect,
     wopts: &'a WriterOptions,
 }
@@ -597,73 +819,68 @@ fn sim_error(e: crate::voxsim::SimError) -> MillError {
     MillError::Simulation(e.to_string())
 }
 
-/// One 3-axis program per setup, each parsed back on its own.
-fn mill_per_setup(
+/// Setup `i` as its own 3-axis program: plans it against `remaining`, writes it, parses the
+/// text back into the simulator. Returns the setup's program and the material left after it.
+fn machine_setup(
     ctx: &Ctx<'_>,
-    trace: &mut PathTrace,
+    i: usize,
+    remaining: &VoxelGrid,
+    trace: Option<&mut PathTrace>,
     times: &mut StageSeconds,
     progress: &mut dyn FnMut(Stage),
-) -> Result<Vec<SetupProgram>, MillError> {
-    let mut setups = Vec::with_capacity(ctx.jobs.len());
-    let mut remaining = ctx.excess()?;
-    for (i, job) in ctx.jobs.iter().enumerate() {
-        progress(Stage::GcodeTranslation { setup: i + 1, setups: ctx.jobs.len() });
-        let t = Instant::now();
-        let rest = VoxelMaterial { grid: &remaining, setup: job.setup };
-        let mut writer = GcodeWriter::new(Vec::new(), ctx.dialect, ctx.wopts.clone());
-        let plan = plan_setup_rest(ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
-            .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
-        writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
-        let text = String::from_utf8(writer.into_inner())
-            .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
-        times.gcode_translation += t.elapsed().as_secs_f64();
+) -> Result<(SetupProgram, VoxelGrid), MillError> {
+    let job = &ctx.jobs[i];
+    let setups = ctx.setups;
+    progress(Stage::GcodeTranslation { setup: i + 1, setups });
+    let t = Instant::now();
+    let rest = VoxelMaterial { grid: remaining, setup: job.setup };
+    let mut writer = GcodeWriter::new(Vec::new(), ctx.dialect, ctx.wopts.clone());
+    let plan = plan_setup_rest(ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
+        .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
+    writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+    let text = String::from_utf8(writer.into_inner())
+        .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+    times.gcode_translation += t.elapsed().as_secs_f64();
 
-        progress(Stage::Simulation { setup: i + 1, setups: ctx.jobs.len() });
-        let t = Instant::now();
-        // The simulator was flushed at the end of the previous setup: its counts so far
-        // belong to earlier programs.
-        let (gouges_before, rapids_before) = {
-            let sim = ctx.sim.borrow();
-            let r = sim.report();
-            (
-                r.gouge_voxels,
-                r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>(),
-            )
-        };
-        let mut tee = Tee::new(ctx.sim, (i == 0).then_some(&mut *trace));
-        // A 3-axis program per setup: the fixture rotation is in its header comment,
-        // so the simulator is told the frame here.
-        tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
-        let summary = parse_str(&text, &ParseOptions::default(), &mut tee).map_err(|e| {
-            MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") }
-        })?;
-        if let Some(err) = summary.errors.first() {
-            return Err(MillError::Program {
-                setup: i + 1,
-                message: format!("re-reading the program: {err}"),
-            });
-        }
-        // Flushes the simulator, so its report is complete for this setup.
-        remaining = ctx.excess()?;
+    progress(Stage::Simulation { setup: i + 1, setups });
+    let t = Instant::now();
+    // The simulator was flushed at the end of the previous setup: its counts so far
+    // belong to earlier programs.
+    let (gouges_before, rapids_before) = {
         let sim = ctx.sim.borrow();
-        let report = sim.report();
-        let gouge_voxels = report.gouge_voxels - gouges_before;
-        // The simulator keeps one set of lines over all programs; this setup's are the new
-        // ones (a line number that already collided in an earlier program is not repeated).
-        let rapid_collision_lines =
-            report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
-        times.simulation += t.elapsed().as_secs_f64();
-        setups.push(SetupProgram {
-            setup: job.setup,
-            action: job.action,
-            plan,
-            text,
-            rotary_deg: None,
-            gouge_voxels,
-            rapid_collision_lines,
-        });
+        let r = sim.report();
+        (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>())
+    };
+    let mut tee = Tee::new(ctx.sim, trace);
+    // A 3-axis program per setup: the fixture rotation is in its header comment,
+    // so the simulator is told the frame here.
+    tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
+    let summary = parse_str(&text, &ParseOptions::default(), &mut tee)
+        .map_err(|e| MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") })?;
+    if let Some(err) = summary.errors.first() {
+        return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {err}") });
     }
-    Ok(setups)
+    // Flushes the simulator, so its report is complete for this setup.
+    let remaining = ctx.excess()?;
+    let sim = ctx.sim.borrow();
+    let report = sim.report();
+    let gouge_voxels = report.gouge_voxels - gouges_before;
+    // The simulator keeps one set of lines over all programs; this setup's are the new
+    // ones (a line number that already collided in an earlier program is not repeated).
+    let rapid_collision_lines =
+        report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
+    times.simulation += t.elapsed().as_secs_f64();
+    let program = SetupProgram {
+        setup: job.setup,
+        action: job.action,
+        plan,
+        text,
+        rotary_deg: None,
+        gouge_voxels,
+        rapid_collision_lines,
+        preservation: 1.0,
+    };
+    Ok((program, remaining))
 }
 
 /// How a setup is put under the spindle of a table-table machine.
@@ -918,6 +1135,7 @@ fn mill_rotary(
                 .copied()
                 .filter(|l| lines.contains(l))
                 .collect(),
+            preservation: 1.0,
         });
     }
     times.gcode_translation += source.plan_seconds;
@@ -1053,19 +1271,38 @@ fn setup_features(
             ok as f64 / visible.len() as f64
         })
         .collect();
-    let depth = {
-        let corners = (0..8).map(|i| {
-            Point3::new(
-                if i & 1 == 0 { stock.min.x } else { stock.max.x },
-                if i & 2 == 0 { stock.min.y } else { stock.max.y },
-                if i & 4 == 0 { stock.min.z } else { stock.max.z },
-            )
-        });
-        let zs: Vec<f64> = corners.map(|c| c.coords.dot(&axis)).collect();
-        zs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-            - zs.iter().copied().fold(f64::INFINITY, f64::min)
-    };
-    SetupFeatures { reach_by_radius, depth, removal_fraction: 0.0, voxel: 0.0 }
+    // The stock's extent along the tool axis: its top and bottom.
+    let zs: Vec<f64> = (0..8).map(|i| corner(stock, i).coords.dot(&axis)).collect();
+    let top = zs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let depth = top - zs.iter().copied().fold(f64::INFINITY, f64::min);
+    let bins = SetupFeatures::DEPTH_BINS;
+    let mut depth_histogram = vec![0.0; bins];
+    if !visible.is_empty() && depth > 0.0 {
+        for (p, _) in &visible {
+            let h = ((top - p.coords.dot(&axis)) / depth).clamp(0.0, 1.0);
+            depth_histogram[((h * bins as f64) as usize).min(bins - 1)] += 1.0;
+        }
+        depth_histogram.iter_mut().for_each(|b| *b /= visible.len() as f64);
+    }
+    let scale = 1.0 / stock.extent().max().max(f64::MIN_POSITIVE);
+    let step = visible.len().div_ceil(SetupFeatures::MAX_POINTS).max(1);
+    let points = visible
+        .iter()
+        .step_by(step)
+        .map(|(p, _)| {
+            let q = setup.to_setup(p);
+            [(q.x * scale) as f32, (q.y * scale) as f32, (q.z * scale) as f32]
+        })
+        .collect();
+    SetupFeatures {
+        reach_by_radius,
+        depth,
+        removal_fraction: 0.0,
+        voxel: 0.0,
+        visible_fraction: visible.len() as f64 / samples.points.len().max(1) as f64,
+        depth_histogram,
+        points,
+    }
 }
 
 /// Forwards motions to the simulator and records the first setup's path in part units.

@@ -127,6 +127,8 @@ impl ActionSpace {
 pub struct SetupContext<'a> {
     /// Index of the setup in machining order.
     pub index: usize,
+    /// Number of setups of the part.
+    pub setups: usize,
     /// The action space to choose from.
     pub space: &'a ActionSpace,
     /// Geometric features of the setup (see [`SetupFeatures`]).
@@ -147,6 +149,24 @@ pub struct SetupFeatures {
     /// Edge length of the simulation's voxels, part units: detail finer than this is
     /// not seen by the score.
     pub voxel: f64,
+    /// Fraction of the part's surface samples visible from the setup's tool axis.
+    pub visible_fraction: f64,
+    /// Where the visible surface lies along the tool axis: a histogram of
+    /// [`DEPTH_BINS`](Self::DEPTH_BINS) bins from the stock's top (bin 0) to its bottom,
+    /// summing to 1 (all zero when nothing is visible). Deep pockets need long tools and
+    /// many layers; a shallow face needs few.
+    pub depth_histogram: Vec<f64>,
+    /// The visible surface samples in the setup frame (tool axis +Z), divided by the
+    /// stock's largest extent, at most [`MAX_POINTS`](Self::MAX_POINTS): the point
+    /// cloud a learned shape encoder reads.
+    pub points: Vec<[f32; 3]>,
+}
+
+impl SetupFeatures {
+    /// Bins of [`depth_histogram`](Self::depth_histogram).
+    pub const DEPTH_BINS: usize = 8;
+    /// Most points kept in [`points`](Self::points).
+    pub const MAX_POINTS: usize = 1024;
 }
 
 /// Chooses an action for each setup.
@@ -265,7 +285,7 @@ mod tests {
             voxel: 1.0 / 256.0,
             ..Default::default()
         };
-        let ctx = SetupContext { index: 0, space: &space, features: &features };
+        let ctx = SetupContext { index: 0, setups: 1, space: &space, features: &features };
         let a = HeuristicPolicy::default().choose(&ctx);
         assert_eq!(a.tool_radius, 0.0025, "0.95 / 0.99 is below the 0.985 ratio");
         assert_eq!(a.layer_height, 1.0 / 256.0);
@@ -275,7 +295,7 @@ mod tests {
     fn random_policy_is_reproducible() {
         let space = ActionSpace::paper();
         let f = SetupFeatures::default();
-        let ctx = SetupContext { index: 0, space: &space, features: &f };
+        let ctx = SetupContext { index: 0, setups: 1, space: &space, features: &f };
         let mut a = RandomPolicy::new(7);
         let mut b = RandomPolicy::new(7);
         for _ in 0..20 {

@@ -4,5 +4,6 @@ mod e2e {
     pub mod common;
     mod fdm;
     mod feature;
+    mod learn;
     mod mill;
 }

@@ -1,10 +1,10 @@
 //! `s2g eval`: the paper's tables on our data.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use shape2gcode::geom::load_mesh;
+use shape2gcode::geom::{Mesh, load_mesh};
 use shape2gcode::{MillOptions, evaluate};
 
 use crate::mill::DEFAULT_MESH;
@@ -37,34 +37,41 @@ pub struct Args {
     markdown: bool,
 }
 
-pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let files: Vec<PathBuf> = match (&args.corpus, &args.mesh) {
-        (Some(_), Some(_)) => bail!("give a mesh or --corpus, not both"),
-        (Some(dir), None) => {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-                .with_context(|| format!("reading {}", dir.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| {
-                    p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                        matches!(e.to_ascii_lowercase().as_str(), "stl" | "obj" | "ply" | "gltf" | "glb")
-                    })
-                })
-                .collect();
-            v.sort();
-            if v.is_empty() {
-                bail!("{}: no mesh files", dir.display());
-            }
-            v
-        }
-        (None, m) => vec![m.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH))],
-    };
-    let parts = files
-        .iter()
-        .map(|p| {
-            let name = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-            Ok((name, load_mesh(p)?))
+/// The name of a mesh file: its stem.
+fn stem(p: &Path) -> String {
+    p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// Every STL, OBJ, PLY, glTF or GLB file in `dir`, loaded, named by stem, in name order.
+pub fn corpus(dir: &Path) -> anyhow::Result<Vec<(String, Mesh)>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                matches!(e.to_ascii_lowercase().as_str(), "stl" | "obj" | "ply" | "gltf" | "glb")
+            })
         })
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        bail!("{}: no mesh files", dir.display());
+    }
+    files
+        .iter()
+        .map(|p| Ok((stem(p), load_mesh(p).with_context(|| format!("loading {}", p.display()))?)))
+        .collect()
+}
+
+pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let parts = match (&args.corpus, &args.mesh) {
+        (Some(_), Some(_)) => bail!("give a mesh or --corpus, not both"),
+        (Some(dir), None) => corpus(dir)?,
+        (None, m) => {
+            let p = m.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
+            vec![(stem(&p), load_mesh(&p)?)]
+        }
+    };
     let policies: Vec<String> = args.policies.split(',').map(|s| s.trim().to_owned()).collect();
     let opts = MillOptions {
         resolution: args.res,

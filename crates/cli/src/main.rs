@@ -9,12 +9,14 @@ use clap::{Parser, Subcommand};
 
 mod eval;
 mod feature;
+mod field;
 mod gcode;
 mod inspect;
 mod mill;
 mod orient;
 mod reconstruct;
 mod simulate;
+mod train;
 
 /// Shape2Gcode: 3-D shapes to machine programs and machine programs back to shapes.
 #[derive(Debug, Parser)]
@@ -30,6 +32,8 @@ enum Command {
     Eval(eval::Args),
     /// Program machining features (pockets, slots, holes) on a block from a TOML job (seed 001).
     Feature(feature::Args),
+    /// Implicit neural fields (seed 002): `sdf` fits a neural signed distance field to a mesh.
+    Field(field::Args),
     /// Mill a mesh: orientations, toolpaths, G-code, then simulate the written G-code and score it.
     Mill(mill::Args),
     /// Parse a G-code program: `check` errors, `stats`, or `motions` as JSON lines.
@@ -42,6 +46,8 @@ enum Command {
     Reconstruct(reconstruct::Args),
     /// Simulate a G-code program on a voxel stock: removed volume, gouges, collisions, time.
     Simulate(simulate::Args),
+    /// Train the DQN policy that picks tool radius, layer height and strategy per setup.
+    Train(train::Args),
 }
 
 fn main() -> ExitCode {
@@ -49,12 +55,14 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Eval(args) => eval::run(args),
         Command::Feature(args) => feature::run(args),
+        Command::Field(args) => field::run(args),
         Command::Mill(args) => mill::run(args),
         Command::Gcode(args) => gcode::run(args),
         Command::Inspect(args) => inspect::run(args),
         Command::Orient(args) => orient::run(args),
         Command::Reconstruct(args) => reconstruct::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Train(args) => train::run(args),
     };
     match result {
         Ok(code) => code,

@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
 use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    Action, FixedPolicy, HeuristicPolicy, MillOptions, Policy, Preset, ProgramLayout, RandomPolicy,
-    SetupCount, Stage, StrategyKind, mill, render_machining,
+    ActionSpace, LearnedPolicy, MillOptions, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions,
+    mill, policy_by_name, render_machining,
 };
 
 /// The bundled sample mesh.
@@ -38,9 +38,15 @@ pub struct Args {
     /// Number of setups: `auto` or a count.
     #[arg(long, default_value = "auto")]
     setups: String,
-    /// Policy: `heuristic`, `random`, or `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral).
+    /// Policy: `heuristic`, `random`, `fixed-fine`, `fixed-coarse`,
+    /// `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral), or the path of a policy file
+    /// written by `s2g train`.
     #[arg(long, default_value = "heuristic")]
     policy: String,
+    /// Fine-tune the policy file given by --policy on this mesh for this many episodes
+    /// first (the paper uses five), each episode milled as this run mills the part.
+    #[arg(long, default_value_t = 0)]
+    finetune: usize,
     /// Controller dialect: linuxcnc, grbl or fanuc.
     #[arg(long, default_value = "linuxcnc")]
     dialect: String,
@@ -68,24 +74,6 @@ pub struct Args {
     /// Leave wall-clock timings out of the report, so that two runs give identical bytes.
     #[arg(long)]
     reproducible: bool,
-}
-
-fn parse_policy(spec: &str, seed: u64) -> anyhow::Result<Box<dyn Policy>> {
-    Ok(match spec {
-        "heuristic" => Box::new(HeuristicPolicy::default()),
-        "random" => Box::new(RandomPolicy::new(seed)),
-        s if s.starts_with("fixed:") => {
-            let parts: Vec<&str> = s["fixed:".len()..].split(',').collect();
-            let [r, h, st] = parts[..] else { bail!("--policy fixed:RADIUS,LAYER,STRATEGY, got {s:?}") };
-            let strategy = StrategyKind::from_name(st).with_context(|| format!("unknown strategy {st:?}"))?;
-            let tool_radius: f64 = r.parse().with_context(|| format!("bad radius {r:?}"))?;
-            let layer_height: f64 = h.parse().with_context(|| format!("bad layer height {h:?}"))?;
-            Box::new(FixedPolicy(Action { tool_radius, layer_height, strategy }))
-        }
-        other => bail!(
-            "unknown policy {other:?} (learned policies come with the rl crate; use heuristic, random or fixed:R,H,S)"
-        ),
-    })
 }
 
 fn parse_range(spec: &str) -> anyhow::Result<[f64; 2]> {
@@ -130,7 +118,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         l => bail!("unknown layout {l:?} (per-setup, ac or bc)"),
     };
     let tilt_range = parse_range(&args.tilt_range)?;
-    let mut policy = parse_policy(&args.policy, args.seed)?;
     let opts = MillOptions {
         preset,
         setups,
@@ -143,6 +130,38 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..MillOptions::default()
     };
 
+    let space = match preset {
+        Preset::Paper => ActionSpace::paper().scaled(MillOptions::default().paper_scale_mm),
+        Preset::Shop => ActionSpace::shop(),
+    };
+    let mut policy: Box<dyn Policy> = if args.finetune > 0 {
+        let mut learned = LearnedPolicy::load(Path::new(&args.policy))
+            .with_context(|| format!("--finetune needs a policy file as --policy, got {:?}", args.policy))?;
+        // Fine-tuning episodes mill the part as this run will.
+        let train = TrainOptions { seed: args.seed, mill: opts.clone(), ..TrainOptions::default() };
+        let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let returns = learned.finetune(&mesh, &stem, args.finetune, &train, &mut |e| {
+            eprintln!(
+                "s2g mill: fine-tuning episode {} of {}: return {:.4}",
+                e.episode + 1,
+                args.finetune,
+                e.total_reward
+            )
+        })?;
+        eprintln!(
+            "s2g mill: fine-tuned for {} episodes, last return {:.4}",
+            returns.len(),
+            returns.last().copied().unwrap_or(0.0)
+        );
+        Box::new(learned)
+    } else {
+        policy_by_name(&args.policy, &space, args.seed).with_context(|| {
+            format!(
+                "unknown policy {:?} (heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
+                args.policy
+            )
+        })?
+    };
     // Steps: orientation, action selection, then planning and simulation per setup, then
     // scoring; the number of setups is known once planning starts.
     let bar = ProgressBar::new(3);

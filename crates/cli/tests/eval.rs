@@ -43,8 +43,16 @@ fn done(child: std::process::Child) -> Output {
     out
 }
 
-const ROW_KEYS: [&str; 7] =
-    ["name", "iou", "f1", "chamfer_x1000", "normal_consistency", "machining_time_s", "unsafe_parts"];
+const ROW_KEYS: [&str; 8] = [
+    "name",
+    "iou",
+    "f1",
+    "chamfer_x1000",
+    "normal_consistency",
+    "machining_time_s",
+    "unsafe_parts",
+    "reward",
+];
 
 fn check_row(r: &serde_json::Value) {
     for k in ROW_KEYS {
@@ -59,19 +67,22 @@ fn check_row(r: &serde_json::Value) {
     assert!(x("chamfer_x1000") >= 0.0 && x("chamfer_x1000") < 20.0, "{r}");
     assert!(x("machining_time_s") > 0.0 && x("machining_time_s").is_finite(), "{r}");
     assert_eq!(r["unsafe_parts"], 0, "{r}");
+    // Eq. 13: one R_s per setup (at most 1 each) plus R_f (at most 1) plus 0.1 R_MRR.
+    assert!(x("reward") > 1.0 && x("reward").is_finite(), "{r}");
 }
 
 /// A Markdown table row as `to_markdown` prints it.
 fn md_row(r: &serde_json::Value) -> String {
     let x = |k: &str| r[k].as_f64().unwrap();
     format!(
-        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {} |",
+        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {:.4} | {} |",
         r["name"].as_str().unwrap(),
         x("iou"),
         x("f1"),
         x("chamfer_x1000"),
         x("normal_consistency"),
         x("machining_time_s"),
+        x("reward"),
         r["unsafe_parts"]
     )
 }
@@ -96,6 +107,10 @@ fn json_and_markdown_tables() {
     let names: Vec<&str> = t1.iter().map(|r| r["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["heuristic", "coarse"], "{v}");
     t1.iter().for_each(check_row);
+    // The same rows by name, as `{"policies": {NAME: {...}}}`.
+    for r in t1 {
+        assert_eq!(&v["policies"][r["name"].as_str().unwrap()], r, "{v}");
+    }
     // Table 2: coverage fractions, each at most the upper bound; ours at least the greedy.
     let t2 = &v["table2_orientation"];
     let c = |k: &str| t2[k].as_f64().unwrap_or_else(|| panic!("table 2 lacks {k}: {t2}"));
@@ -124,7 +139,7 @@ fn json_and_markdown_tables() {
         "### Tables 1 and 3: policies",
         "### Table 2: orientation selection (surface coverage)",
         "### Table 4: clearing strategies removed one at a time",
-        "| | IoU | F1 | CD x1000 | NC | T (s) | unsafe |",
+        "| | IoU | F1 | CD x1000 | NC | T (s) | reward | unsafe |",
         "| 6-axes | Rand(5) | Rand(6) | plain greedy | ours | upper bound |",
     ] {
         assert!(md.contains(h), "markdown lacks {h:?}:\n{md}");

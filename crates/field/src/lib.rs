@@ -48,6 +48,8 @@ mod backend;
 mod checkpoint;
 mod error;
 mod eval;
+mod layer;
+mod milling;
 mod rng;
 mod sdf;
 mod siren;
@@ -55,5 +57,13 @@ mod siren;
 pub use backend::Backend;
 pub use error::{FieldError, Result};
 pub use eval::{SdfError, sdf_error, validation_points};
+pub use layer::{
+    GRAD_EPS, LayerGeometry, gaussian_curvature, gradient_norm, hessian_times_gradient, layer_normal,
+    max_abs_curvature, mean_curvature, principal_curvatures,
+};
+pub use milling::{
+    CollisionCount, LayerOptions, LayerReport, LossConstants, MeshSdf, MillingLosses, MillingProblem,
+    MillingWeights, Tool, count_collisions, cup_mesh, milling_losses, optimize_layers, pretrain_planar,
+};
 pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
 pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};

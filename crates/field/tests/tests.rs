@@ -2,4 +2,6 @@
 
 mod derivatives;
 mod errors;
+mod layer;
+mod milling;
 mod sdf;

@@ -32,7 +32,11 @@ impl Dqn {
     /// Only the network is saved: the replay buffer, the optimiser's moments, the target
     /// network and the counters are training state, not the policy.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), RlError> {
-        let path = path.as_ref();
+        write_atomic(path.as_ref(), &self.to_bytes()?)
+    }
+
+    /// The checkpoint [`save`](Self::save) writes, as bytes (to embed in a larger file).
+    pub fn to_bytes(&self) -> Result<Vec<u8>, RlError> {
         let payload =
             self.online().clone().into_record().into_bytes().map_err(|e| RlError::Backend(e.to_string()))?;
         let hidden = &self.config().hidden;
@@ -47,7 +51,7 @@ impl Dqn {
         }
         buf.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         buf.extend_from_slice(&payload);
-        write_atomic(path, &buf)
+        Ok(buf)
     }
 
     /// Build an agent from `config` with the network saved at `path` by [`Dqn::save`].
@@ -59,8 +63,18 @@ impl Dqn {
     pub fn load(path: impl AsRef<Path>, config: DqnConfig) -> Result<Self, RlError> {
         let path = path.as_ref();
         let bytes = fs::read(path).map_err(|source| RlError::Io { path: path.to_path_buf(), source })?;
+        Self::decode(&bytes, config, path)
+    }
+
+    /// [`load`](Self::load) from bytes made by [`to_bytes`](Self::to_bytes); errors name
+    /// the path `<memory>`.
+    pub fn from_bytes(bytes: &[u8], config: DqnConfig) -> Result<Self, RlError> {
+        Self::decode(bytes, config, Path::new("<memory>"))
+    }
+
+    fn decode(bytes: &[u8], config: DqnConfig, path: &Path) -> Result<Self, RlError> {
         let bad = |reason: String| RlError::Checkpoint { path: path.to_path_buf(), reason };
-        let mut reader = Reader { bytes: &bytes, pos: 0 };
+        let mut reader = Reader { bytes, pos: 0 };
         if reader.take(8) != Some(MAGIC.as_slice()) {
             return Err(bad("not an s2g-rl checkpoint (bad magic)".into()));
         }
