@@ -542,6 +542,19 @@ impl MillRun {
         })
     }
 
+    /// What both layouts' machining reads.
+    fn ctx(&self) -> Ctx<'_> {
+        Ctx {
+            part: &self.part,
+            target: &self.target,
+            jobs: &self.jobs,
+            sim: &self.sim,
+            setups: self.orientation.setups.len(),
+            dialect: self.opts.dialect,
+            wopts: &self.wopts,
+        }
+    }
+
     /// The action space, in planning units.
     pub fn space(&self) -> &ActionSpace {
         &self.space
@@ -623,17 +636,17 @@ impl MillRun {
         if self.placements.is_some() {
             return Ok(());
         }
-        let ctx = Ctx {
-            part: &self.part,
-            target: &self.target,
-            jobs: &self.jobs,
-            sim: &self.sim,
-            setups: self.orientation.setups.len(),
-            dialect: o.dialect,
-            wopts: &self.wopts,
-        };
-        let trace = (i == 0).then_some(&mut self.trace);
-        let (program, remaining) = machine_setup(&ctx, i, &self.remaining, trace, &mut self.times, progress)?;
+        let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
+        let result = machine_setup(
+            &self.ctx(),
+            i,
+            &self.remaining,
+            (i == 0).then_some(&mut trace),
+            &mut times,
+            progress,
+        );
+        (self.trace, self.times) = (trace, times);
+        let (program, remaining) = result?;
         self.setups.push(program);
         self.remaining = remaining;
         Ok(())
@@ -652,21 +665,14 @@ impl MillRun {
         }
         let opts = &self.opts;
         if let (ProgramLayout::Rotary(axes), Some(placements)) = (opts.layout, &self.placements) {
-            let ctx = Ctx {
-                part: &self.part,
-                target: &self.target,
-                jobs: &self.jobs,
-                sim: &self.sim,
-                setups: self.orientation.setups.len(),
-                dialect: opts.dialect,
-                wopts: &self.wopts,
-            };
             // Above this height (program +Z, rotary centre at the origin) the tool clears
             // every point of the stock in every orientation of the table.
             let turn_z =
                 (0..8).map(|i| corner(&self.stock, i).coords.norm()).fold(0.0, f64::max) + self.clearance;
-            self.setups =
-                mill_rotary(&ctx, axes, placements, turn_z, &mut self.trace, &mut self.times, progress)?;
+            let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
+            let setups = mill_rotary(&self.ctx(), axes, placements, turn_z, &mut trace, &mut times, progress);
+            (self.trace, self.times) = (trace, times);
+            self.setups = setups?;
         }
         let part_voxels = self.target.count() as f64;
         let mut gouged = 0;
