@@ -48,10 +48,12 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(sa.lines, sb.lines);
         assert_eq!(a.0, b.0);
     }
-    // The two-stage parser (taken for inputs of 1 MiB and more) must agree exactly.
+    // The two-stage parser (taken for inputs of 1 MiB and more) must agree exactly, with
+    // chunks small enough (set by the third byte) that the input spans many of them.
+    let chunk = 1 + data.get(2).map_or(0, |&b| b as usize);
     let (mut one, mut two) = (MotionRecorder::default(), MotionRecorder::default());
     let s1 = parse_str(&text, &opts, &mut one).expect("infallible sink");
-    let s2 = parse_str_two_stage(&text, &opts, &mut two).expect("infallible sink");
+    let s2 = parse_str_two_stage(&text, &opts, &mut two, chunk).expect("infallible sink");
     assert_eq!(s1, s2);
     assert_eq!(one.motions, two.motions);
 });

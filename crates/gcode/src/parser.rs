@@ -183,21 +183,23 @@ pub fn parse_str<S: MotionSink>(
 ) -> Result<ParseSummary, ParseError<S::Error>> {
     let b = text.as_bytes();
     if pipeline::worthwhile(b.len()) {
-        return pipeline::parse_two_stage(b, opts, sink);
+        return pipeline::parse_two_stage(b, opts, sink, pipeline::CHUNK_BYTES);
     }
     parse_bytes(b, opts, sink, true)
 }
 
 /// [`parse_str`] always in two stages (a lexing thread beside the interpreter), whatever
-/// the input's size. For the fuzz target, which checks it against [`parse_str`]; not
-/// part of the stable API.
+/// the input's size, with chunks of `chunk_bytes` (at least 1) instead of 128 KiB, so that
+/// small inputs cross chunk boundaries too. For the fuzz target, which checks it against
+/// [`parse_str`]; not part of the stable API.
 #[doc(hidden)]
 pub fn parse_str_two_stage<S: MotionSink>(
     text: &str,
     opts: &ParseOptions,
     sink: &mut S,
+    chunk_bytes: usize,
 ) -> Result<ParseSummary, ParseError<S::Error>> {
-    pipeline::parse_two_stage(text.as_bytes(), opts, sink)
+    pipeline::parse_two_stage(text.as_bytes(), opts, sink, chunk_bytes)
 }
 
 /// [`parse_str`] over bytes; `fast_path: false` sends every block through the general

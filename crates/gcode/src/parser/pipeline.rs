@@ -23,7 +23,7 @@ use crate::expr::{Cursor, plain_number};
 pub(super) const MIN_BYTES: usize = 1 << 20;
 
 /// Bytes per chunk, before it is stretched to the end of its last line.
-const CHUNK_BYTES: usize = 128 << 10;
+pub(super) const CHUNK_BYTES: usize = 128 << 10;
 
 /// Lexed chunks the second thread may hold ready before it waits for the interpreter.
 const AHEAD: usize = 4;
@@ -149,16 +149,16 @@ fn boundary(b: &[u8], at: usize) -> usize {
     b[at - 1..].iter().position(|&c| c == b'\n').map_or(b.len(), |k| at + k)
 }
 
-/// The bytes of chunk `k`.
-fn chunk_range(b: &[u8], k: usize) -> std::ops::Range<usize> {
-    let at = |k: usize| boundary(b, k.saturating_mul(CHUNK_BYTES));
+/// The bytes of chunk `k` of chunks of `size` bytes.
+fn chunk_range(b: &[u8], k: usize, size: usize) -> std::ops::Range<usize> {
+    let at = |k: usize| boundary(b, k.saturating_mul(size));
     at(k)..at(k + 1)
 }
 
 /// Number of chunks of `b`. A line longer than a chunk leaves the chunks it swallows
 /// empty; they cost nothing.
-fn chunk_count(b: &[u8]) -> usize {
-    b.len().div_ceil(CHUNK_BYTES)
+fn chunk_count(b: &[u8], size: usize) -> usize {
+    b.len().div_ceil(size)
 }
 
 /// Splits `b[range]` into lines (the one-thread parser's rule: `\n`, `\r\n` or a lone
@@ -201,14 +201,18 @@ pub(super) fn worthwhile(len: usize) -> bool {
     len >= MIN_BYTES && std::thread::available_parallelism().is_ok_and(|n| n.get() >= 2)
 }
 
-/// [`super::parse_bytes`] in two stages (see the module docs); same summary, same motions.
+/// [`super::parse_bytes`] in two stages (see the module docs) with chunks of `chunk_bytes`
+/// (at least 1; [`CHUNK_BYTES`] for speed, far fewer to test the chunk boundaries); same
+/// summary, same motions.
 pub(super) fn parse_two_stage<S: MotionSink>(
     b: &[u8],
     opts: &ParseOptions,
     sink: &mut S,
+    chunk_bytes: usize,
 ) -> Result<ParseSummary, ParseError<S::Error>> {
+    let size = chunk_bytes.max(1);
     let mut it = Interp::new(opts, None);
-    let chunks = chunk_count(b);
+    let chunks = chunk_count(b, size);
     // The next chunk either thread may claim; claims go up one at a time, so the lexing
     // thread's chunks arrive in order.
     let next = AtomicUsize::new(0);
@@ -223,7 +227,7 @@ pub(super) fn parse_two_stage<S: MotionSink>(
                     return;
                 }
                 let mut chunk = empty_rx.try_recv().unwrap_or_default();
-                fill(b, chunk_range(b, k), &mut chunk);
+                fill(b, chunk_range(b, k, size), &mut chunk);
                 // The interpreter hung up (program end or an error): stop.
                 if full_tx.send((k, chunk)).is_err() {
                     return;
@@ -248,7 +252,7 @@ pub(super) fn parse_two_stage<S: MotionSink>(
                 let j = next.fetch_add(1, Ordering::Relaxed);
                 if j < chunks {
                     let mut c = spare.take().unwrap_or_default();
-                    fill(b, chunk_range(b, j), &mut c);
+                    fill(b, chunk_range(b, j, size), &mut c);
                     ready.insert(j, c);
                 } else if let Ok((j, c)) = full_rx.recv() {
                     ready.insert(j, c);
@@ -256,7 +260,7 @@ pub(super) fn parse_two_stage<S: MotionSink>(
                     // The other thread is gone without sending `k` (it cannot be, short of a
                     // panic there): lex it here.
                     let mut c = spare.take().unwrap_or_default();
-                    fill(b, chunk_range(b, k), &mut c);
+                    fill(b, chunk_range(b, k, size), &mut c);
                     break c;
                 }
             };
@@ -293,9 +297,14 @@ mod tests {
     use super::*;
     use crate::parser::tests::{assert_same_parse, dialects, sample_files, splitmix};
 
-    /// The two-stage parser against the one-thread one, on the same bytes.
+    /// The two-stage parser against the one-thread one, on the same bytes, with the real
+    /// chunks and with chunks of a few lines.
     fn agree(text: &[u8], opts: &ParseOptions, what: &str) {
-        assert_same_parse(text, opts, what, |t, o, rec| parse_two_stage(t, o, rec).expect("infallible sink"));
+        for size in [CHUNK_BYTES, 97] {
+            assert_same_parse(text, opts, what, |t, o, rec| {
+                parse_two_stage(t, o, rec, size).expect("infallible sink")
+            });
+        }
     }
 
     #[test]
@@ -323,10 +332,10 @@ mod tests {
         ];
         for text in &cases {
             let b = text.as_bytes();
-            let n = chunk_count(b);
+            let n = chunk_count(b, CHUNK_BYTES);
             let mut at = 0;
             for k in 0..n {
-                let r = chunk_range(b, k);
+                let r = chunk_range(b, k, CHUNK_BYTES);
                 assert_eq!(r.start, at, "chunk {k} starts where {} ended", k.wrapping_sub(1));
                 if !r.is_empty() && r.end < b.len() {
                     assert_eq!(b[r.end - 1], b'\n', "chunk {k} ends after a newline");
@@ -334,7 +343,7 @@ mod tests {
                 at = r.end;
             }
             assert_eq!(at, b.len(), "the chunks cover the input");
-            assert!(chunk_range(b, n).is_empty(), "nothing after the last chunk");
+            assert!(chunk_range(b, n, CHUNK_BYTES).is_empty(), "nothing after the last chunk");
             for opts in dialects() {
                 agree(b, &opts, "chunk edge case");
             }
