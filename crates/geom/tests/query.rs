@@ -3,7 +3,8 @@
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use s2g_geom::{
-    BoxShape, GeomError, Isometry3, Mesh, MeshIndex, Point3, Rotation3, SignedDistance, Similarity3, Vector3,
+    BoxShape, GeomError, Isometry3, Mesh, MeshIndex, OccluderCache, Point3, Rotation3, SignedDistance,
+    Similarity3, Vector3,
 };
 
 /// An outward-wound axis-aligned box mesh (12 triangles).
@@ -386,6 +387,7 @@ fn any_hit_agrees_with_a_brute_force_loop_on_the_bunny() {
     let mut rng = StdRng::seed_from_u64(8);
     let scale = mesh.bbox().unwrap().extent().max();
     let mut checked = 0;
+    let (mut cache, mut cache_hits) = (OccluderCache::default(), 0);
     for (i, (p, n)) in samples.points.iter().zip(&samples.normals).enumerate() {
         let o = p + n * 1e-6 * scale;
         let d = random_unit(&mut rng);
@@ -415,15 +417,28 @@ fn any_hit_agrees_with_a_brute_force_loop_on_the_bunny() {
             None => assert!(best.is_infinite(), "ray {i}: missed, brute force hits at {best}"),
         }
         assert_eq!(index.ray_hits_any(&o, &d, scale * 10.0), best.is_finite(), "ray {i}: any-hit");
+        // The occluder cache carries the last blocking triangle from ray to ray: it must
+        // never change the answer, whether the remembered triangle blocks this ray or not.
+        assert_eq!(
+            index.ray_hits_any_cached(&o, &d, scale * 10.0, &mut cache),
+            best.is_finite(),
+            "ray {i}: any-hit with the cache"
+        );
         if best.is_finite() {
             assert!(
                 !index.ray_hits_any(&o, &d, best * (1.0 - 1e-7)),
                 "ray {i}: any-hit before the first hit"
             );
+            assert!(
+                !index.ray_hits_any_cached(&o, &d, best * (1.0 - 1e-7), &mut cache),
+                "ray {i}: cached any-hit before the first hit"
+            );
+            cache_hits += usize::from(index.ray_hits_any_cached(&o, &d, best * (1.0 + 1e-7), &mut cache));
         }
         checked += 1;
     }
     assert_eq!(checked, 400);
+    assert!(cache_hits > 100, "the cached query finds the hits: {cache_hits}");
 }
 
 #[test]

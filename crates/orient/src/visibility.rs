@@ -13,7 +13,7 @@
 //! same ray, from the point back towards the spindle; only the sign of `v` differs.
 
 use rayon::prelude::*;
-use s2g_geom::{Aabb, Mesh, MeshIndex, Point3, Real, SurfaceSamples, UnitVector3, Vector3};
+use s2g_geom::{Aabb, Mesh, MeshIndex, OccluderCache, Point3, Real, SurfaceSamples, UnitVector3, Vector3};
 
 use crate::directions::orthonormal_basis;
 use crate::error::{OrientError, Result};
@@ -247,16 +247,17 @@ impl<'a> VisibilityContext<'a> {
 
     /// Whether a ray from `o` along `v` leaves the box, or passes the support plane of
     /// `probe`, without hitting the part.
+    /// `cache` holds the triangle that blocked the last ray of the run.
     #[inline]
-    fn free(&self, o: &Point3, v: &Vector3, probe: &Probe) -> bool {
+    fn free(&self, o: &Point3, v: &Vector3, probe: &Probe, cache: &mut OccluderCache) -> bool {
         let t = self.exit_distance(o, v).min(probe.top - v.dot(&o.coords));
-        t <= 0.0 || !self.index.ray_hits_any(o, v, t)
+        t <= 0.0 || !self.index.ray_hits_any_cached(o, v, t, cache)
     }
 
     /// Whether sample `i` is visible from tool axis `v` (see the module docs).
     /// `probe` is `self.probe(v)`.
     #[inline]
-    fn visible_with(&self, i: usize, v: &Vector3, probe: &Probe) -> bool {
+    fn visible_with(&self, i: usize, v: &Vector3, probe: &Probe, cache: &mut OccluderCache) -> bool {
         let n = &self.normals[i];
         if n.dot(v).partial_cmp(&self.opts.min_cos) != Some(std::cmp::Ordering::Greater) {
             return false;
@@ -267,18 +268,18 @@ impl<'a> VisibilityContext<'a> {
                 if self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1) {
                     return true;
                 }
-                self.free(&(p + n * self.eps), v, probe)
+                self.free(&(p + n * self.eps), v, probe, cache)
             }
             Some(r) => {
                 let c = p + n * (r + self.eps);
-                if !self.free(&c, v, probe) {
+                if !self.free(&c, v, probe, cache) {
                     return false;
                 }
                 let k = self.opts.tool_rays;
                 (0..k).all(|j| {
                     let t = std::f64::consts::TAU * j as Real / k as Real;
                     let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
-                    self.free(&(c + off), v, probe)
+                    self.free(&(c + off), v, probe, cache)
                 })
             }
         }
@@ -289,7 +290,7 @@ impl<'a> VisibilityContext<'a> {
     /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
         let probe = Probe { basis: orthonormal_basis(v), top: Real::INFINITY };
-        i < self.points.len() && self.visible_with(i, v, &probe)
+        i < self.points.len() && self.visible_with(i, v, &probe, &mut OccluderCache::default())
     }
 
     /// Writes the bitset of samples visible from `v` into `out` (`words()` long),
@@ -312,6 +313,8 @@ impl<'a> VisibilityContext<'a> {
         skip: Option<&[u64]>,
     ) {
         let n = self.points.len();
+        // Samples are in spatial order, so consecutive rays start close together.
+        let mut cache = OccluderCache::default();
         for (w, word) in out.iter_mut().enumerate() {
             let base = (first_word + w) * 64;
             let valid = if n - base.min(n) >= 64 { u64::MAX } else { (1u64 << (n - base.min(n))) - 1 };
@@ -320,7 +323,7 @@ impl<'a> VisibilityContext<'a> {
             while todo != 0 {
                 let b = todo.trailing_zeros() as usize;
                 todo &= todo - 1;
-                if self.visible_with(base + b, v, probe) {
+                if self.visible_with(base + b, v, probe, &mut cache) {
                     bits |= 1 << b;
                 }
             }

@@ -272,8 +272,16 @@ impl Bvh {
     }
 
     /// Whether a segment `o + t d`, `t` in `[0, tmax]`, hits any triangle (local frame).
+    /// `last` is a triangle (index into `tris`, or anything out of range) tried before the
+    /// tree: a ray next to one that was blocked is often blocked by the same triangle. On
+    /// a hit found in the tree, `last` becomes that triangle.
     #[inline]
-    pub fn any_hit(&self, o: [f64; 3], d: [f64; 3], tmax: f64) -> bool {
+    pub fn any_hit(&self, o: [f64; 3], d: [f64; 3], tmax: f64, last: &mut u32) -> bool {
+        if let Some(tri) = self.tris.get(*last as usize)
+            && intersect(tri, o, d, tmax).is_some()
+        {
+            return true;
+        }
         let ray = RayF32::new(o, d, tmax);
         let mut stack = [0u32; STACK];
         let mut sp = 0usize;
@@ -284,8 +292,9 @@ impl Bvh {
         loop {
             if node.count > 0 {
                 let s = node.start as usize;
-                for tri in &self.tris[s..s + node.count as usize] {
+                for (k, tri) in self.tris[s..s + node.count as usize].iter().enumerate() {
                     if intersect(tri, o, d, tmax).is_some() {
+                        *last = (s + k) as u32;
                         return true;
                     }
                 }
@@ -449,8 +458,13 @@ impl RayF32 {
     fn set_tmax(&mut self, t: f64) {
         self.tmax = (t as f32).next_up() * (1.0 + 1e-6);
     }
-    /// Entry parameter of the segment into the box, `None` when it misses. NaNs from
-    /// `0 * inf` are dropped by `min`/`max`, which makes the test conservative.
+    /// Entry parameter of the segment into the box, `None` when it misses.
+    ///
+    /// The comparisons are written as `if a < b { a } else { b }`, which is one `minss` or
+    /// `maxss` (`f32::min` and `max` carry NaN fix-ups that made this test a third of
+    /// visibility's time). A NaN from `0 * inf` (origin on a slab plane of an axis the ray
+    /// runs parallel to) never wins the accumulating comparisons, so that slab narrows the
+    /// interval less or not at all: the test stays conservative.
     #[inline(always)]
     fn entry(&self, n: &Node) -> Option<f32> {
         let mut tnear = 0.0f32;
@@ -458,8 +472,9 @@ impl RayF32 {
         for a in 0..3 {
             let t1 = (n.min[a] - self.o[a]) * self.inv[a];
             let t2 = (n.max[a] - self.o[a]) * self.inv[a];
-            tnear = tnear.max(t1.min(t2));
-            tfar = tfar.min(t1.max(t2));
+            let (lo, hi) = if t1 < t2 { (t1, t2) } else { (t2, t1) };
+            tnear = if lo > tnear { lo } else { tnear };
+            tfar = if hi < tfar { hi } else { tfar };
         }
         (tnear <= tfar).then_some(tnear)
     }
