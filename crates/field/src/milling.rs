@@ -560,19 +560,15 @@ impl LayerOptions {
             return Err(FieldError::config("learning_rate", "must be finite and > 0"));
         }
         let w = self.weights;
-        for (field, v) in [
+        FieldError::check_non_negative(&[
             ("weights.spacing", w.spacing),
             ("weights.curvature", w.curvature),
             ("weights.zero_gradient", w.zero_gradient),
             ("weights.collision_start", w.collision_start),
             ("weights.collision_end", w.collision_end),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(FieldError::config(field, format!("must be finite and >= 0, got {v}")));
-            }
-        }
+        ])?;
         let c = self.constants;
-        for (field, v) in [
+        FieldError::check_non_negative(&[
             ("constants.collision_slope", c.collision_slope),
             ("constants.part_clearance", c.part_clearance),
             ("constants.layer_clearance", c.layer_clearance),
@@ -580,11 +576,7 @@ impl LayerOptions {
             ("constants.curvature_factor", c.curvature_factor),
             ("constants.singular_gradient", c.singular_gradient),
             ("constants.min_gradient", c.min_gradient),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(FieldError::config(field, format!("must be finite and >= 0, got {v}")));
-            }
-        }
+        ])?;
         if c.singular_gradient == 0.0 {
             return Err(FieldError::config("constants.singular_gradient", "must be > 0"));
         }

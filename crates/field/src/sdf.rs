@@ -139,16 +139,12 @@ impl SdfOptions {
             ));
         }
         let w = self.weights;
-        for (field, v) in [
+        FieldError::check_non_negative(&[
             ("weights.surface", w.surface),
             ("weights.normal", w.normal),
             ("weights.general", w.general),
             ("weights.eikonal", w.eikonal),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(FieldError::config(field, format!("must be finite and >= 0, got {v}")));
-            }
-        }
+        ])?;
         Ok(())
     }
 
