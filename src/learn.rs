@@ -201,8 +201,7 @@ impl MachiningEnv {
         let usable =
             matches!(&self.run, Some((p, done, _)) if *p == self.part && self.taken.starts_with(done));
         if !usable {
-            let run = MillRun::new(&self.parts[self.part].1, &self.opts, &mut |_| {})?;
-            self.run = Some((self.part, Vec::new(), run));
+            self.run = Some((self.part, Vec::new(), self.fresh_run(self.part)?));
         }
         if let Some((_, done, run)) = self.run.as_mut() {
             while done.len() < self.taken.len() {
@@ -425,17 +424,15 @@ fn rl_error(e: RlError) -> MillError {
 impl Policy for LearnedPolicy {
     fn choose(&mut self, ctx: &SetupContext<'_>) -> Action {
         let scale = ctx.space.radii.first().zip(self.info.radii.first()).map_or(1.0, |(a, b)| a / b);
-        let fallback = crate::policy::HeuristicPolicy::default();
-        if !self.fits(ctx.space, scale) {
-            // Another action space (the shop preset, a strategy left out): the Q-network's
-            // actions mean nothing there, so the heuristic decides.
-            return { fallback }.choose(ctx);
-        }
-        let state = observation(&self.encoder, ctx);
-        match self.agent.act(&state, false).ok().and_then(|a| ctx.space.action(a)) {
-            Some(a) => a,
-            None => { fallback }.choose(ctx),
-        }
+        // In another action space (the shop preset, a strategy left out) the Q-network's
+        // actions mean nothing, so the heuristic decides; so it does if acting fails.
+        let learned = if self.fits(ctx.space, scale) {
+            let state = observation(&self.encoder, ctx);
+            self.agent.act(&state, false).ok().and_then(|a| ctx.space.action(a))
+        } else {
+            None
+        };
+        learned.unwrap_or_else(|| crate::policy::HeuristicPolicy::default().choose(ctx))
     }
 
     fn name(&self) -> String {
