@@ -9,7 +9,7 @@ use serde_json::{Value, json};
 
 use crate::geom::Mesh;
 use crate::learn::LearnedPolicy;
-use crate::pipeline::{MillError, MillOptions, Milled, Preset, mill};
+use crate::pipeline::{MillError, MillOptions, Milled, mill};
 use crate::policy::{Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, StrategyKind};
 use crate::voxsim::RewardWeights;
 
@@ -119,10 +119,7 @@ pub fn evaluate(
     opts: &MillOptions,
     on_run: &mut dyn FnMut(&str, &str),
 ) -> Result<Tables, MillError> {
-    let space = match opts.preset {
-        Preset::Paper => ActionSpace::paper().scaled(opts.paper_scale_mm),
-        Preset::Shop => ActionSpace::shop(),
-    };
+    let space = opts.action_space();
     let mut tables = Tables { parts: parts.iter().map(|(n, _)| n.clone()).collect(), ..Tables::default() };
     let mut heuristic_runs = Vec::new();
     for name in policies {

@@ -80,6 +80,12 @@ pub fn observation(encoder: &GeometricEncoder, ctx: &SetupContext<'_>) -> Vec<f3
     s
 }
 
+/// The state of `run`'s next setup.
+fn state(encoder: &GeometricEncoder, run: &MillRun) -> Vec<f32> {
+    let features = run.features();
+    observation(encoder, &run.context(&features))
+}
+
 /// Options of [`train_policy`] and of the machining environment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrainOptions {
@@ -152,7 +158,7 @@ impl MachiningEnv {
         if parts.is_empty() {
             return Err(MillError::InvalidOption("the training corpus has no part".into()));
         }
-        let space = action_space(&opts);
+        let space = opts.action_space();
         Ok(Self {
             parts,
             encoder: GeometricEncoder { radii: space.radii.len() },
@@ -172,7 +178,7 @@ impl MachiningEnv {
         &self.space
     }
 
-    /// Fixes the next episode's part (else [`reset`](Environment::reset) draws one).
+    /// Starts an episode on `part`: its first state, computed once per part.
     fn start(&mut self, part: usize) -> Result<Vec<f32>, MillError> {
         self.part = part;
         self.taken.clear();
@@ -180,7 +186,7 @@ impl MachiningEnv {
             return Ok(s.clone());
         }
         let run = self.fresh_run(part)?;
-        let s = self.state_of(&run)?;
+        let s = state(&self.encoder, &run);
         self.first.insert(part, s.clone());
         self.run = Some((part, Vec::new(), run));
         Ok(s)
@@ -188,11 +194,6 @@ impl MachiningEnv {
 
     fn fresh_run(&self, part: usize) -> Result<MillRun, MillError> {
         MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})
-    }
-
-    fn state_of(&self, run: &MillRun) -> Result<Vec<f32>, MillError> {
-        let features = run.features()?;
-        Ok(observation(&self.encoder, &run.context(&features)))
     }
 
     /// Brings the kept run to the current prefix: replays the missing setups when it is at
@@ -217,16 +218,6 @@ impl MachiningEnv {
 
 fn bad_action(a: usize, n: usize) -> MillError {
     MillError::InvalidOption(format!("action {a} is outside the action space of {n}"))
-}
-
-/// The action space `opts` mills with.
-fn action_space(opts: &MillOptions) -> ActionSpace {
-    let mut space = match opts.preset {
-        Preset::Paper => ActionSpace::paper().scaled(opts.paper_scale_mm),
-        Preset::Shop => ActionSpace::shop(),
-    };
-    space.strategies.retain(|s| opts.strategies.contains(s));
-    space
 }
 
 impl Environment for MachiningEnv {
@@ -266,12 +257,7 @@ impl Environment for MachiningEnv {
         self.taken.push(action);
         let done = run.next_setup().is_none();
         let reward = step_reward(run, &self.weights)?;
-        let state = if done {
-            vec![0.0; state_dim]
-        } else {
-            let features = run.features()?;
-            observation(&self.encoder, &run.context(&features))
-        };
+        let state = if done { vec![0.0; state_dim] } else { state(&self.encoder, run) };
         let step = Step { state, reward: reward as f32, done };
         self.outcomes.insert(key, step.clone());
         Ok(step)
@@ -480,24 +466,6 @@ fn step_reward(run: &MillRun, w: &RewardWeights) -> Result<f64, MillError> {
         reward += w.lambda_f * r.final_iou + w.lambda_mrr * run.report().mrr_mm3_per_min / 1000.0;
     }
     Ok(reward)
-}
-
-/// The return (Eq. 13) of `policy` on `mesh`, milled as the environment mills it.
-pub fn episode_return(
-    policy: &mut dyn Policy,
-    mesh: &Mesh,
-    opts: &MillOptions,
-    weights: &RewardWeights,
-) -> Result<f64, MillError> {
-    let mut run = MillRun::new(mesh, &per_setup(opts), &mut |_| {})?;
-    let mut total = 0.0;
-    while run.next_setup().is_some() {
-        let features = run.features()?;
-        let action = policy.choose(&run.context(&features));
-        run.machine(action, &mut |_| {})?;
-        total += step_reward(&run, weights)?;
-    }
-    Ok(total)
 }
 
 /// Rewards follow each setup only in the per-setup layout.

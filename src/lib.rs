@@ -31,8 +31,7 @@ pub use crate::feature::{
     feature_writer_options, load_job, parse_job,
 };
 pub use crate::learn::{
-    GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, TrainOptions, episode_return, observation,
-    train_policy,
+    GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, TrainOptions, observation, train_policy,
 };
 pub use crate::pipeline::{
     MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,

@@ -128,6 +128,20 @@ pub struct MillOptions {
     pub contour: bool,
 }
 
+impl MillOptions {
+    /// The action space these options mill with, in planning units: the paper's scaled to
+    /// [`paper_scale_mm`](Self::paper_scale_mm), or the shop's, limited to
+    /// [`strategies`](Self::strategies).
+    pub fn action_space(&self) -> ActionSpace {
+        let mut space = match self.preset {
+            Preset::Paper => ActionSpace::paper().scaled(self.paper_scale_mm),
+            Preset::Shop => ActionSpace::shop(),
+        };
+        space.strategies.retain(|s| self.strategies.contains(s));
+        space
+    }
+}
+
 impl Default for MillOptions {
     fn default() -> Self {
         Self {
@@ -341,7 +355,7 @@ pub fn mill(
     let mut run = MillRun::new(mesh, opts, progress)?;
     while run.next_setup().is_some() {
         let t = Instant::now();
-        let features = run.features()?;
+        let features = run.features();
         let ctx = run.context(&features);
         let action = policy.choose(&ctx);
         run.times.action_selection += t.elapsed().as_secs_f64();
@@ -425,7 +439,7 @@ impl MillRun {
         // Units: the paper plans in the unit cube; the shop in part units. `to_input`
         // maps planning units back to the input mesh's units.
         let unit: Normalization = unit_cube_normalization(mesh)?;
-        let (part, space, stock, to_input) = match opts.preset {
+        let (part, stock, to_input) = match opts.preset {
             Preset::Paper => {
                 let k = opts.paper_scale_mm;
                 if !(k.is_finite() && k > 0.0) {
@@ -437,16 +451,15 @@ impl MillRun {
                 let part = mesh.transformed(&norm.as_similarity());
                 let half = 0.5 * k;
                 let stock = Aabb::new(Point3::new(-half, -half, -half), Point3::new(half, half, half));
-                (part, ActionSpace::paper().scaled(k), stock, norm)
+                (part, stock, norm)
             }
             Preset::Shop => {
                 let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
                 let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
-                (mesh.clone(), ActionSpace::shop(), bbox.inflated(margin), Normalization::identity())
+                (mesh.clone(), bbox.inflated(margin), Normalization::identity())
             }
         };
-        let mut space = space;
-        space.strategies.retain(|s| opts.strategies.contains(s));
+        let space = opts.action_space();
         if space.strategies.is_empty() {
             return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
         }
@@ -579,12 +592,12 @@ impl MillRun {
 
     /// The features of the next setup (those of the last one once all are machined), with
     /// the removal fraction of the material left now.
-    pub fn features(&self) -> Result<SetupFeatures, MillError> {
+    pub fn features(&self) -> SetupFeatures {
         let i = self.jobs.len().min(self.features.len().saturating_sub(1));
         let mut f = self.features.get(i).cloned().unwrap_or_default();
         let stock = self.target.spec().len() as f64;
         f.removal_fraction = if stock > 0.0 { self.remaining.count() as f64 / stock } else { 0.0 };
-        Ok(f)
+        f
     }
 
     /// The policy's view of the next setup, given its `features`.

@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
 use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    ActionSpace, LearnedPolicy, MillOptions, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions,
-    mill, policy_by_name, render_machining,
+    LearnedPolicy, MillOptions, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions, mill,
+    policy_by_name, render_machining,
 };
 
 /// The bundled sample mesh.
@@ -130,10 +130,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..MillOptions::default()
     };
 
-    let space = match preset {
-        Preset::Paper => ActionSpace::paper().scaled(MillOptions::default().paper_scale_mm),
-        Preset::Shop => ActionSpace::shop(),
-    };
     let mut policy: Box<dyn Policy> = if args.finetune > 0 {
         let mut learned = LearnedPolicy::load(Path::new(&args.policy))
             .with_context(|| format!("--finetune needs a policy file as --policy, got {:?}", args.policy))?;
@@ -155,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
         Box::new(learned)
     } else {
-        policy_by_name(&args.policy, &space, args.seed).with_context(|| {
+        policy_by_name(&args.policy, &opts.action_space(), args.seed).with_context(|| {
             format!(
                 "unknown policy {:?} (heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
                 args.policy
