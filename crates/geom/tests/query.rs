@@ -417,6 +417,7 @@ fn any_hit_agrees_with_a_brute_force_loop_on_the_bunny() {
             None => assert!(best.is_infinite(), "ray {i}: missed, brute force hits at {best}"),
         }
         assert_eq!(index.ray_hits_any(&o, &d, scale * 10.0), best.is_finite(), "ray {i}: any-hit");
+        assert_eq!(index.ray_hits_any(&o, &d, f64::INFINITY), best.is_finite(), "ray {i}: unbounded any-hit");
         // The occluder cache carries the last blocking triangle from ray to ray: it must
         // never change the answer, whether the remembered triangle blocks this ray or not.
         assert_eq!(

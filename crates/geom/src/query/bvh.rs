@@ -51,10 +51,90 @@ impl Tri {
     }
 }
 
+/// A 4-wide node: the boxes of up to four children in structure-of-arrays form (one
+/// box test covers all four), and per lane a child node (`count == 0`: `wide[start]`) or
+/// a run of triangles (`count > 0`: `tris[start..start + count]`). Unused lanes have the
+/// empty box `[+inf, +inf]`, which no ray enters.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct Node4 {
+    pub lo: [[f32; 4]; 3],
+    pub hi: [[f32; 4]; 3],
+    pub start: [u32; 4],
+    pub count: [u32; 4],
+}
+
+/// Traversal stack of the 4-wide tree: each level pushes at most three more entries
+/// than it pops, and the wide tree is no deeper than the binary one.
+const WIDE_STACK: usize = 3 * STACK + 4;
+
+/// Collapses the binary tree into 4-wide nodes: each wide node takes a binary node's
+/// children and keeps opening the inner child of largest surface area until it holds
+/// four (Wald et al., "Getting rid of packets", 2008). Leaves keep their triangle runs.
+fn collapse(nodes: &[Node]) -> Vec<Node4> {
+    const EMPTY: Node4 =
+        Node4 { lo: [[f32::INFINITY; 4]; 3], hi: [[f32::INFINITY; 4]; 3], start: [0; 4], count: [0; 4] };
+    let area = |n: &Node| {
+        let e = [0, 1, 2].map(|a| (n.max[a] - n.min[a]) as f64);
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    };
+    let mut wide = vec![EMPTY];
+    // (wide node to fill, binary node whose children it takes)
+    let mut work = vec![(0usize, 0usize)];
+    while let Some((w, b)) = work.pop() {
+        let root = &nodes[b];
+        let mut kids: Vec<usize> =
+            if root.count > 0 { vec![b] } else { vec![root.start as usize, root.start as usize + 1] };
+        while kids.len() < 4 {
+            let open = kids
+                .iter()
+                .enumerate()
+                .filter(|&(_, &k)| nodes[k].count == 0)
+                .max_by(|a, b| area(&nodes[*a.1]).total_cmp(&area(&nodes[*b.1])))
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let k = kids.swap_remove(i);
+            kids.push(nodes[k].start as usize);
+            kids.push(nodes[k].start as usize + 1);
+        }
+        for (l, &k) in kids.iter().enumerate() {
+            let n = &nodes[k];
+            for a in 0..3 {
+                wide[w].lo[a][l] = n.min[a];
+                wide[w].hi[a][l] = n.max[a];
+            }
+            if n.count > 0 {
+                wide[w].start[l] = n.start;
+                wide[w].count[l] = n.count;
+            } else {
+                let c = wide.len();
+                wide.push(EMPTY);
+                wide[w].start[l] = c as u32;
+                work.push((c, k));
+            }
+        }
+    }
+    wide
+}
+
+/// Sorts up to four `(entry, node)` pairs by decreasing entry.
+#[inline(always)]
+fn sort_far_to_near(v: &mut [(f32, u32)]) {
+    for i in 1..v.len() {
+        let mut j = i;
+        while j > 0 && v[j - 1].0 < v[j].0 {
+            v.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
 /// The hierarchy.
 #[derive(Debug, Clone)]
 pub(crate) struct Bvh {
     pub nodes: Vec<Node>,
+    /// The same tree collapsed to 4-wide nodes, for ray queries.
+    pub wide: Vec<Node4>,
     pub tris: Vec<Tri>,
     /// Original triangle index of `tris[i]`.
     pub ids: Vec<u32>,
@@ -262,7 +342,8 @@ impl Bvh {
                 Tri { v0: a, e1: sub(b, a), e2: sub(c, a) }
             })
             .collect();
-        Bvh { nodes, tris, ids: order, center }
+        let wide = collapse(&nodes);
+        Bvh { nodes, wide, tris, ids: order, center }
     }
 
     /// `p` in the local frame.
@@ -283,50 +364,39 @@ impl Bvh {
             return true;
         }
         let ray = RayF32::new(o, d, tmax);
-        let mut stack = [0u32; STACK];
+        let mut stack = [0u32; WIDE_STACK];
         let mut sp = 0usize;
-        let mut node = &self.nodes[0];
-        if ray.entry(node).is_none() {
-            return false;
-        }
+        let mut node = 0usize;
         loop {
-            if node.count > 0 {
-                let s = node.start as usize;
-                for (k, tri) in self.tris[s..s + node.count as usize].iter().enumerate() {
-                    if intersect(tri, o, d, tmax).is_some() {
-                        *last = (s + k) as u32;
-                        return true;
-                    }
+            let n = &self.wide[node];
+            let t = ray.entry4(n);
+            // Leaves are tested at once (a hit ends the query); inner children go on the
+            // stack unsorted: for an any-hit query, sorting them by entry cost more than
+            // it saved (bunny visibility: 0.64 s sorted, 0.57 s unsorted).
+            for l in 0..4 {
+                // Unused lanes (count 0, start 0: the root is nobody's child) are skipped
+                // too, whatever the box test says.
+                if !(t[l] <= ray.tmax) || (n.count[l] | n.start[l]) == 0 {
+                    continue;
                 }
-            } else {
-                // Nearer child first: occluders near the origin end the search sooner.
-                let li = node.start as usize;
-                let tl = ray.entry(&self.nodes[li]);
-                let tr = ray.entry(&self.nodes[li + 1]);
-                match (tl, tr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (li, li + 1) } else { (li + 1, li) };
-                        stack[sp] = far as u32;
-                        sp += 1;
-                        node = &self.nodes[near];
-                        continue;
+                if n.count[l] > 0 {
+                    let s = n.start[l] as usize;
+                    for (j, tri) in self.tris[s..s + n.count[l] as usize].iter().enumerate() {
+                        if intersect(tri, o, d, tmax).is_some() {
+                            *last = (s + j) as u32;
+                            return true;
+                        }
                     }
-                    (Some(_), None) => {
-                        node = &self.nodes[li];
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = &self.nodes[li + 1];
-                        continue;
-                    }
-                    (None, None) => {}
+                } else {
+                    stack[sp] = n.start[l];
+                    sp += 1;
                 }
             }
             if sp == 0 {
                 return false;
             }
             sp -= 1;
-            node = &self.nodes[stack[sp] as usize];
+            node = stack[sp] as usize;
         }
     }
 
@@ -336,42 +406,38 @@ impl Bvh {
         let mut ray = RayF32::new(o, d, tmax);
         let mut best: Option<(f64, usize)> = None;
         let mut tbest = tmax;
-        let mut stack = [0u32; STACK];
+        let mut stack = [(0u32, 0.0f32); WIDE_STACK];
         let mut sp = 0usize;
-        let mut node = &self.nodes[0];
-        ray.entry(node)?;
+        let mut node = 0usize;
         loop {
-            if node.count > 0 {
-                let s = node.start as usize;
-                for (i, tri) in self.tris[s..s + node.count as usize].iter().enumerate() {
-                    if let Some(t) = intersect(tri, o, d, tbest) {
-                        tbest = t;
-                        best = Some((t, s + i));
-                        ray.set_tmax(t);
-                    }
+            let n = &self.wide[node];
+            let t = ray.entry4(n);
+            let mut inner = [(0.0f32, 0u32); 4];
+            let mut k = 0;
+            for l in 0..4 {
+                // Unused lanes (count 0, start 0: the root is nobody's child) are skipped
+                // too, whatever the box test says.
+                if !(t[l] <= ray.tmax) || (n.count[l] | n.start[l]) == 0 {
+                    continue;
                 }
-            } else {
-                let li = node.start as usize;
-                let tl = ray.entry(&self.nodes[li]);
-                let tr = ray.entry(&self.nodes[li + 1]);
-                match (tl, tr) {
-                    (Some(a), Some(b)) => {
-                        let (near, far) = if a <= b { (li, li + 1) } else { (li + 1, li) };
-                        stack[sp] = far as u32;
-                        sp += 1;
-                        node = &self.nodes[near];
-                        continue;
+                if n.count[l] > 0 {
+                    let s = n.start[l] as usize;
+                    for (i, tri) in self.tris[s..s + n.count[l] as usize].iter().enumerate() {
+                        if let Some(th) = intersect(tri, o, d, tbest) {
+                            tbest = th;
+                            best = Some((th, s + i));
+                            ray.set_tmax(th);
+                        }
                     }
-                    (Some(_), None) => {
-                        node = &self.nodes[li];
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = &self.nodes[li + 1];
-                        continue;
-                    }
-                    (None, None) => {}
+                } else {
+                    inner[k] = (t[l], n.start[l]);
+                    k += 1;
                 }
+            }
+            sort_far_to_near(&mut inner[..k]);
+            for &(tn, c) in &inner[..k] {
+                stack[sp] = (c, tn);
+                sp += 1;
             }
             // Pop, skipping nodes that the shrunk segment no longer reaches.
             loop {
@@ -379,9 +445,9 @@ impl Bvh {
                     return best;
                 }
                 sp -= 1;
-                let cand = &self.nodes[stack[sp] as usize];
-                if ray.entry(cand).is_some() {
-                    node = cand;
+                let (c, tn) = stack[sp];
+                if tn <= ray.tmax {
+                    node = c as usize;
                     break;
                 }
             }
@@ -458,25 +524,35 @@ impl RayF32 {
     fn set_tmax(&mut self, t: f64) {
         self.tmax = (t as f32).next_up() * (1.0 + 1e-6);
     }
-    /// Entry parameter of the segment into the box, `None` when it misses.
+    /// Entry parameters of the segment into the four boxes of `n`; a lane the segment
+    /// misses gets NaN (even an unbounded segment's `tmax` is not above it). Written lane by lane, which the compiler turns into SIMD.
     ///
-    /// The comparisons are written as `if a < b { a } else { b }`, which is one `minss` or
-    /// `maxss` (`f32::min` and `max` carry NaN fix-ups that made this test a third of
-    /// visibility's time). A NaN from `0 * inf` (origin on a slab plane of an axis the ray
-    /// runs parallel to) never wins the accumulating comparisons, so that slab narrows the
-    /// interval less or not at all: the test stays conservative.
+    /// The comparisons are written as `if a < b { a } else { b }`, which is one `minps`
+    /// or `maxps` (`f32::min` and `max` carry NaN fix-ups that made the box test a third
+    /// of visibility's time). A NaN from `0 * inf` (origin on a slab plane of an axis the
+    /// ray runs parallel to) never wins the accumulating comparisons, so that slab narrows
+    /// the interval less or not at all: the test stays conservative. The empty box
+    /// `[+inf, +inf]` of an unused lane gives `+inf` or `-inf` on every slab, so no ray
+    /// enters it.
     #[inline(always)]
-    fn entry(&self, n: &Node) -> Option<f32> {
-        let mut tnear = 0.0f32;
-        let mut tfar = self.tmax;
+    fn entry4(&self, n: &Node4) -> [f32; 4] {
+        let mut tnear = [0.0f32; 4];
+        let mut tfar = [self.tmax; 4];
         for a in 0..3 {
-            let t1 = (n.min[a] - self.o[a]) * self.inv[a];
-            let t2 = (n.max[a] - self.o[a]) * self.inv[a];
-            let (lo, hi) = if t1 < t2 { (t1, t2) } else { (t2, t1) };
-            tnear = if lo > tnear { lo } else { tnear };
-            tfar = if hi < tfar { hi } else { tfar };
+            // The slab plane met first: the low one unless the ray runs down this axis.
+            let (near, far) = if self.inv[a] < 0.0 { (&n.hi[a], &n.lo[a]) } else { (&n.lo[a], &n.hi[a]) };
+            for l in 0..4 {
+                let lo = (near[l] - self.o[a]) * self.inv[a];
+                let hi = (far[l] - self.o[a]) * self.inv[a];
+                tnear[l] = if lo > tnear[l] { lo } else { tnear[l] };
+                tfar[l] = if hi < tfar[l] { hi } else { tfar[l] };
+            }
         }
-        (tnear <= tfar).then_some(tnear)
+        let mut out = [f32::NAN; 4];
+        for l in 0..4 {
+            out[l] = if tnear[l] <= tfar[l] { tnear[l] } else { f32::NAN };
+        }
+        out
     }
 }
 
