@@ -292,6 +292,37 @@ impl Region2 {
         Region2 { shapes: contours }.cleaned()
     }
 
+    /// The region with zero-width spikes removed: a vertex whose neighbours lie within `tol`
+    /// of each other, the boundary going out to it and straight back, goes together with
+    /// the neighbour after it. `i_overlay`'s outlines of long, finely divided boundaries
+    /// come with such slits, reaching back to the boundary being grown; filling them moves
+    /// no boundary by more than `tol` and adds no area worth the name.
+    pub fn without_spikes(mut self, tol: f64) -> Region2 {
+        for shape in &mut self.shapes {
+            for c in shape.iter_mut() {
+                let mut i = 0;
+                while c.len() > 3 && i < c.len() {
+                    let n = c.len();
+                    let (a, b) = (c[(i + n - 1) % n], c[(i + 1) % n]);
+                    if (a[0] - b[0]).hypot(a[1] - b[1]) < tol {
+                        // Drop the tip and the returning neighbour, then look again just
+                        // before: removing one spike can expose another.
+                        let j = (i + 1) % n;
+                        let (hi, lo) = if i > j { (i, j) } else { (j, i) };
+                        c.remove(hi);
+                        c.remove(lo);
+                        i = i.saturating_sub(2);
+                    } else {
+                        i += 1;
+                    }
+                }
+            }
+            shape.retain(|c| c.len() >= 3);
+        }
+        self.shapes.retain(|s| !s.is_empty());
+        self
+    }
+
     /// Re-runs the region through a union so that its boundaries are valid again.
     fn cleaned(self) -> Region2 {
         if self.is_empty() {
@@ -304,7 +335,8 @@ impl Region2 {
     /// region (the exact Minkowski sum with a disc), for tool-centre keep-outs.
     ///
     /// The region is first simplified at `eps` and grown by `distance + eps` with
-    /// [`Region2::offset`]; then every vertex and edge midpoint of the result is checked
+    /// [`Region2::offset`], whose zero-width spikes are removed
+    /// ([`Region2::without_spikes`]); then every vertex and edge midpoint of the result is checked
     /// against this region's exact boundary, and where the offset came out too close
     /// (numerical notches of the offset engine) the capsules of the nearby edges are
     /// added.
@@ -313,7 +345,7 @@ impl Region2 {
             return self.clone();
         }
         let eps = eps.max(0.0);
-        let mut off = self.simplified(eps).offset(distance + eps, arc_step);
+        let mut off = self.simplified(eps).offset(distance + eps, arc_step).without_spikes(eps);
         let index = self.index();
         let mut caps: Vec<Vec<Raw>> = Vec::new();
         let mut seen = std::collections::BTreeSet::new();
@@ -633,5 +665,32 @@ mod tests {
         assert!(out[0].points[0].x < out[0].points[1].x, "direction kept: {out:?}");
         let lp = Polyline2::closed(vec![Point2::new(0.5, 0.5), Point2::new(1.5, 0.5), Point2::new(1.0, 1.5)]);
         assert_eq!(r.clip_polyline(&lp), vec![lp.clone()]);
+    }
+
+    #[test]
+    fn spikes_are_removed_and_nothing_else_moves() {
+        // A square whose top edge has a zero-width slit down to (1, 0.2) (base points
+        // 1e-6 apart, as i_overlay's outlines have them), and a clean corner elsewhere.
+        let c = vec![
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 2.0],
+            [1.0 + 5e-7, 2.0],
+            [1.0, 0.2],
+            [1.0 - 5e-7, 2.0],
+            [0.0, 2.0],
+        ];
+        let r = Region2 { shapes: vec![vec![c]] };
+        let index = r.index();
+        assert!(index.boundary_distance(&Point2::new(1.0, 0.3), 1.0) < 0.2, "the slit is in the boundary");
+        let clean = r.clone().without_spikes(1e-4);
+        let ring = &clean.shapes[0][0];
+        assert_eq!(ring.len(), 5, "tip and returning point gone: {ring:?}");
+        assert!(ring.iter().all(|p| p[1] != 0.2));
+        assert!((clean.area() - 4.0).abs() < 1e-5, "area {}", clean.area());
+        assert!(clean.index().boundary_distance(&Point2::new(1.0, 0.3), 1.0) > 0.29);
+        // Without spikes nothing changes.
+        let sq = Region2::rect(Point2::new(0.0, 0.0), Point2::new(2.0, 2.0));
+        assert_eq!(sq.clone().without_spikes(1e-4), sq);
     }
 }
