@@ -852,7 +852,7 @@ fn machine_setup(
     let setups = ctx.setups;
     progress(Stage::GcodeTranslation { setup: i + 1, setups });
     let t = Instant::now();
-    let rest = VoxelMaterial { grid: remaining, setup: job.setup };
+    let rest = VoxelMaterial::new(remaining, job.setup);
     let mut writer = GcodeWriter::new(Vec::new(), ctx.dialect, ctx.wopts.clone());
     let plan = plan_setup_rest(ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
         .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
@@ -1028,7 +1028,7 @@ impl RotarySource<'_, '_> {
         let from = self.last.unwrap_or_else(Point3::origin);
         let up = Point3::new(from.x, from.y, self.turn_z);
         writer.motion(&Motion::Rapid { to: up }).map_err(|e| program_err(&e))?;
-        let rest = VoxelMaterial { grid: &remaining, setup: job.setup };
+        let rest = VoxelMaterial::new(&remaining, job.setup);
         let mut sink = ToProgram { inner: &mut writer, place, last_in: None, last_out: None };
         let plan = plan_setup_rest(self.ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut sink)
             .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;

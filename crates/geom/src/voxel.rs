@@ -198,6 +198,41 @@ impl VoxelGrid {
         self.bricks[b][w] & m != 0
     }
 
+    /// Whether any voxel with indices in `lo..=hi` (per axis; clamped to the grid) is set.
+    /// Works a brick at a time with word masks, so a large empty box costs one look per
+    /// brick word rather than one per voxel.
+    pub fn any_in_range(&self, lo: [usize; 3], hi: [usize; 3]) -> bool {
+        let d = self.spec.dims;
+        if d.contains(&0) {
+            return false;
+        }
+        let hi = [hi[0].min(d[0] - 1), hi[1].min(d[1] - 1), hi[2].min(d[2] - 1)];
+        if (0..3).any(|a| lo[a] > hi[a]) {
+            return false;
+        }
+        // Within-brick index range of axis `a` in brick `b`.
+        let span = |a: usize, b: usize| {
+            let base = b * BRICK;
+            (lo[a].max(base) - base, hi[a].min(base + BRICK - 1) - base)
+        };
+        for bz in lo[2] / BRICK..=hi[2] / BRICK {
+            let (z0, z1) = span(2, bz);
+            for by in lo[1] / BRICK..=hi[1] / BRICK {
+                let (y0, y1) = span(1, by);
+                for bx in lo[0] / BRICK..=hi[0] / BRICK {
+                    let (x0, x1) = span(0, bx);
+                    let brick = &self.bricks[bx + self.bdims[0] * (by + self.bdims[1] * bz)];
+                    let row = (0xffu64 >> (BRICK - 1 - (x1 - x0))) << x0;
+                    let mask = (y0..=y1).fold(0u64, |m, y| m | row << (BRICK * y));
+                    if brick[z0..=z1].iter().any(|&w| w & mask != 0) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
     /// Sets or clears voxel `(i, j, k)`; ignored outside the grid.
     #[inline]
     pub fn set(&mut self, i: usize, j: usize, k: usize, value: bool) {
@@ -431,5 +466,32 @@ mod tests {
         let s = GridSpec::cubic(&Aabb::unit_cube(), 1024).unwrap();
         let g = VoxelGrid::new(s);
         assert_eq!(g.heap_bytes(), 128 << 20);
+    }
+
+    #[test]
+    fn any_in_range_agrees_with_a_voxel_loop() {
+        use rand::{RngExt, SeedableRng, rngs::StdRng};
+        let mut rng = StdRng::seed_from_u64(5);
+        let n = [21, 14, 19];
+        let mut g = VoxelGrid::new(spec(n));
+        for _ in 0..12 {
+            g.set(rng.random_range(0..n[0]), rng.random_range(0..n[1]), rng.random_range(0..n[2]), true);
+        }
+        let (mut hits, mut cases) = (0, 0);
+        for _ in 0..3000 {
+            let mut lo = [0; 3];
+            let mut hi = [0; 3];
+            for a in 0..3 {
+                let (x, y) = (rng.random_range(0..n[a] + 3), rng.random_range(0..n[a] + 3));
+                (lo[a], hi[a]) = (x.min(y), x.max(y));
+            }
+            let want = (lo[2]..=hi[2])
+                .any(|k| (lo[1]..=hi[1]).any(|j| (lo[0]..=hi[0]).any(|i| g.get(i, j, k))));
+            assert_eq!(g.any_in_range(lo, hi), want, "{lo:?}..={hi:?}");
+            hits += usize::from(want);
+            cases += 1;
+        }
+        assert!(hits > 300 && hits < cases - 300, "both answers are exercised: {hits} of {cases}");
+        assert!(!g.any_in_range([5, 0, 0], [4, 13, 18]), "an empty range");
     }
 }

@@ -1,5 +1,6 @@
 //! Rest machining: what material remains before a setup, so that later setups do not cut air.
 
+use nalgebra::{Matrix3, Vector3};
 use s2g_geom::{Point3, Setup, VoxelGrid};
 
 /// The material that remains to be cut before this setup, queried in the SETUP frame:
@@ -26,10 +27,19 @@ impl<F: Fn(&Point3, &Point3) -> bool + Sync> RemainingMaterial for F {
 /// voxel of the box's part-frame bounding box.
 #[derive(Debug, Clone, Copy)]
 pub struct VoxelMaterial<'a> {
-    /// The remaining material, part frame.
-    pub grid: &'a VoxelGrid,
-    /// The setup whose frame queries are given in.
-    pub setup: Setup,
+    grid: &'a VoxelGrid,
+    /// Setup to part: rotation, its entrywise absolute value, translation.
+    rotation: Matrix3<f64>,
+    abs_rotation: Matrix3<f64>,
+    translation: Vector3<f64>,
+}
+
+impl<'a> VoxelMaterial<'a> {
+    /// The remaining material `grid` (part frame), queried in the frame of `setup`.
+    pub fn new(grid: &'a VoxelGrid, setup: Setup) -> Self {
+        let rotation = setup.frame.rotation.to_rotation_matrix().into_inner();
+        Self { grid, rotation, abs_rotation: rotation.abs(), translation: setup.frame.translation.vector }
+    }
 }
 
 impl RemainingMaterial for VoxelMaterial<'_> {
@@ -38,10 +48,8 @@ impl RemainingMaterial for VoxelMaterial<'_> {
         // The part-frame bounding box of the rotated box: its centre moved, and its half
         // extents through |R| (the same box the eight corners would span, for one
         // transform instead of eight).
-        let centre = self.setup.to_part(&nalgebra::center(min, max));
-        let half = (max - min) * 0.5;
-        let r = self.setup.frame.rotation.to_rotation_matrix().into_inner().abs();
-        let reach = r * half;
+        let centre = self.rotation * nalgebra::center(min, max).coords + self.translation;
+        let reach = self.abs_rotation * ((max - min) * 0.5);
         let (lo, hi) = (centre - reach, centre + reach);
         let mut range = [(0, 0); 3];
         for a in 0..3 {
@@ -51,15 +59,6 @@ impl RemainingMaterial for VoxelMaterial<'_> {
                 None => return false,
             }
         }
-        for k in range[2].0..=range[2].1 {
-            for j in range[1].0..=range[1].1 {
-                for i in range[0].0..=range[0].1 {
-                    if self.grid.get(i, j, k) {
-                        return true;
-                    }
-                }
-            }
-        }
-        false
+        self.grid.any_in_range(range.map(|r| r.0), range.map(|r| r.1))
     }
 }

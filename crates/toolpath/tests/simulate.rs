@@ -224,7 +224,7 @@ fn strategy_comparison_table() {
                 .collect();
             let sb = Aabb::from_points(&corners).expect("corners");
             let opts = PlanOptions { strategy, stock: Some(sb), ..base.clone() };
-            let rest = VoxelMaterial { grid: &removable_grid, setup: bottom };
+            let rest = VoxelMaterial::new(&removable_grid, bottom);
             let (summary, report, _) = simulate(after_top.clone(), &target, &tool, |sim| {
                 plan_setup_rest(part, &bottom, &tool, &opts, Some(&rest), sim).expect("plan bottom")
             });
@@ -233,7 +233,7 @@ fn strategy_comparison_table() {
             let grown = (0.5 * r + 0.5 * h) * std::f64::consts::SQRT_2 + 1e-9;
             let cutter = air_fraction(&layers, r, |p, z, za| !removable.any(p, grown, z - h, za + h));
             let centre = air_fraction(&layers, r, |p, z, za| !removable.any(p, 0.5 * r, z, za));
-            let with_part_rest = VoxelMaterial { grid: &after_top, setup: bottom };
+            let with_part_rest = VoxelMaterial::new(&after_top, bottom);
             let mut with_part_rec = MotionRecorder::default();
             let with_part =
                 plan_setup_rest(part, &bottom, &tool, &opts, Some(&with_part_rest), &mut with_part_rec)
