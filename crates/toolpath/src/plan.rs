@@ -322,17 +322,46 @@ impl Ctx<'_> {
         let (lo, hi) = (self.stock.min, self.stock.max);
         let nx = (((hi.x - lo.x) / c).ceil() as usize).max(1);
         let ny = (((hi.y - lo.y) / c).ceil() as usize).max(1);
+        // Which cells hold material: blocks of 8 x 8 cells are asked first, and only those
+        // with material cell by cell (a sub-box's query box lies in the block's, so an
+        // empty block has no cell with material).
+        const BLOCK: usize = 8;
+        let query = |x0: f64, y0: f64, x1: f64, y1: f64| {
+            rest.any_in_box(&Point3::new(x0, y0, z), &Point3::new(x1, y1, z_above))
+        };
+        let mut has = vec![false; nx * ny];
+        for bj in (0..ny).step_by(BLOCK) {
+            for bi in (0..nx).step_by(BLOCK) {
+                let (ei, ej) = ((bi + BLOCK).min(nx), (bj + BLOCK).min(ny));
+                // The block's box, grown by a hair so that rounding cannot leave a cell's
+                // box sticking out of it.
+                let pad = 1e-9 * c;
+                let block = query(
+                    lo.x + bi as f64 * c - pad,
+                    lo.y + bj as f64 * c - pad,
+                    (lo.x + ei as f64 * c).min(hi.x) + pad,
+                    (lo.y + ej as f64 * c).min(hi.y) + pad,
+                );
+                if !block {
+                    continue;
+                }
+                for j in bj..ej {
+                    let y0 = lo.y + j as f64 * c;
+                    let y1 = (y0 + c).min(hi.y);
+                    for i in bi..ei {
+                        let x0 = lo.x + i as f64 * c;
+                        has[j * nx + i] = query(x0, y0, (x0 + c).min(hi.x), y1);
+                    }
+                }
+            }
+        }
         let mut rects: Vec<Vec<[f64; 2]>> = Vec::new();
         for j in 0..ny {
             let y0 = lo.y + j as f64 * c;
             let y1 = (y0 + c).min(hi.y);
             let mut run: Option<usize> = None;
             for i in 0..=nx {
-                let has = i < nx && {
-                    let x0 = lo.x + i as f64 * c;
-                    let x1 = (x0 + c).min(hi.x);
-                    rest.any_in_box(&Point3::new(x0, y0, z), &Point3::new(x1, y1, z_above))
-                };
+                let has = i < nx && has[j * nx + i];
                 match (has, run) {
                     (true, None) => run = Some(i),
                     (false, Some(s)) => {
