@@ -1,14 +1,18 @@
-//! `s2g field sdf MESH [--epochs N] [--seed S] -o SDF [--json]`: implicit neural fields
-//! (seed 002). `sdf` fits a SIREN signed distance field to a mesh (§6.2), writes it
-//! atomically and reports its held-out error.
+//! `s2g field sdf MESH [--epochs N] [--seed S] -o SDF [--json]` and
+//! `s2g field mill (MESH | --cup) [--tool-radius R] [--tool-length L] [--steps N] [--grid MM]
+//! [--voxel MM] [--seed S] -o PROGRAM [--json]`: implicit neural fields (seed 002). `sdf`
+//! fits a SIREN signed distance field to a mesh (§6.2), writes it atomically and reports
+//! its held-out error. `mill` optimises collision-free milling layers for a part in a block
+//! (§4.2, §7.4), writes the five-axis program atomically and reports the colliding tool
+//! poses before and after, the optimisation time and the simulated gouges.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use s2g_field::{SdfOptions, fit_sdf_opt, sdf_error, validation_points};
-use shape2gcode::geom::{MeshIndex, load_mesh, sample_surface};
+use s2g_field::{MillOptions, SdfOptions, cup_mesh, fit_sdf_opt, mill_mesh, sdf_error, validation_points};
+use shape2gcode::geom::{MeshIndex, load_mesh, sample_surface, save_mesh, write_bytes_atomic};
 
 /// Arguments of `s2g field`.
 #[derive(Debug, clap::Args)]
@@ -21,6 +25,51 @@ pub struct Args {
 enum FieldCommand {
     /// Fit a neural signed distance field (SIREN) to a mesh and write it.
     Sdf(SdfArgs),
+    /// Optimise collision-free milling layers for a part in a block and write the
+    /// five-axis program (table-table A/C, LinuxCNC).
+    Mill(MillArgs),
+}
+
+/// Arguments of `s2g field mill`.
+#[derive(Debug, clap::Args)]
+struct MillArgs {
+    /// The part (STL, OBJ, glTF/GLB, PLY), closed; its bounding box grown by 6 mm sideways
+    /// and 2 mm on top is the block.
+    #[arg(required_unless_present = "cup", conflicts_with = "cup")]
+    mesh: Option<PathBuf>,
+    /// Mill the built-in cup (outer radius 30, height 50, cavity radius 24 above an 8 mm
+    /// base, 5 mm lip leaving a 20 mm opening) instead of a mesh.
+    #[arg(long)]
+    cup: bool,
+    /// Tool (flat end mill and shank) radius, mm.
+    #[arg(long, default_value_t = 2.5)]
+    tool_radius: f64,
+    /// Tool length from the tip, mm (the length checked for collisions).
+    #[arg(long, default_value_t = 40.0)]
+    tool_length: f64,
+    /// Adam steps on the milling loss before the repair rounds (the library's default when
+    /// absent).
+    #[arg(long, alias = "epochs")]
+    steps: Option<usize>,
+    /// Pose grid spacing and layer spacing, mm.
+    #[arg(long, default_value_t = 3.0)]
+    grid: f64,
+    /// Voxel edge of the simulation, mm.
+    #[arg(long, default_value_t = 1.0)]
+    voxel: f64,
+    /// Seed of the network, the batches and the ring phases.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Where to write the program (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write the optimised layers (iso-surfaces of the layer field in the material to
+    /// remove) as a mesh, e.g. `layers.ply` (written atomically).
+    #[arg(long)]
+    layers: Option<PathBuf>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
 }
 
 /// Arguments of `s2g field sdf`.
@@ -49,7 +98,91 @@ const HELD_OUT: usize = 5_000;
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.command {
         FieldCommand::Sdf(a) => sdf(a),
+        FieldCommand::Mill(a) => mill(a),
     }
+}
+
+fn mill(args: MillArgs) -> anyhow::Result<ExitCode> {
+    let (name, mesh) = match &args.mesh {
+        Some(path) => (
+            path.display().to_string(),
+            load_mesh(path).with_context(|| format!("loading {}", path.display()))?,
+        ),
+        None => {
+            ("cup".to_string(), cup_mesh(30.0, 50.0, 24.0, 20.0, 8.0, 5.0, 96).context("building the cup")?)
+        }
+    };
+    let mut options = MillOptions::default();
+    options.tool.radius = args.tool_radius;
+    options.tool.length = args.tool_length;
+    options.layers.check_tool = Some(options.tool);
+    if let Some(s) = args.steps {
+        options.layers.steps = s;
+    }
+    options.layers.seed = args.seed;
+    options.layers.network.seed = args.seed;
+    options.grid = args.grid;
+    options.program.layer_step = args.grid;
+    options.program.link_distance = 1.5 * args.grid;
+    options.voxel = args.voxel;
+    options.layers_mesh = args.layers.as_ref().map(|_| 0.5 * args.grid);
+    let report = mill_mesh(&mesh, &options).with_context(|| format!("milling {name}"))?;
+    write_bytes_atomic(&args.output, report.program.text.as_bytes())
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    if let (Some(path), Some(mesh)) = (&args.layers, &report.layers) {
+        save_mesh(path, mesh).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let (before, after, sim) = (&report.collisions_before, &report.collisions_after, &report.simulation);
+    if args.json {
+        let out = serde_json::json!({
+            "mesh": name,
+            "output": args.output.display().to_string(),
+            "poses": before.poses,
+            "collisions_before": before.part,
+            "collisions_after": after.part,
+            "layer_collisions_before": before.layer,
+            "layer_collisions_after": after.layer,
+            "steps": report.optimisation.steps,
+            "repair_rounds": report.optimisation.repair_rounds,
+            "seconds": report.optimisation.seconds,
+            "layers": report.program.layers,
+            "poses_used": report.program.poses_used,
+            "poses_skipped": report.program.poses_skipped,
+            "poses_reoriented": report.program.poses_reoriented,
+            "blocks": report.program.blocks,
+            "gouge_voxels": sim.gouge_voxels,
+            "removed_fraction": sim.removed_fraction,
+            "shank_collision_voxels": sim.shank_collision_voxels,
+            "rapid_collision_voxels": sim.rapid_collision_voxels,
+            "machining_time_s": sim.machining_time_s,
+            "total_seconds": report.seconds,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        println!(
+            "{name}: {} tool poses; colliding with the part: {} on planar layers, {} optimised \
+             ({} hit unmilled layers before, {} after)",
+            before.poses, before.part, after.part, before.layer, after.layer
+        );
+        println!(
+            "optimisation {:.1} s ({} steps, {} repair rounds)",
+            report.optimisation.seconds, report.optimisation.steps, report.optimisation.repair_rounds
+        );
+        println!(
+            "program: {} layers, {} poses ({} skipped), {} blocks; simulated: {} gouge voxels, \
+             removed {:.1} % of the removable stock, {} shank-contact voxels",
+            report.program.layers,
+            report.program.poses_used,
+            report.program.poses_skipped,
+            report.program.blocks,
+            sim.gouge_voxels,
+            100.0 * sim.removed_fraction,
+            sim.shank_collision_voxels
+        );
+        println!("wrote {} in {:.1} s", args.output.display(), report.seconds);
+    }
+    let clean = after.part == 0 && after.layer == 0 && sim.gouge_voxels == 0;
+    Ok(if clean { ExitCode::SUCCESS } else { ExitCode::from(2) })
 }
 
 fn sdf(args: SdfArgs) -> anyhow::Result<ExitCode> {

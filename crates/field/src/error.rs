@@ -63,6 +63,9 @@ pub enum FieldError {
     /// The tensor backend reported a failure (reading data back, applying a record).
     #[error("tensor backend: {0}")]
     Backend(String),
+    /// Writing, parsing or simulating a milling program failed (`s2g-gcode`, `s2g-voxsim`).
+    #[error("milling program: {0}")]
+    Program(String),
 }
 
 impl FieldError {

@@ -18,6 +18,11 @@
 //!   ([`fit_sdf_opt`], [`SdfOptions`]); it implements [`s2g_geom::SignedDistance`] with the
 //!   network's exact gradient, and saves to a file with Burn's record format
 //!   ([`NeuralSdf::save`], atomic). [`sdf_error`] and [`validation_points`] measure it.
+//! - Milling (§4.2, §5.4, §7.4): a layer field optimised from planar layers by Eq. 40 so
+//!   that the tool along the layer normal is clear of the part ([`optimize_layers`],
+//!   [`count_collisions`]), a simultaneous five-axis program from its layers and normals
+//!   written by `s2g-gcode` ([`mill_program`]), simulated in `s2g-voxsim` for gouges
+//!   ([`simulate_program`]); [`mill_mesh`] runs it all.
 //! - Reproducible: seeds drive this crate's own generator for weights, samples and batches,
 //!   and the CPU backends run single-threaded, so the same options give the same field.
 //! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a
@@ -50,6 +55,7 @@ mod error;
 mod eval;
 mod layer;
 mod milling;
+mod program;
 mod rng;
 mod sdf;
 mod siren;
@@ -63,7 +69,12 @@ pub use layer::{
 };
 pub use milling::{
     CollisionCount, LayerOptions, LayerReport, LossConstants, MeshSdf, MillingLosses, MillingProblem,
-    MillingWeights, Tool, count_collisions, cup_mesh, milling_losses, optimize_layers, pretrain_planar,
+    MillingWeights, Tool, colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers,
+    pretrain_planar,
+};
+pub use program::{
+    MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh, mill_mesh,
+    mill_program, simulate_program,
 };
 pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
 pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};

@@ -13,20 +13,28 @@
 //!   zero-gradient loss (Eq. 27) and the curvature loss (Eq. 24) with the singularity mask
 //!   (Eq. 52-53), combined by [`MillingWeights`] (Table 1's milling row, Eq. 40).
 //! - [`pretrain_planar`] starts `G` from planar layers (`G = z`), [`optimize_layers`]
-//!   runs Adam on Eq. 40 with the collision weight increased gradually, and
-//!   [`count_collisions`] counts the sampled tool poses that hit the part.
+//!   runs Adam on Eq. 40 with the collision weight increased gradually, sampling the
+//!   colliding ("hot") poses more often, then repair rounds that check every pose with the
+//!   check's tool sampling and train on the colliding ones with a growing collision
+//!   weight until none is left; [`count_collisions`] / [`colliding_poses`] count the
+//!   sampled tool poses that hit the part or unmilled material.
+//! - The collision loss only puts the tool points within the clearance of the part into
+//!   the tensor graph (elsewhere the ReLU and its gradient are zero), so a dense tool
+//!   sampling (the check's: rings 2 mm apart, 24 points) costs little more than a coarse
+//!   one; [`MeshSdf`] caches the winding-number sign on a lattice.
 //! - [`cup_mesh`]: a cup with an inward-overhanging lip, made by revolving a profile.
 //!
 //! Coordinates: the part, block, tool and poses are in the part's units (e.g. mm); the
 //! network sees them through a [`Normalization`] (the block's bounding box centred and its
 //! largest side scaled to 1), so `G` and its derivatives are in unit-cube coordinates.
 
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::activation::sigmoid;
-use burn::tensor::{Tensor, TensorData};
+use burn::tensor::{Int, Tensor, TensorData};
 use s2g_geom::{Aabb, Mesh, MeshIndex, Normalization, Point3, Real, SignedDistance, Vector3};
 
 use crate::backend::Backend;
@@ -112,9 +120,72 @@ impl Tool {
 /// point, sign by the winding number), with the gradient `±(p - closest)/|p - closest|`
 /// from the same closest-point query instead of the trait's six-query central
 /// differences.
+///
+/// The winding number costs about thirty closest-point queries, so the sign is cached: a
+/// lattice of nodes over the mesh's bounding box (64 steps along its longest side) holds
+/// each node's inside flag, computed exactly on first use. A point farther from the surface
+/// than half a lattice diagonal has the sign of its nearest node (the segment between them
+/// lies in a ball free of the surface); nearer points, and points outside the lattice, get
+/// the exact winding number, except points outside the bounding box, which are outside.
+/// The answers are those of [`MeshIndex::signed_distance`] for closed meshes.
 #[derive(Debug)]
 pub struct MeshSdf {
     index: MeshIndex,
+    signs: SignLattice,
+}
+
+/// The lazily filled inside flags of [`MeshSdf`]: 0 unknown, 1 outside, 2 inside.
+#[derive(Debug)]
+struct SignLattice {
+    bbox: Aabb,
+    origin: Point3,
+    step: f64,
+    dims: [usize; 3],
+    flags: Vec<AtomicU8>,
+}
+
+impl SignLattice {
+    fn new(bbox: Aabb) -> Self {
+        let ext = bbox.max - bbox.min;
+        let step = (ext.max() / 64.0).max(1e-9);
+        let origin = bbox.min - Vector3::repeat(step);
+        let dims = ext.map(|e| ((e / step).ceil() as usize).min(1 << 12) + 3);
+        let flags = (0..dims[0] * dims[1] * dims[2]).map(|_| AtomicU8::new(0)).collect();
+        Self { bbox, origin, step, dims: [dims.x, dims.y, dims.z], flags }
+    }
+
+    /// Whether `p`, at unsigned distance `d` from the surface, is inside.
+    fn inside(&self, index: &MeshIndex, p: &Point3, d: f64) -> bool {
+        let b = &self.bbox;
+        if (0..3).any(|a| p[a] < b.min[a] || p[a] > b.max[a]) {
+            return false;
+        }
+        if d > 0.87 * self.step {
+            let mut ijk = [0usize; 3];
+            let mut ok = true;
+            for a in 0..3 {
+                let f = ((p[a] - self.origin[a]) / self.step).round();
+                if !(f >= 0.0 && f < self.dims[a] as f64) {
+                    ok = false;
+                    break;
+                }
+                ijk[a] = f as usize;
+            }
+            if ok {
+                let k = (ijk[2] * self.dims[1] + ijk[1]) * self.dims[0] + ijk[0];
+                let cached = self.flags[k].load(Ordering::Relaxed);
+                if cached != 0 {
+                    return cached == 2;
+                }
+                let node =
+                    self.origin + Vector3::new(ijk[0] as f64, ijk[1] as f64, ijk[2] as f64) * self.step;
+                let inside = index.contains(&node);
+                self.flags[k].store(if inside { 2 } else { 1 }, Ordering::Relaxed);
+                return inside;
+            }
+        }
+        index.contains(p)
+    }
 }
 
 impl MeshSdf {
@@ -123,25 +194,44 @@ impl MeshSdf {
         if mesh.is_empty() {
             return Err(FieldError::EmptyMesh);
         }
-        Ok(Self { index: MeshIndex::new(mesh).map_err(FieldError::geom)? })
+        let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
+        if !(bbox.min.iter().chain(bbox.max.iter()).all(|c| c.is_finite())) {
+            return Err(FieldError::NonFinite { what: "mesh vertex", index: 0 });
+        }
+        Ok(Self { index: MeshIndex::new(mesh).map_err(FieldError::geom)?, signs: SignLattice::new(bbox) })
     }
 
     /// The index.
     pub fn index(&self) -> &MeshIndex {
         &self.index
     }
+
+    /// The signed distance and its gradient from one closest-point query.
+    pub fn distance_gradient(&self, p: &Point3) -> (Real, Vector3) {
+        let c = self.index.closest_point(p);
+        if !c.distance.is_finite() {
+            return (Real::NAN, Vector3::z());
+        }
+        let g = (p - c.point).try_normalize(1e-12).unwrap_or_else(Vector3::z);
+        if self.signs.inside(&self.index, p, c.distance) { (-c.distance, -g) } else { (c.distance, g) }
+    }
 }
 
 impl SignedDistance for MeshSdf {
     fn distance(&self, p: &Point3) -> Real {
-        self.index.signed_distance(p)
+        let c = self.index.closest_point(p);
+        if !c.distance.is_finite() {
+            return Real::NAN;
+        }
+        if self.signs.inside(&self.index, p, c.distance) { -c.distance } else { c.distance }
     }
 
     fn gradient(&self, p: &Point3) -> Vector3 {
-        let c = self.index.closest_point(p);
-        let d = p - c.point;
-        let g = d.try_normalize(1e-12).unwrap_or_else(Vector3::z);
-        if self.index.contains(p) { -g } else { g }
+        self.distance_gradient(p).1
+    }
+
+    fn contains(&self, p: &Point3) -> bool {
+        self.distance(p) < 0.0
     }
 }
 
@@ -312,6 +402,11 @@ impl<'a> MillingProblem<'a> {
         Ok(Self { part, block, tool, poses, normalization })
     }
 
+    /// The part.
+    pub fn part(&self) -> &'a dyn SignedDistance {
+        self.part
+    }
+
     /// The pose points.
     pub fn poses(&self) -> &[Point3] {
         &self.poses
@@ -356,6 +451,9 @@ pub struct MillingLosses {
     pub zero_gradient: Tensor<1>,
     /// Curvature (Eq. 24) with the singularity mask.
     pub curvature: Tensor<1>,
+    /// The poses of the evaluation (indices into the problem's) whose tool had a point
+    /// closer to the part than the clearance (a positive Eq. 15 term).
+    pub near_poses: Vec<usize>,
 }
 
 impl MillingLosses {
@@ -396,6 +494,10 @@ fn read2(t: Tensor<2>) -> Result<Vec<f32>> {
     t.try_into_data().map_err(FieldError::backend)?.try_into_vec::<f32>().map_err(FieldError::backend)
 }
 
+/// The most tool points per evaluation of the inter-layer collision term (a subsample
+/// beyond that).
+const LAYER_POINTS: usize = 8192;
+
 /// Evaluates the milling losses of `g` at the poses `idx` of `problem`, with the tool's
 /// rings rotated by `phase`.
 ///
@@ -406,6 +508,18 @@ fn read2(t: Tensor<2>) -> Result<Vec<f32>> {
 pub fn milling_losses(
     g: &Siren,
     problem: &MillingProblem<'_>,
+    idx: &[usize],
+    phase: f64,
+    constants: &LossConstants,
+) -> Result<MillingLosses> {
+    milling_losses_with(g, problem, &problem.tool, idx, phase, constants)
+}
+
+/// [`milling_losses`] with another sampling of the tool than the problem's.
+fn milling_losses_with(
+    g: &Siren,
+    problem: &MillingProblem<'_>,
+    tool: &Tool,
     idx: &[usize],
     phase: f64,
     constants: &LossConstants,
@@ -443,7 +557,7 @@ pub fn milling_losses(
         .mul_scalar(constants.curvature_factor * scale); // back to 1 / part units
 
     // Tool points, [n * t, 3], in the part's units.
-    let local = problem.tool.points(phase);
+    let local = tool.points(phase);
     let t = local.len();
     let col = |k: usize| -> Tensor<3> {
         let v: Vec<f32> = local.iter().map(|p| p[k] as f32).collect();
@@ -454,58 +568,88 @@ pub fn milling_losses(
     let (e1, e2) = frame(nrm.clone());
     let lift = |d: Tensor<2>| d.reshape([n, 1, 3]);
     let p = lift(x_world.clone()) + lift(nrm) * a + lift(e1) * u + lift(e2) * v; // [n, t, 3]
-    let p = p.reshape([n * t, 3]);
+    let m = n * t;
+    let p = p.reshape([m, 3]);
 
-    // The part's distance, linearised at the current tool points (host SDF).
+    // The part's distance at the current tool points (host SDF). Only points closer than
+    // the clearance contribute to Eq. 15 (the ReLU is zero, with zero gradient, elsewhere),
+    // so only those enter the tensor graph; the loss is still the mean over all `m`.
     let p_host = read2(p.clone().detach())?;
-    let pts: Vec<Point3> =
-        p_host.chunks_exact(3).map(|c| Point3::new(c[0] as f64, c[1] as f64, c[2] as f64)).collect();
-    let mut phi0 = Vec::with_capacity(pts.len());
-    let mut grad0 = Vec::with_capacity(3 * pts.len());
-    let mut inside_block = Vec::with_capacity(pts.len());
-    for (k, q) in pts.iter().enumerate() {
-        let d = problem.part.distance(q);
+    let eps = constants.part_clearance;
+    let (mut part_rows, mut phi0, mut grad0, mut p0) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut layer_rows = Vec::new();
+    let mut near = vec![false; n];
+    for (k, c) in p_host.chunks_exact(3).enumerate() {
+        let q = Point3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+        let d = problem.part.distance(&q);
         if !d.is_finite() {
             return Err(FieldError::NonFinite { what: "part distance at a tool point", index: k });
         }
-        let gr = problem.part.gradient(q);
-        phi0.push(d as f32);
-        grad0.extend([gr.x as f32, gr.y as f32, gr.z as f32]);
+        if d < eps {
+            let gr = problem.part.gradient(&q);
+            part_rows.push(k as i64);
+            phi0.push(d as f32);
+            grad0.extend([gr.x as f32, gr.y as f32, gr.z as f32]);
+            p0.extend_from_slice(c);
+            near[k / t] = true;
+        }
         // Inter-layer collisions only count in the material to be removed (inside the
         // block, outside the part: the part itself is Eq. 15's).
-        inside_block.push(if problem.in_block(q) && d > 0.0 { 1.0f32 } else { 0.0 });
+        if d > 0.0 && problem.in_block(&q) {
+            layer_rows.push(k);
+        }
     }
-    let m = n * t;
-    let phi0 = Tensor::<2>::from_data(TensorData::new(phi0, [m, 1]), &device);
-    let grad0 = Tensor::<2>::from_data(TensorData::new(grad0, [m, 3]), &device);
-    let p0 = Tensor::<2>::from_data(TensorData::new(p_host, [m, 3]), &device);
-    let phi = phi0 + (grad0 * (p.clone() - p0)).sum_dim(1);
-    let k = constants.collision_slope;
-    // Eq. 15: ReLU(k (ε - φ(p))) in unit-cube lengths.
-    let part_collision =
-        phi.neg().add_scalar(constants.part_clearance).mul_scalar(scale * k).clamp_min(0.0).mean();
+    let k_slope = constants.collision_slope;
+    let part_collision = if part_rows.is_empty() {
+        Tensor::<1>::zeros([1], &device)
+    } else {
+        let a = part_rows.len();
+        let rows = Tensor::<1, Int>::from_data(TensorData::new(part_rows, [a]), &device);
+        let phi0 = Tensor::<2>::from_data(TensorData::new(phi0, [a, 1]), &device);
+        let grad0 = Tensor::<2>::from_data(TensorData::new(grad0, [a, 3]), &device);
+        let p0 = Tensor::<2>::from_data(TensorData::new(p0, [a, 3]), &device);
+        // φ(p) ≈ φ(p0) + ∇φ(p0)·(p - p0), differentiable through p (Eq. 50).
+        let phi = phi0 + (grad0 * (p.clone().select(0, rows) - p0)).sum_dim(1);
+        // Eq. 15: ReLU(k (ε - φ(p))) in unit-cube lengths.
+        phi.neg().add_scalar(eps).mul_scalar(scale * k_slope).clamp_min(0.0).sum().div_scalar(m as f64)
+    };
 
-    // Eq. 13 for milling: G(p) >= G(x) + ε for tool points in the material still there.
-    let p_unit = p.mul_scalar(scale)
-        + Tensor::<2>::from_data(
-            TensorData::new(
-                vec![
-                    problem.normalization.translation.x as f32,
-                    problem.normalization.translation.y as f32,
-                    problem.normalization.translation.z as f32,
-                ],
-                [1, 3],
-            ),
+    // Eq. 13 for milling: G(p) >= G(x) + ε for tool points in the material still there,
+    // on at most `LAYER_POINTS` of them (an even subsample, offset by the phase, rescaled
+    // to the mean over all `m`).
+    let layer_collision = if layer_rows.is_empty() {
+        Tensor::<1>::zeros([1], &device)
+    } else {
+        let stride = layer_rows.len().div_ceil(LAYER_POINTS);
+        let offset = ((phase.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU) * stride as f64)
+            as usize
+            % stride;
+        let rows: Vec<usize> = layer_rows.iter().copied().skip(offset).step_by(stride).collect();
+        let weight = layer_rows.len() as f64 / rows.len() as f64;
+        let s_len = rows.len();
+        let pose_of: Vec<i64> = rows.iter().map(|&k| (k / t) as i64).collect();
+        let rows: Vec<i64> = rows.iter().map(|&k| k as i64).collect();
+        let rows = Tensor::<1, Int>::from_data(TensorData::new(rows, [s_len]), &device);
+        let pose_of = Tensor::<1, Int>::from_data(TensorData::new(pose_of, [s_len]), &device);
+        let tr = problem.normalization.translation;
+        let shift = Tensor::<2>::from_data(
+            TensorData::new(vec![tr.x as f32, tr.y as f32, tr.z as f32], [1, 3]),
             &device,
         );
-    let g_p = g.forward(p_unit).reshape([n, t]);
-    let g_x = out.value.reshape([n, 1]);
-    let gap = (g_p - g_x).reshape([m, 1]);
-    let mask_block = Tensor::<2>::from_data(TensorData::new(inside_block, [m, 1]), &device);
-    let layer_collision =
-        (mask_block * gap.neg().add_scalar(constants.layer_clearance).mul_scalar(k).clamp_min(0.0)).mean();
+        let p_unit = p.select(0, rows).mul_scalar(scale) + shift;
+        let g_p = g.forward(p_unit);
+        let g_x = out.value.clone().select(0, pose_of);
+        (g_p - g_x)
+            .neg()
+            .add_scalar(constants.layer_clearance)
+            .mul_scalar(k_slope)
+            .clamp_min(0.0)
+            .sum()
+            .mul_scalar(weight / m as f64)
+    };
+    let near_poses = idx.iter().zip(&near).filter(|(_, h)| **h).map(|(&i, _)| i).collect();
 
-    Ok(MillingLosses { part_collision, layer_collision, spacing, zero_gradient, curvature })
+    Ok(MillingLosses { part_collision, layer_collision, spacing, zero_gradient, curvature, near_poses })
 }
 
 /// How [`pretrain_planar`] and [`optimize_layers`] run.
@@ -529,6 +673,19 @@ pub struct LayerOptions {
     pub constants: LossConstants,
     /// Seed of the batches and the ring phases. Default `0`.
     pub seed: u64,
+    /// Repair rounds after the steps (see [`optimize_layers`]). Default `16`; `0` skips
+    /// the checks.
+    pub repair_rounds: usize,
+    /// Adam steps per repair round. Default `30`.
+    pub repair_steps: usize,
+    /// Each repair round multiplies the learning rate by this, in `(0, 1]`. Default `0.7`.
+    pub repair_decay: f64,
+    /// Each repair round multiplies the collision weight (from `weights.collision_end`) by
+    /// this, `>= 1`. Default `1.5`.
+    pub repair_weight_growth: f64,
+    /// The tool sampling of the repair rounds' checks and steps; `None` (default): the
+    /// problem's.
+    pub check_tool: Option<Tool>,
     /// The Burn backend. Default [`Backend::default`].
     pub backend: Backend,
 }
@@ -544,6 +701,11 @@ impl Default for LayerOptions {
             weights: MillingWeights::default(),
             constants: LossConstants::default(),
             seed: 0,
+            repair_rounds: 16,
+            repair_steps: 30,
+            repair_decay: 0.7,
+            repair_weight_growth: 1.5,
+            check_tool: None,
             backend: Backend::default(),
         }
     }
@@ -553,6 +715,15 @@ impl LayerOptions {
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
         self.network.validate()?;
+        if let Some(t) = &self.check_tool {
+            t.validate()?;
+        }
+        if !(self.repair_decay > 0.0 && self.repair_decay <= 1.0) {
+            return Err(FieldError::config("repair_decay", "must be in (0, 1]"));
+        }
+        if !(self.repair_weight_growth.is_finite() && self.repair_weight_growth >= 1.0) {
+            return Err(FieldError::config("repair_weight_growth", "must be finite and >= 1"));
+        }
         if self.batch_size == 0 {
             return Err(FieldError::config("batch_size", "must be at least 1"));
         }
@@ -617,18 +788,164 @@ pub fn pretrain_planar(options: &LayerOptions) -> Result<Siren> {
 /// What [`optimize_layers`] did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LayerReport {
-    /// Adam steps taken.
+    /// Adam steps taken, repair steps included.
     pub steps: usize,
     /// Unweighted losses of the last step: part collision, layer collision, spacing, zero
     /// gradient, curvature.
     pub final_losses: [f32; 5],
-    /// Wall-clock seconds of the optimisation loop.
+    /// Repair rounds that ran (each after a check that found colliding poses).
+    pub repair_rounds: usize,
+    /// The counts of the returned field's check (with [`LayerOptions::check_tool`]), when
+    /// [`LayerOptions::repair_rounds`] is above zero: zero colliding poses unless the
+    /// rounds ran out (then the best check's).
+    pub collisions: Option<CollisionCount>,
+    /// Every check's counts, in order.
+    pub checks: Vec<CollisionCount>,
+    /// Wall-clock seconds of the optimisation (the checks included).
     pub seconds: f64,
+}
+
+/// One Adam step of Eq. 40 on the poses `idx`; returns the losses' values and the poses
+/// whose tool came closer to the part than the clearance.
+// The main and the repair loops differ in every argument; a struct would only rename them.
+#[allow(clippy::too_many_arguments)]
+fn adam_step(
+    g: Siren,
+    opt: &mut burn::optim::ModuleOptimizer,
+    problem: &MillingProblem<'_>,
+    tool: &Tool,
+    idx: &[usize],
+    phase: f64,
+    collision_weight: f64,
+    options: &LayerOptions,
+    step: usize,
+) -> Result<(Siren, [f32; 5], Vec<usize>)> {
+    let losses = milling_losses_with(&g, problem, tool, idx, phase, &options.constants)?;
+    let total = losses.total(&options.weights, collision_weight);
+    let parts = Tensor::cat(
+        vec![
+            losses.part_collision.clone(),
+            losses.layer_collision.clone(),
+            losses.spacing.clone(),
+            losses.zero_gradient.clone(),
+            losses.curvature.clone(),
+        ],
+        0,
+    );
+    let values = parts
+        .inner()
+        .try_into_data()
+        .map_err(FieldError::backend)?
+        .try_into_vec::<f32>()
+        .map_err(FieldError::backend)?;
+    if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
+        return Err(FieldError::Diverged { loss: *bad, step });
+    }
+    let grads = GradientsParams::from_grads(total.backward(), &g);
+    let g = opt.step(options.learning_rate, g, grads);
+    Ok((g, [values[0], values[1], values[2], values[3], values[4]], losses.near_poses))
+}
+
+/// Draws batches: up to half from the "hot" poses (those whose tool last came closer to
+/// the part than the clearance, in turn), the rest from a shuffled pass over all poses.
+struct Batcher {
+    rng: SplitMix64,
+    order: Vec<usize>,
+    cursor: usize,
+    hot: std::collections::VecDeque<usize>,
+    is_hot: Vec<bool>,
+}
+
+impl Batcher {
+    fn new(np: usize, seed: u64) -> Self {
+        Self {
+            rng: SplitMix64::new(seed, 0x4d49_4c4c),
+            order: (0..np).collect(),
+            cursor: np,
+            hot: Default::default(),
+            is_hot: vec![false; np],
+        }
+    }
+
+    /// A batch of `size` distinct poses (fewer when there are fewer poses), `forced` first.
+    fn batch(&mut self, size: usize, forced: &[usize], out: &mut Vec<usize>) {
+        let np = self.order.len();
+        let size = size.min(np);
+        out.clear();
+        let mut taken = vec![false; np];
+        for &i in forced.iter().take(size) {
+            if !taken[i] {
+                taken[i] = true;
+                out.push(i);
+            }
+        }
+        let hot_quota = (size / 2).saturating_sub(out.len());
+        for _ in 0..self.hot.len().min(hot_quota) {
+            if let Some(i) = self.hot.pop_front() {
+                self.hot.push_back(i);
+                if !taken[i] {
+                    taken[i] = true;
+                    out.push(i);
+                }
+            }
+        }
+        let mut guard = 0;
+        while out.len() < size && guard < 2 * np + 2 {
+            guard += 1;
+            if self.cursor == np {
+                for i in (1..np).rev() {
+                    self.order.swap(i, self.rng.below(i + 1));
+                }
+                self.cursor = 0;
+            }
+            let i = self.order[self.cursor];
+            self.cursor += 1;
+            if !taken[i] {
+                taken[i] = true;
+                out.push(i);
+            }
+        }
+    }
+
+    /// Marks the poses of `batch` hot (in `near`) or cold (not in it).
+    fn update(&mut self, batch: &[usize], near: &[usize]) {
+        for &i in batch {
+            self.is_hot[i] = false;
+        }
+        for &i in near {
+            self.is_hot[i] = true;
+        }
+        let is_hot = &self.is_hot;
+        self.hot.retain(|&i| is_hot[i]);
+        for &i in near {
+            if !self.hot.contains(&i) {
+                self.hot.push_back(i);
+            }
+        }
+    }
 }
 
 /// Optimises the layer field `g` (on an autodiff device, e.g. from [`pretrain_planar`])
 /// by Adam on Eq. 40 over `problem`'s poses, the collision weight rising linearly from
-/// `weights.collision_start` to `weights.collision_end`.
+/// `weights.collision_start` to `weights.collision_end`, then repairs what a check finds.
+///
+/// - Each batch takes up to half its poses from the *hot* ones: poses whose tool came
+///   within the clearance of the part when last evaluated (active-set sampling; the
+///   collisions are rare, so uniform batches see few of them).
+/// - After the steps, up to [`LayerOptions::repair_rounds`] rounds: count the colliding
+///   poses with [`LayerOptions::check_tool`] ([`colliding_poses`]); if there are any, run
+///   [`LayerOptions::repair_steps`] steps whose batches hold every colliding pose (then
+///   those of earlier rounds, then random ones), sampling the tool with the check's own
+///   points on even steps and a random ring phase on odd ones. Each round multiplies the
+///   collision weight (from `weights.collision_end`) by
+///   [`LayerOptions::repair_weight_growth`] and the learning rate by
+///   [`LayerOptions::repair_decay`]: a penalty method on a hinge with a margin
+///   ([`LossConstants::part_clearance`]), whose violation where it balances the
+///   regularisers shrinks as the weight grows, until the constraint itself (distance `>= 0`
+///   at every check point) holds. The report holds every check; when the rounds run out,
+///   the field of the best check is returned (and [`LayerReport::collisions`] is its).
+///
+/// Deterministic for fixed options (single-threaded backend, seeded batches and phases).
 ///
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`],
 /// [`FieldError::NonFinite`] if the part's distance is not finite at a tool point.
@@ -640,52 +957,93 @@ pub fn optimize_layers(
     options.validate()?;
     let start = Instant::now();
     let mut opt = AdamConfig::new().init();
-    let mut rng = SplitMix64::new(options.seed, 0x4d49_4c4c);
     let np = problem.poses.len();
-    let batch = options.batch_size.min(np);
-    let mut order: Vec<usize> = (0..np).collect();
-    let mut cursor = np;
-    let mut report = LayerReport { steps: 0, final_losses: [0.0; 5], seconds: 0.0 };
-    let mut idx = Vec::with_capacity(batch);
+    let mut batcher = Batcher::new(np, options.seed);
+    let mut report = LayerReport {
+        steps: 0,
+        final_losses: [0.0; 5],
+        repair_rounds: 0,
+        collisions: None,
+        checks: Vec::new(),
+        seconds: 0.0,
+    };
+    let mut idx = Vec::with_capacity(options.batch_size);
     for step in 0..options.steps {
-        idx.clear();
-        while idx.len() < batch {
-            if cursor == np {
-                for i in (1..np).rev() {
-                    order.swap(i, rng.below(i + 1));
-                }
-                cursor = 0;
-            }
-            idx.push(order[cursor]);
-            cursor += 1;
-        }
-        let phase = rng.uniform(0.0, std::f64::consts::TAU);
-        let losses = milling_losses(&g, problem, &idx, phase, &options.constants)?;
+        batcher.batch(options.batch_size, &[], &mut idx);
+        let phase = batcher.rng.uniform(0.0, std::f64::consts::TAU);
         let wc = options.weights.collision_at(step, options.steps);
-        let total = losses.total(&options.weights, wc);
-        let parts = Tensor::cat(
-            vec![
-                losses.part_collision.clone(),
-                losses.layer_collision.clone(),
-                losses.spacing.clone(),
-                losses.zero_gradient.clone(),
-                losses.curvature.clone(),
-            ],
-            0,
-        );
-        let values = parts
-            .inner()
-            .try_into_data()
-            .map_err(FieldError::backend)?
-            .try_into_vec::<f32>()
-            .map_err(FieldError::backend)?;
-        if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
-            return Err(FieldError::Diverged { loss: *bad, step });
-        }
-        let grads = GradientsParams::from_grads(total.backward(), &g);
-        g = opt.step(options.learning_rate, g, grads);
+        let (next, values, near) =
+            adam_step(g, &mut opt, problem, &problem.tool, &idx, phase, wc, options, report.steps)?;
+        g = next;
+        batcher.update(&idx, &near);
         report.steps += 1;
-        report.final_losses = [values[0], values[1], values[2], values[3], values[4]];
+        report.final_losses = values;
+    }
+    let check_tool = options.check_tool.unwrap_or(problem.tool);
+    let mut wc = options.weights.collision_end;
+    // Every pose found colliding so far stays in the repair batches, so that fixing some
+    // does not undo others.
+    let mut kept: Vec<usize> = Vec::new();
+    let mut is_kept = vec![false; np];
+    let mut lr = options.learning_rate;
+    // The field of the best check so far: the rounds are not monotone.
+    let mut best: Option<(Siren, CollisionCount)> = None;
+    for round in 0..=options.repair_rounds {
+        if options.repair_rounds == 0 {
+            break;
+        }
+        let (count, bad) = colliding_poses(&g.to_f64()?, problem, &check_tool)?;
+        report.collisions = Some(count);
+        report.checks.push(count);
+        if best
+            .as_ref()
+            .is_none_or(|(_, c): &(Siren, CollisionCount)| count.part + count.layer < c.part + c.layer)
+        {
+            best = Some((g.clone(), count));
+        }
+        if bad.is_empty() || round == options.repair_rounds {
+            break;
+        }
+        for &i in &bad {
+            if !is_kept[i] {
+                is_kept[i] = true;
+                kept.push(i);
+            }
+        }
+        report.repair_rounds += 1;
+        lr *= options.repair_decay;
+        // A penalty with a margin: the larger its weight, the smaller the violation of the
+        // margin where it balances the regularisers, down to none of the constraint itself.
+        wc *= options.repair_weight_growth;
+        let step_options = LayerOptions { learning_rate: lr, ..options.clone() };
+        let mut cursor = 0;
+        for s in 0..options.repair_steps {
+            // The colliding poses first (all when they fit, in turn otherwise), then the
+            // ones that collided in earlier rounds, then random ones.
+            let quota = options.batch_size.div_ceil(2).max(1);
+            let mut forced: Vec<usize> = bad.iter().copied().take(quota).collect();
+            if bad.len() > quota {
+                forced = (0..quota).map(|k| bad[(cursor + k) % bad.len()]).collect();
+                cursor = (cursor + quota) % bad.len();
+            } else {
+                forced.extend(kept.iter().copied().filter(|i| !bad.contains(i)).take(quota - forced.len()));
+            }
+            batcher.batch(options.batch_size, &forced, &mut idx);
+            let random_phase = batcher.rng.uniform(0.0, std::f64::consts::TAU);
+            let phase = if s % 2 == 0 { 0.0 } else { random_phase };
+            let (next, values, near) =
+                adam_step(g, &mut opt, problem, &check_tool, &idx, phase, wc, &step_options, report.steps)?;
+            g = next;
+            batcher.update(&idx, &near);
+            report.steps += 1;
+            report.final_losses = values;
+        }
+    }
+    if let (Some((field, count)), Some(last)) = (best, report.collisions)
+        && count.part + count.layer < last.part + last.layer
+    {
+        g = field;
+        report.collisions = Some(count);
     }
     report.seconds = start.elapsed().as_secs_f64();
     Ok((g, report))
@@ -708,17 +1066,29 @@ pub struct CollisionCount {
 /// problem's own), has a point inside the part (`distance < 0`) or in material not yet
 /// milled. Poses where `∇G = 0` count as colliding.
 pub fn count_collisions(g: &SirenF64, problem: &MillingProblem<'_>, tool: &Tool) -> Result<CollisionCount> {
+    Ok(colliding_poses(g, problem, tool)?.0)
+}
+
+/// [`count_collisions`] with the indices (into the problem's poses, ascending) of the
+/// poses that collide with the part or with material not milled yet.
+pub fn colliding_poses(
+    g: &SirenF64,
+    problem: &MillingProblem<'_>,
+    tool: &Tool,
+) -> Result<(CollisionCount, Vec<usize>)> {
     tool.validate()?;
     let local = tool.points(0.0);
     let nz = &problem.normalization;
     let mut out = CollisionCount { poses: problem.poses.len(), part: 0, layer: 0 };
-    for x in &problem.poses {
+    let mut bad = Vec::new();
+    for (i, x) in problem.poses.iter().enumerate() {
         let u = nz.to_unit(x);
         let (gx, grad) = g.value_gradient([u.x, u.y, u.z]);
         let n = Vector3::new(grad[0], grad[1], grad[2]);
         let Some(n) = n.try_normalize(1e-12) else {
             out.part += 1;
             out.layer += 1;
+            bad.push(i);
             continue;
         };
         let raw = Vector3::x() - n * n.x;
@@ -742,8 +1112,11 @@ pub fn count_collisions(g: &SirenF64, problem: &MillingProblem<'_>, tool: &Tool)
         }
         out.part += hit_part as usize;
         out.layer += hit_layer as usize;
+        if hit_part || hit_layer {
+            bad.push(i);
+        }
     }
-    Ok(out)
+    Ok((out, bad))
 }
 
 /// A cup: a solid of revolution about `+Z` with its base on `z = 0`, outer radius

@@ -1,10 +1,13 @@
 //! Milling layers (Eq. 40): the tool sampling, the cup, the losses' behaviour on planar
-//! layers, a small cup optimisation that removes collisions, and typed errors.
+//! layers, a small cup optimisation that removes every collision, its five-axis program
+//! simulated without gouges, and typed errors.
 
 use s2g_field::{
-    FieldError, LayerOptions, MeshSdf, MillingProblem, MillingWeights, Tool, count_collisions, cup_mesh,
-    milling_losses, optimize_layers, pretrain_planar,
+    FieldError, LayerOptions, MeshSdf, MillOptions, MillingProblem, MillingWeights, ProgramOptions, Tool,
+    count_collisions, cup_mesh, layer_mesh, mill_mesh, mill_program, milling_losses, optimize_layers,
+    pretrain_planar, simulate_program,
 };
+use s2g_gcode::{Motion, MotionRecorder, ParseOptions, RotaryAxes, parse_str};
 use s2g_geom::{Aabb, MeshIndex, Point3, SignedDistance, Sphere};
 
 fn scalar(t: burn::tensor::Tensor<1>) -> f32 {
@@ -109,22 +112,87 @@ fn losses_vanish_where_planar_layers_are_clear() {
     assert!(matches!(pretrain_planar(&no_steps), Err(FieldError::InvalidConfig { .. })));
 }
 
-/// The small cup: planar layers leave poses under the lip whose tool hits it; a short
-/// optimisation of Eq. 40 lowers their number.
+/// The small cup: planar layers leave poses under the lip whose tool hits it; Eq. 40 with
+/// the repair rounds removes every colliding pose under the check's own sampling, and the
+/// five-axis program of the optimised layers simulates without gouges.
 #[test]
-fn optimised_cup_layers_collide_less_than_planar_layers() {
+fn optimised_cup_layers_have_no_colliding_poses_and_mill_without_gouges() {
     let (cup, block) = small_cup();
     let part = MeshSdf::new(&cup).unwrap();
-    let train = Tool { axial_step: 8.0, ring_points: 6, ..Tool::default() };
-    let check = Tool { axial_step: 4.0, ring_points: 12, ..Tool::default() };
-    let problem = MillingProblem::new(&part, block, train, 6.0, 0.5).unwrap();
-    let options = LayerOptions { pretrain_steps: 300, steps: 40, batch_size: 128, ..LayerOptions::default() };
+    let tool = Tool { axial_step: 4.0, ring_points: 12, ..Tool::default() };
+    let problem = MillingProblem::new(&part, block, tool, 6.0, 0.5).unwrap();
+    let options = LayerOptions {
+        pretrain_steps: 300,
+        steps: 40,
+        batch_size: 128,
+        repair_rounds: 10,
+        repair_steps: 20,
+        check_tool: Some(tool),
+        ..LayerOptions::default()
+    };
     let planar = pretrain_planar(&options).unwrap();
-    let before = count_collisions(&planar.to_f64().unwrap(), &problem, &check).unwrap();
+    let planar_f64 = planar.to_f64().unwrap();
+    let before = count_collisions(&planar_f64, &problem, &tool).unwrap();
     assert!(before.part > 0, "planar layers should leave colliding poses under the lip: {before:?}");
     assert_eq!(before.layer, 0, "planar layers never cut into unmilled layers: {before:?}");
     let (g, report) = optimize_layers(planar, &problem, &options).unwrap();
-    assert_eq!(report.steps, 40);
-    let after = count_collisions(&g.to_f64().unwrap(), &problem, &check).unwrap();
-    assert!(after.part < before.part, "before {before:?}, after {after:?}");
+    assert!(report.repair_rounds >= 1 && report.repair_rounds <= 10, "{report:?}");
+    assert_eq!(report.steps, 40 + 20 * report.repair_rounds);
+    let g = g.to_f64().unwrap();
+    let after = count_collisions(&g, &problem, &tool).unwrap();
+    assert_eq!((after.part, after.layer), (0, 0), "optimised layers still collide: {after:?} ({report:?})");
+    assert_eq!(report.collisions, Some(after));
+
+    // Five-axis programs: the planar one leaves the colliding poses out, the optimised
+    // one tilts the tool; neither gouges the part.
+    let popts = ProgramOptions { layer_step: 6.0, link_distance: 9.0, ..ProgramOptions::default() };
+    let planar_program = mill_program(&planar_f64, &problem, &popts).unwrap();
+    assert!(planar_program.poses_skipped >= before.part, "{planar_program:?}");
+    let program = mill_program(&g, &problem, &popts).unwrap();
+    assert!(
+        program.poses_used > planar_program.poses_used,
+        "{} vs {}",
+        program.poses_used,
+        planar_program.poses_used
+    );
+    let mut rec = MotionRecorder::default();
+    let parse = ParseOptions { rotary: Some(RotaryAxes::AC), ..ParseOptions::default() };
+    let summary = parse_str(&program.text, &parse, &mut rec).unwrap();
+    assert!(summary.errors.is_empty(), "{:?}", summary.errors);
+    // Rotary words share the block of the move they go with (simultaneous motion), and
+    // some blocks tilt the tool by more than 10 degrees.
+    let mut simultaneous = 0;
+    let mut tilted = 0;
+    for w in rec.motions.windows(2) {
+        if let ((l0, Motion::Setup { rotary, .. }), (l1, next)) = (&w[0], &w[1]) {
+            assert_eq!(l0, l1, "a setup on its own line: {next:?}");
+            simultaneous += 1;
+            tilted += (rotary[0].unwrap_or(0.0).abs() > 10.0) as usize;
+        }
+    }
+    assert!(simultaneous > 0 && tilted > 0, "{simultaneous} simultaneous blocks, {tilted} tilted");
+    let layers = layer_mesh(&g, &problem, 6.0, 3.0).unwrap();
+    assert!(!layers.triangles().is_empty(), "no layer surfaces");
+    for (name, text) in [("planar", &planar_program.text), ("optimised", &program.text)] {
+        let sim = simulate_program(text, &cup, &block, &tool, 2.0, &popts).unwrap();
+        assert_eq!(sim.gouge_voxels, 0, "{name}: {sim:?}");
+        assert!(sim.removed_fraction > 0.3 && sim.removed_fraction <= 1.0, "{name}: {sim:?}");
+    }
+
+    // Typed errors, no panics.
+    let bad = ProgramOptions { feed: f64::NAN, ..popts.clone() };
+    assert!(matches!(mill_program(&g, &problem, &bad), Err(FieldError::InvalidConfig { .. })));
+    assert!(matches!(
+        simulate_program(&program.text, &cup, &block, &tool, 0.0, &popts),
+        Err(FieldError::InvalidArgument(_))
+    ));
+    assert!(matches!(
+        simulate_program("G1 X1 Y2 Z3 F100\nG2 X10 Y0 I0 J0\n", &cup, &block, &tool, 2.0, &popts),
+        Err(FieldError::Program(_))
+    ));
+    assert!(matches!(layer_mesh(&g, &problem, 6.0, 0.0), Err(FieldError::InvalidArgument(_))));
+    let empty = s2g_geom::Mesh::new(vec![], vec![]).unwrap();
+    assert!(matches!(mill_mesh(&empty, &MillOptions::default()), Err(FieldError::EmptyMesh)));
+    let bad_repair = LayerOptions { repair_decay: 0.0, ..options.clone() };
+    assert!(matches!(pretrain_planar(&bad_repair), Err(FieldError::InvalidConfig { .. })));
 }

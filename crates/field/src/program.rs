@@ -1,0 +1,926 @@
+//! Five-axis milling programs from a layer field (§4.2, §7.4 of seed 002), and their
+//! simulation in `s2g-voxsim`.
+//!
+//! [`mill_program`] turns the pose points of a [`MillingProblem`] into a simultaneous
+//! five-axis program for a table-table machine (A/C or B/C rotary words):
+//!
+//! - **Layers.** Each pose belongs to the layer `round((G_top - G(x)) / h)` of the field `G`
+//!   (`h` = [`ProgramOptions::layer_step`] in unit-cube lengths times the median `|∇G|`
+//!   over the poses, so layers are about `layer_step` apart); layers are milled from
+//!   the top (largest `G`) down, so the tool only meets material on its own layer.
+//! - **Tool axis.** The layer normal `∇G/|∇G|` at the pose, taken vertical when it tilts
+//!   less than [`ProgramOptions::vertical_snap_deg`] (the rotary C angle is free there and
+//!   would otherwise spin); turned toward `+Z` in quarters when the clearance proof fails
+//!   along the normal (counted in [`MillProgram::poses_reoriented`]). The rotary angles follow `s2g-gcode`'s conventions
+//!   ([`s2g_gcode::rotary_angles`]), C unwrapped to the nearest turn of the previous
+//!   block's.
+//! - **Toolpaths.** On each layer a nearest-neighbour chain over its poses; consecutive
+//!   poses closer than [`ProgramOptions::link_distance`] are joined by a feed move, others
+//!   by a retract along the tool axis, a traverse and a plunge (or via a vertical tool above
+//!   the block); when none of the nearest remaining poses can be reached, the tool steps
+//!   back along its checked way first. Moves are split so that no
+//!   block turns A or C by more than [`ProgramOptions::max_angle_step_deg`].
+//! - **Checks.** Every tool position the machine passes through (the blocks sampled as the
+//!   simulator interpolates them: rotation slerp, program point lerp) is proved clear of
+//!   the part: the distance at axis points spaced `s` apart must exceed `sqrt(r² + s²/4)`,
+//!   plus [`ProgramOptions::flute_clearance`] along the flutes, which bounds the whole
+//!   cylinder away from the part (the distance is 1-Lipschitz). Poses that fail are left
+//!   out, links that fail are replaced by higher retracts or skip their pose; both counted.
+//!
+//! Programs are written by `s2g-gcode`'s [`GcodeWriter`] with rotary words; each rotary
+//! setup block it writes (`G0 A.. C..`) is merged into the move after it, so the rotation
+//! and the move are one simultaneous block, which the parser and the simulator treat as a
+//! simultaneous axis change.
+
+use s2g_gcode::{
+    Dialect, FooterRetract, GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, SpindleDirection,
+    WriterOptions, rotary_frame,
+};
+use s2g_geom::{Aabb, GridSpec, Isometry3, Mesh, Point3, SignedDistance, Vector3, VoxelGrid, voxelize};
+use s2g_voxsim::{Cutter, SimOptions, Simulator, ToolTable};
+
+use crate::error::{FieldError, Result};
+use crate::milling::{MillingProblem, Tool};
+use crate::siren::SirenF64;
+
+/// How [`mill_program`] builds a program. Lengths in the part's units (mm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramOptions {
+    /// Layer spacing: `G` levels `layer_step × scale × median |∇G|` apart (unit-cube `G`;
+    /// planar layers are then `layer_step` apart). Default `3.0` (the cup example's pose
+    /// grid).
+    pub layer_step: f64,
+    /// Largest distance between consecutive poses joined by a feed move. Default `4.5`.
+    pub link_distance: f64,
+    /// First retract distance along the tool axis for a jump; twice and four times it are
+    /// tried next. Default `8.0`.
+    pub retract: f64,
+    /// Feed rate, mm/min. Default `800`.
+    pub feed: f64,
+    /// Spindle speed, rpm. Default `12000`.
+    pub spindle_rpm: f64,
+    /// Length of the cutter's flutes (the cutting part, from the tip). Default `10.0`.
+    pub flute_length: f64,
+    /// Extra clearance of the flutes from the part, on top of the cylinder bound: at least
+    /// the simulator's sweep tolerance (a quarter voxel). Default `0.3`.
+    pub flute_clearance: f64,
+    /// Spacing of the axis points of the clearance proof. Default `0.5`.
+    pub check_step: f64,
+    /// Spacing of the checked tool positions along a move (tip travel, or the travel of
+    /// the tool's far end under rotation). Default `0.5`.
+    pub move_step: f64,
+    /// Largest change of a rotary angle per block, degrees. Default `2.0`.
+    pub max_angle_step_deg: f64,
+    /// Normals tilting less than this from `+Z` are taken vertical, degrees. Default `2.0`.
+    pub vertical_snap_deg: f64,
+    /// The machine's rotary axes. Default [`RotaryAxes::AC`].
+    pub rotary: RotaryAxes,
+    /// Output dialect (one with rotary axes: LinuxCNC or Fanuc). Default
+    /// [`Dialect::LinuxCnc`].
+    pub dialect: Dialect,
+}
+
+impl Default for ProgramOptions {
+    fn default() -> Self {
+        Self {
+            layer_step: 3.0,
+            link_distance: 4.5,
+            retract: 8.0,
+            feed: 800.0,
+            spindle_rpm: 12000.0,
+            flute_length: 10.0,
+            flute_clearance: 0.3,
+            check_step: 0.5,
+            move_step: 0.5,
+            max_angle_step_deg: 2.0,
+            vertical_snap_deg: 2.0,
+            rotary: RotaryAxes::AC,
+            dialect: Dialect::LinuxCnc,
+        }
+    }
+}
+
+impl ProgramOptions {
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<()> {
+        let pos = |field: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(FieldError::config(field, format!("must be finite and > 0, got {v}")))
+            }
+        };
+        pos("program.layer_step", self.layer_step)?;
+        pos("program.link_distance", self.link_distance)?;
+        pos("program.retract", self.retract)?;
+        pos("program.feed", self.feed)?;
+        pos("program.spindle_rpm", self.spindle_rpm)?;
+        pos("program.flute_length", self.flute_length)?;
+        pos("program.check_step", self.check_step)?;
+        pos("program.move_step", self.move_step)?;
+        pos("program.max_angle_step_deg", self.max_angle_step_deg)?;
+        if !(self.flute_clearance.is_finite() && self.flute_clearance >= 0.0) {
+            return Err(FieldError::config("program.flute_clearance", "must be finite and >= 0"));
+        }
+        if !(self.vertical_snap_deg.is_finite() && (0.0..90.0).contains(&self.vertical_snap_deg)) {
+            return Err(FieldError::config("program.vertical_snap_deg", "must be in [0, 90)"));
+        }
+        if !matches!(self.dialect, Dialect::LinuxCnc | Dialect::Fanuc) {
+            return Err(FieldError::config("program.dialect", "needs rotary axes: LinuxCnc or Fanuc"));
+        }
+        Ok(())
+    }
+
+    /// The simulated cutter for `tool`: a flat end mill of the tool's radius with
+    /// [`ProgramOptions::flute_length`] of flutes and a shank of the same radius up to the
+    /// tool's length.
+    fn cutter(&self, tool: &Tool) -> Cutter {
+        let mut c = Cutter::flat(tool.radius, self.flute_length.min(tool.length));
+        c.stickout = tool.length.max(c.flute_length);
+        c
+    }
+}
+
+/// What [`mill_program`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MillProgram {
+    /// The G-code text.
+    pub text: String,
+    /// Layers with at least one pose milled.
+    pub layers: usize,
+    /// Poses visited.
+    pub poses_used: usize,
+    /// Poses left out: the clearance proof failed at the pose (e.g. a colliding pose of
+    /// planar layers), or no checked route reached it (from where the tool was, or from
+    /// the last 64 waypoints back along its way, trying the 6 nearest remaining poses).
+    pub poses_skipped: usize,
+    /// Of the skipped poses, those where no tool axis passed the clearance proof.
+    pub poses_unclear: usize,
+    /// Poses milled with the tool axis turned toward `+Z` from the layer normal, because
+    /// the normal failed the (stricter than the loss's) clearance proof.
+    pub poses_reoriented: usize,
+    /// Feed moves between neighbouring poses.
+    pub links: usize,
+    /// Retract-traverse-plunge jumps.
+    pub jumps: usize,
+    /// Motion blocks written.
+    pub blocks: usize,
+}
+
+/// A machine state: tool tip in the part frame, rotary angles (degrees, C unwrapped).
+#[derive(Debug, Clone, Copy)]
+struct State {
+    tip: Point3,
+    tilt: f64,
+    c: f64,
+}
+
+/// The clearance proof of the module docs.
+struct Clearance<'a> {
+    part: &'a dyn SignedDistance,
+    radius: f64,
+    length: f64,
+    flute: f64,
+    flute_clearance: f64,
+    step: f64,
+}
+
+impl Clearance<'_> {
+    /// Whether the whole tool (a cylinder of `radius` from `tip` along `axis`, `length`
+    /// long) is clear of the part, the flutes by `flute_clearance` more.
+    fn clear(&self, tip: &Point3, axis: &Vector3) -> bool {
+        let base = (self.radius * self.radius + 0.25 * self.step * self.step).sqrt();
+        let n = (self.length / self.step).ceil() as usize;
+        let mut i = 0;
+        while i <= n {
+            let a = (i as f64 * self.step).min(self.length);
+            let need = if a <= self.flute + 0.5 * self.step { base + self.flute_clearance } else { base };
+            let d = self.part.distance(&(tip + axis * a));
+            if d.is_nan() || d < need {
+                return false;
+            }
+            // The distance is 1-Lipschitz: the next samples within `d - need - flute
+            // clearance` of this one pass too.
+            let skip = ((d - need - self.flute_clearance) / self.step).floor().max(0.0) as usize;
+            i += 1 + skip;
+        }
+        true
+    }
+}
+
+/// The tilt (A or B) and C angles, degrees, that put the tool axis along the unit vector
+/// `n`: `s2g-gcode`'s table-table conventions ([`s2g_gcode::rotary_angles`]).
+fn tool_axis_angles(axes: RotaryAxes, n: &Vector3) -> (f64, f64) {
+    let h = n.x.hypot(n.y);
+    let tilt = h.atan2(n.z).to_degrees();
+    let c = match axes {
+        RotaryAxes::AC => n.x.atan2(-n.y),
+        RotaryAxes::BC => n.y.atan2(n.x),
+    };
+    (tilt, if h < 1e-12 { 0.0 } else { c.to_degrees() })
+}
+
+fn frame_of(axes: RotaryAxes, s: &State) -> Isometry3 {
+    match axes {
+        RotaryAxes::AC => rotary_frame(axes, [s.tilt, 0.0, s.c]),
+        RotaryAxes::BC => rotary_frame(axes, [0.0, s.tilt, s.c]),
+    }
+}
+
+fn axis_of(axes: RotaryAxes, s: &State) -> Vector3 {
+    frame_of(axes, s).rotation * Vector3::z()
+}
+
+/// Builds the simultaneous five-axis program of the module docs for the layer field `g`
+/// over `problem`'s poses.
+///
+/// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::InvalidArgument`]
+/// when no pose passes the clearance proof, [`FieldError::Program`] if the writer fails.
+pub fn mill_program(
+    g: &SirenF64,
+    problem: &MillingProblem<'_>,
+    options: &ProgramOptions,
+) -> Result<MillProgram> {
+    options.validate()?;
+    let tool = *problem.tool();
+    let axes = options.rotary;
+    let clearance = Clearance {
+        part: problem.part(),
+        radius: tool.radius,
+        length: tool.length,
+        flute: options.flute_length.min(tool.length),
+        flute_clearance: options.flute_clearance,
+        step: options.check_step,
+    };
+    let nz = problem.normalization();
+    let snap = options.vertical_snap_deg;
+
+    // Poses: G, the (snapped) tool axis, and the clearance proof.
+    struct Pose {
+        tip: Point3,
+        g: f64,
+        tilt: f64,
+        c: f64,
+        vertical: bool,
+    }
+    let mut poses = Vec::new();
+    let mut skipped = 0usize;
+    let mut reoriented = 0usize;
+    for x in problem.poses() {
+        let u = nz.to_unit(x);
+        let (gx, grad) = g.value_gradient([u.x, u.y, u.z]);
+        let n = Vector3::new(grad[0], grad[1], grad[2]);
+        let Some(n) = n.try_normalize(1e-12) else {
+            skipped += 1;
+            continue;
+        };
+        if !gx.is_finite() {
+            skipped += 1;
+            continue;
+        }
+        // The layer normal; if the clearance proof fails there (the flutes' clearance is
+        // stricter than the loss's hinge), the normal turned toward +Z by a quarter, a
+        // half, three quarters and all the way, the first that passes.
+        let mut chosen = None;
+        for (k, t) in [0.0, 0.25, 0.5, 0.75, 1.0].into_iter().enumerate() {
+            let Some(axis) = (n * (1.0 - t) + Vector3::z() * t).try_normalize(1e-12) else { continue };
+            let (tilt, c) = tool_axis_angles(axes, &axis);
+            let vertical = tilt < snap;
+            let (tilt, c) = if vertical { (0.0, 0.0) } else { (tilt, c) };
+            let s = State { tip: *x, tilt, c };
+            if clearance.clear(x, &axis_of(axes, &s)) {
+                chosen = Some((tilt, c, vertical, k > 0));
+                break;
+            }
+        }
+        let Some((tilt, c, vertical, turned)) = chosen else {
+            skipped += 1;
+            continue;
+        };
+        reoriented += turned as usize;
+        poses.push(Pose { tip: *x, g: gx, tilt, c, vertical });
+    }
+    if poses.is_empty() {
+        return Err(FieldError::InvalidArgument("no pose passes the tool clearance check".into()));
+    }
+
+    // Layers, top first; a nearest-neighbour chain on each.
+    let h = level_step(g, problem, options.layer_step);
+    let g_top = poses.iter().map(|p| p.g).fold(f64::NEG_INFINITY, f64::max);
+    let layer_of = |p: &Pose| ((g_top - p.g) / h).round() as i64;
+    let mut by_layer: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
+    for (i, p) in poses.iter().enumerate() {
+        by_layer.entry(layer_of(p)).or_default().push(i);
+    }
+
+    let mut w = Emitter::new(options, axes);
+    w.push(Motion::ToolChange { tool: 1 })?;
+    w.push(Motion::Spindle { rpm: options.spindle_rpm, direction: SpindleDirection::Clockwise })?;
+    let mut out = MillProgram {
+        text: String::new(),
+        layers: 0,
+        poses_used: 0,
+        poses_skipped: skipped,
+        poses_unclear: skipped,
+        poses_reoriented: reoriented,
+        links: 0,
+        jumps: 0,
+        blocks: 0,
+    };
+    let mut cur: Option<State> = None;
+    // Every waypoint written, in order: the way back when no remaining pose can be reached
+    // from where the tool is (retracing checked moves is safe).
+    let mut trail: Vec<State> = Vec::new();
+    let unwrap = |c: f64, near: f64| c + 360.0 * ((near - c) / 360.0).round();
+    let target_of = |p: &Pose, c_ref: f64| State {
+        tip: p.tip,
+        tilt: p.tilt,
+        c: if p.vertical { c_ref } else { unwrap(p.c, c_ref) },
+    };
+    let high = problem.block().max.z + options.retract;
+    for members in by_layer.values() {
+        let mut left: Vec<usize> = members.clone();
+        let mut milled_any = false;
+        let mut backtracks = 0usize;
+        while !left.is_empty() {
+            let Some(from) = cur else {
+                // Start: appear above the first pose along its axis, plunge.
+                let i = left.swap_remove(0);
+                let target = target_of(&poses[i], 0.0);
+                let axis = axis_of(axes, &target);
+                let mut started = false;
+                for r in [options.retract, 2.0 * options.retract, 4.0 * options.retract] {
+                    let above = State { tip: target.tip + axis * r, ..target };
+                    if clearance.clear(&above.tip, &axis) && w.check_move(&clearance, &above, &target) {
+                        w.setup(&above)?;
+                        w.rapid(&above)?;
+                        w.feed_to(&above, &target, false)?;
+                        trail.extend([above, target]);
+                        started = true;
+                        break;
+                    }
+                }
+                if started {
+                    cur = Some(target);
+                    out.poses_used += 1;
+                    milled_any = true;
+                } else {
+                    out.poses_skipped += 1;
+                }
+                continue;
+            };
+            // The nearest remaining poses first: a feed link to a neighbour, else a jump.
+            let mut order: Vec<usize> = (0..left.len()).collect();
+            let dist = |k: usize| (poses[left[k]].tip - from.tip).norm_squared();
+            order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+            let mut found = None;
+            for &k in order.iter().take(CANDIDATES) {
+                let target = target_of(&poses[left[k]], from.c);
+                let near = (target.tip - from.tip).norm() <= options.link_distance;
+                if near && w.check_path(&clearance, &from, &target) {
+                    found = Some((k, vec![target], true));
+                    break;
+                }
+                if let Some(route) = jump_route(&w, &clearance, &from, &target, options.retract, high) {
+                    found = Some((k, route, false));
+                    break;
+                }
+            }
+            let Some((k, route, link)) = found else {
+                // Nothing reachable from here: step back along the trail, or give the
+                // nearest pose up.
+                if backtracks < MAX_BACKTRACK && trail.len() >= 2 {
+                    let back = trail[trail.len() - 2];
+                    if w.check_path(&clearance, &from, &back) {
+                        w.feed_to(&from, &back, true)?;
+                        trail.pop();
+                        cur = Some(back);
+                        backtracks += 1;
+                        continue;
+                    }
+                }
+                left.swap_remove(order[0]);
+                out.poses_skipped += 1;
+                backtracks = 0;
+                continue;
+            };
+            left.swap_remove(k);
+            let mut prev = from;
+            for s in &route {
+                w.feed_to(&prev, s, true)?;
+                prev = *s;
+            }
+            trail.extend_from_slice(&route);
+            if link {
+                out.links += 1;
+            } else {
+                out.jumps += 1;
+            }
+            backtracks = 0;
+            cur = Some(prev);
+            out.poses_used += 1;
+            milled_any = true;
+        }
+        out.layers += milled_any as usize;
+    }
+    // Leave along the tool axis.
+    if let Some(s) = cur {
+        let axis = axis_of(axes, &s);
+        for r in [4.0 * options.retract, 2.0 * options.retract, options.retract] {
+            let up = State { tip: s.tip + axis * r, ..s };
+            if w.check_path(&clearance, &s, &up) {
+                w.feed_to(&s, &up, true)?;
+                break;
+            }
+        }
+    }
+    out.blocks = w.blocks;
+    out.text = w.finish()?;
+    Ok(out)
+}
+
+/// Remaining poses tried, nearest first, before stepping back along the trail.
+const CANDIDATES: usize = 6;
+
+/// Steps back along the trail before a pose is given up.
+const MAX_BACKTRACK: usize = 64;
+
+/// The waypoints of a checked jump from `from` to `to` (ending at `to`): retract along the
+/// tool axis by `r`, `2 r` or `4 r`, traverse, plunge; failing those, the same retracts
+/// then up to a vertical tool with its tip at height `high` (above the block, where the
+/// vertical tool is clear of a part inside it), across, and down. `None` when no route
+/// passes the checks.
+fn jump_route(
+    w: &Emitter,
+    clearance: &Clearance<'_>,
+    from: &State,
+    to: &State,
+    r: f64,
+    high: f64,
+) -> Option<Vec<State>> {
+    let axes = w.axes;
+    let ok = |route: &[State]| {
+        let mut prev = *from;
+        route.iter().all(|s| {
+            let pass = w.check_path(clearance, &prev, s);
+            prev = *s;
+            pass
+        })
+    };
+    let retracts = [r, 2.0 * r, 4.0 * r];
+    for r in retracts {
+        let up = State { tip: from.tip + axis_of(axes, from) * r, ..*from };
+        let down = State { tip: to.tip + axis_of(axes, to) * r, ..*to };
+        let route = [up, down, *to];
+        if ok(&route) {
+            return Some(route.to_vec());
+        }
+    }
+    for r in retracts {
+        let up = State { tip: from.tip + axis_of(axes, from) * r, ..*from };
+        let down = State { tip: to.tip + axis_of(axes, to) * r, ..*to };
+        let over =
+            |s: &State, c: f64| State { tip: Point3::new(s.tip.x, s.tip.y, s.tip.z.max(high)), tilt: 0.0, c };
+        let route = [up, over(&up, from.c), over(&down, to.c), down, *to];
+        if ok(&route) {
+            return Some(route.to_vec());
+        }
+    }
+    None
+}
+
+/// Writes the blocks through [`GcodeWriter`], tracking the rotary state.
+struct Emitter {
+    writer: GcodeWriter<Vec<u8>>,
+    axes: RotaryAxes,
+    feed: f64,
+    max_angle: f64,
+    move_step: f64,
+    reach: f64,
+    /// The angles of the last written setup.
+    angles: Option<(f64, f64)>,
+    blocks: usize,
+}
+
+impl Emitter {
+    fn new(options: &ProgramOptions, axes: RotaryAxes) -> Self {
+        // No footer retract: the program leaves along the tool axis itself; a machine-Z move
+        // with the part tilted would cross it.
+        let opts = WriterOptions {
+            rotary: Some(axes),
+            comments: false,
+            retract: FooterRetract::None,
+            ..WriterOptions::default()
+        };
+        Self {
+            writer: GcodeWriter::new(Vec::new(), options.dialect, opts),
+            axes,
+            feed: options.feed,
+            max_angle: options.max_angle_step_deg,
+            move_step: options.move_step,
+            reach: 0.0,
+            angles: None,
+            blocks: 0,
+        }
+    }
+
+    fn push(&mut self, m: Motion<'_>) -> Result<()> {
+        self.writer.motion(&m).map_err(|e| FieldError::Program(e.to_string()))
+    }
+
+    /// A setup block for `s`'s angles, unless they are the last setup's.
+    fn setup(&mut self, s: &State) -> Result<()> {
+        if self.angles == Some((s.tilt, s.c)) {
+            return Ok(());
+        }
+        self.angles = Some((s.tilt, s.c));
+        let rotary = match self.axes {
+            RotaryAxes::AC => [Some(s.tilt), None, Some(s.c)],
+            RotaryAxes::BC => [None, Some(s.tilt), Some(s.c)],
+        };
+        self.push(Motion::Setup { frame: frame_of(self.axes, s), rotary })
+    }
+
+    fn program_point(&self, s: &State) -> Point3 {
+        frame_of(self.axes, s).inverse() * s.tip
+    }
+
+    fn rapid(&mut self, s: &State) -> Result<()> {
+        let to = self.program_point(s);
+        self.reach = self.reach.max(to.coords.norm());
+        self.blocks += 1;
+        self.push(Motion::Rapid { to })
+    }
+
+    /// The sub-blocks of a move from `a` to `b`: the tip on the straight line, the angles
+    /// linear, no angle changing by more than the largest step per block.
+    fn pieces(&self, a: &State, b: &State) -> Vec<State> {
+        let turn = (b.tilt - a.tilt).abs().max((b.c - a.c).abs());
+        let n = ((turn / self.max_angle).ceil() as usize).clamp(1, 100_000);
+        (1..=n)
+            .map(|k| {
+                let t = k as f64 / n as f64;
+                State {
+                    tip: a.tip + (b.tip - a.tip) * t,
+                    tilt: a.tilt + (b.tilt - a.tilt) * t,
+                    c: a.c + (b.c - a.c) * t,
+                }
+            })
+            .collect()
+    }
+
+    /// Whether one block from `a` to `b`, as the simulator interpolates it (rotation slerp,
+    /// program point lerp), keeps the tool clear.
+    fn check_move(&self, clearance: &Clearance<'_>, a: &State, b: &State) -> bool {
+        let (fa, fb) = (frame_of(self.axes, a), frame_of(self.axes, b));
+        let (pa, pb) = (fa.inverse() * a.tip, fb.inverse() * b.tip);
+        let angle = fa.rotation.angle_to(&fb.rotation);
+        let reach = pa.coords.norm().max(pb.coords.norm()) + clearance.length + clearance.radius;
+        let travel = (b.tip - a.tip).norm() + angle * reach;
+        let n = ((travel / self.move_step).ceil() as usize).clamp(1, 1 << 20);
+        (0..=n).all(|k| {
+            let t = k as f64 / n as f64;
+            let r = fa.rotation.slerp(&fb.rotation, t);
+            let tip = r * (pa + (pb - pa) * t);
+            clearance.clear(&tip, &(r * Vector3::z()))
+        })
+    }
+
+    /// Whether the sub-blocks of the move from `a` to `b` keep the tool clear.
+    fn check_path(&self, clearance: &Clearance<'_>, a: &State, b: &State) -> bool {
+        let mut prev = *a;
+        for s in self.pieces(a, b) {
+            if !self.check_move(clearance, &prev, &s) {
+                return false;
+            }
+            prev = s;
+        }
+        true
+    }
+
+    /// Feed moves from `a` to `b` (checked by the caller), one block per piece.
+    fn feed_to(&mut self, a: &State, b: &State, split: bool) -> Result<()> {
+        let pieces = if split { self.pieces(a, b) } else { vec![*b] };
+        for s in pieces {
+            self.setup(&s)?;
+            let to = self.program_point(&s);
+            self.reach = self.reach.max(to.coords.norm());
+            self.blocks += 1;
+            self.push(Motion::Linear { to, feed: self.feed, extrude: None })?;
+        }
+        Ok(())
+    }
+
+    /// Finishes the writer and merges each rotary setup block into the move after it.
+    fn finish(mut self) -> Result<String> {
+        self.writer.finish().map_err(|e| FieldError::Program(e.to_string()))?;
+        let raw = String::from_utf8_lossy(&self.writer.into_inner()).into_owned();
+        Ok(merge_rotary_blocks(&raw, self.axes))
+    }
+}
+
+/// Joins each `G0 A.. C..` (or `G0 B.. C..`) block the writer emits for a setup with the
+/// motion block that follows it, so both happen in one simultaneous block. A following
+/// block without a motion word inherits the setup block's `G0`.
+fn merge_rotary_blocks(text: &str, axes: RotaryAxes) -> String {
+    let prefix = match axes {
+        RotaryAxes::AC => "G0 A",
+        RotaryAxes::BC => "G0 B",
+    };
+    let mut out = String::with_capacity(text.len());
+    let mut lines = text.lines().peekable();
+    while let Some(line) = lines.next() {
+        let is_move =
+            |l: &str| l.starts_with("G0 ") || l.starts_with("G1 ") || l.starts_with(['X', 'Y', 'Z']);
+        match lines.peek() {
+            Some(next) if line.starts_with(prefix) && is_move(next) => {
+                let rotary = &line[3..];
+                let next = lines.next().unwrap_or_default();
+                let mut merged = if next.starts_with('G') { next.to_string() } else { format!("G0 {next}") };
+                match merged.find(" F") {
+                    Some(at) => merged.insert_str(at, &format!(" {rotary}")),
+                    None => {
+                        merged.push(' ');
+                        merged.push_str(rotary);
+                    }
+                }
+                out.push_str(&merged);
+            }
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The `G` step between layers `layer_step` apart (part units): `layer_step` in unit-cube
+/// lengths times the median `|∇G|` over the poses (the optimisation changes `|∇G|`).
+fn level_step(g: &SirenF64, problem: &MillingProblem<'_>, layer_step: f64) -> f64 {
+    let nz = problem.normalization();
+    let mut norms: Vec<f64> = problem
+        .poses()
+        .iter()
+        .map(|x| {
+            let u = nz.to_unit(x);
+            let (_, d) = g.value_gradient([u.x, u.y, u.z]);
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+        })
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    norms.sort_by(f64::total_cmp);
+    let median = norms.get(norms.len() / 2).copied().unwrap_or(1.0);
+    layer_step * nz.scale * median
+}
+
+/// The milling layers as one triangle mesh: the iso-surfaces of `g` at the levels
+/// [`mill_program`] mills (about `layer_step` apart, through the highest pose's value),
+/// extracted by marching cubes on a lattice of spacing `spacing` over the block, with the
+/// triangles whose centroid lies inside the part left out.
+///
+/// Errors: [`FieldError::InvalidArgument`] for a bad spacing or step (or more than 1000
+/// levels), [`FieldError::Geometry`] if marching cubes fails.
+pub fn layer_mesh(g: &SirenF64, problem: &MillingProblem<'_>, layer_step: f64, spacing: f64) -> Result<Mesh> {
+    let block = problem.block();
+    let ext = block.max - block.min;
+    if !(spacing.is_finite() && spacing > 0.0 && layer_step.is_finite() && layer_step > 0.0) {
+        return Err(FieldError::InvalidArgument(format!("bad spacing {spacing} or layer step {layer_step}")));
+    }
+    let dims = ext.map(|e| (e / spacing).ceil().max(1.0));
+    if dims.iter().any(|&d| d > 512.0) {
+        return Err(FieldError::InvalidArgument("layer lattice too fine (> 512 per side)".into()));
+    }
+    let spec = GridSpec::new(block, [dims.x as usize, dims.y as usize, dims.z as usize])
+        .map_err(FieldError::geom)?;
+    let nz = problem.normalization();
+    let value = |p: &Point3| {
+        let u = nz.to_unit(p);
+        g.value([u.x, u.y, u.z])
+    };
+    let values: Vec<f64> = problem.poses().iter().map(value).collect();
+    let top = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let bottom = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let h = level_step(g, problem, layer_step);
+    let levels = ((top - bottom) / h).round();
+    if !(levels.is_finite() && levels <= 1000.0) {
+        return Err(FieldError::InvalidArgument("too many layers (> 1000)".into()));
+    }
+    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+    for k in 0..=levels as usize {
+        let level = top - k as f64 * h;
+        let m = s2g_geom::marching_cubes(&spec, level, value).map_err(FieldError::geom)?;
+        let base = vertices.len() as u32;
+        for t in m.triangles() {
+            let v = t.map(|i| m.vertices()[i as usize]);
+            let c = Point3::from((v[0].coords + v[1].coords + v[2].coords) / 3.0);
+            if problem.part().distance(&c) >= 0.0 {
+                triangles.push(t.map(|i| i + base));
+            }
+        }
+        vertices.extend_from_slice(m.vertices());
+    }
+    Mesh::new(vertices, triangles).map_err(FieldError::geom)
+}
+
+/// What [`simulate_program`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramSimulation {
+    /// Removed voxels that belong to the part.
+    pub gouge_voxels: u64,
+    /// Voxels removed.
+    pub removed_voxels: u64,
+    /// Stock voxels outside the part (what rough milling may remove).
+    pub removable_voxels: u64,
+    /// `removed_voxels / removable_voxels`.
+    pub removed_fraction: f64,
+    /// Stock voxels met by the shank (summed over moves): the tool body touching material
+    /// it does not cut.
+    pub shank_collision_voxels: u64,
+    /// Voxels removed by rapid moves.
+    pub rapid_collision_voxels: u64,
+    /// Moves simulated.
+    pub moves: u64,
+    /// Machining time, seconds.
+    pub machining_time_s: f64,
+}
+
+/// Parses `program` with `options`' rotary axes and simulates it in `s2g-voxsim` on a
+/// stock filling `block` (cubic voxels of edge about `voxel`), with the part `mesh`
+/// voxelised on the same grid as the target for gouges, cutting with
+/// [`ProgramOptions`]' flat end mill of `tool`'s radius and length.
+///
+/// Errors: [`FieldError::InvalidArgument`] for a bad voxel size or block,
+/// [`FieldError::Program`] for a program the parser or the simulator rejects.
+pub fn simulate_program(
+    program: &str,
+    mesh: &Mesh,
+    block: &Aabb,
+    tool: &Tool,
+    voxel: f64,
+    options: &ProgramOptions,
+) -> Result<ProgramSimulation> {
+    options.validate()?;
+    tool.validate()?;
+    let ext = block.max - block.min;
+    if !(voxel.is_finite() && voxel > 0.0 && ext.min() > 0.0 && ext.max().is_finite()) {
+        return Err(FieldError::InvalidArgument(format!("bad voxel size {voxel} or block")));
+    }
+    let n = (ext.max() / voxel).ceil();
+    if n > 1024.0 {
+        return Err(FieldError::InvalidArgument("voxel grid too fine (> 1024 per side)".into()));
+    }
+    let spec = GridSpec::cubic(block, n as usize).map_err(FieldError::geom)?;
+    let stock = VoxelGrid::full(spec);
+    let target = voxelize(mesh, &spec).map_err(FieldError::geom)?;
+    let removable = stock.count().saturating_sub(target.count());
+    let prog_err = |e: String| FieldError::Program(e);
+    let sim = Simulator::new(stock, ToolTable::single(options.cutter(tool)), SimOptions::default())
+        .and_then(|s| s.with_target(&target))
+        .map_err(|e| prog_err(e.to_string()))?;
+    let mut sim = sim;
+    let popts =
+        ParseOptions { stop_at_first_error: true, rotary: Some(options.rotary), ..Default::default() };
+    s2g_gcode::parse_str(program, &popts, &mut sim).map_err(|e| prog_err(e.to_string()))?;
+    let sim = sim.into_simulation().map_err(|e| prog_err(e.to_string()))?;
+    let r = sim.report();
+    Ok(ProgramSimulation {
+        gouge_voxels: r.gouge_voxels,
+        removed_voxels: r.removed_voxels,
+        removable_voxels: removable,
+        removed_fraction: if removable > 0 { r.removed_voxels as f64 / removable as f64 } else { 0.0 },
+        shank_collision_voxels: r.holder_collision_voxels,
+        rapid_collision_voxels: r.rapid_collision_voxels,
+        moves: r.moves,
+        machining_time_s: r.machining_time_s,
+    })
+}
+
+/// Everything [`mill_mesh`] does, with the defaults of the cup example.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MillOptions {
+    /// The tool, and its point sampling for the collision loss and the checks. Default
+    /// radius 2.5, length 40, rings from 3 mm every 2 mm with 24 points.
+    pub tool: Tool,
+    /// Spacing of the pose grid. Default `3.0`.
+    pub grid: f64,
+    /// Poses lie at least `tool.radius + margin` from the part. Default `0.5`.
+    pub margin: f64,
+    /// The block (stock) is the part's bounding box grown by this much along X and Y.
+    /// Default `6.0`.
+    pub stock_side: f64,
+    /// ... and by this much on top (the bottom stays flush with the part's). Default `2.0`.
+    pub stock_top: f64,
+    /// The layer optimisation. Default
+    /// [`LayerOptions::default`](crate::LayerOptions::default) with 600 steps, batches of
+    /// 192 and the check tool [`MillOptions::tool`].
+    pub layers: crate::milling::LayerOptions,
+    /// The program. Default [`ProgramOptions::default`].
+    pub program: ProgramOptions,
+    /// Voxel edge of the simulation. Default `1.0`.
+    pub voxel: f64,
+    /// Extract the layers as a mesh on a lattice of this spacing ([`layer_mesh`]). Default
+    /// `None`.
+    pub layers_mesh: Option<f64>,
+}
+
+impl Default for MillOptions {
+    fn default() -> Self {
+        let tool = Tool { axial_step: 2.0, ring_points: 24, ..Tool::default() };
+        Self {
+            tool,
+            grid: 3.0,
+            margin: 0.5,
+            stock_side: 6.0,
+            stock_top: 2.0,
+            layers: crate::milling::LayerOptions {
+                steps: 600,
+                batch_size: 192,
+                check_tool: Some(tool),
+                ..Default::default()
+            },
+            program: ProgramOptions::default(),
+            voxel: 1.0,
+            layers_mesh: None,
+        }
+    }
+}
+
+/// What [`mill_mesh`] did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MillReport {
+    /// The block milled.
+    pub block: Aabb,
+    /// Sampled tool poses colliding on the planar layers (before).
+    pub collisions_before: crate::milling::CollisionCount,
+    /// ... and on the optimised layers (after).
+    pub collisions_after: crate::milling::CollisionCount,
+    /// The optimisation.
+    pub optimisation: crate::milling::LayerReport,
+    /// The program from the optimised layers.
+    pub program: MillProgram,
+    /// Its simulation.
+    pub simulation: ProgramSimulation,
+    /// The layers as a mesh ([`layer_mesh`]), when [`MillOptions::layers_mesh`] asks.
+    pub layers: Option<Mesh>,
+    /// The optimised layer field (host copy).
+    pub field: SirenF64,
+    /// Wall-clock seconds of the whole run (pretraining, checks, program, simulation).
+    pub seconds: f64,
+}
+
+/// The milling application end to end (§4.2, §7.4 of seed 002): the part `mesh` in a
+/// block, planar layers, Eq. 40 with the repair rounds, the five-axis program from the
+/// optimised layers ([`mill_program`]) and its simulation ([`simulate_program`]).
+///
+/// Errors: those of the steps ([`FieldError::EmptyMesh`], [`FieldError::InvalidConfig`],
+/// [`FieldError::InvalidArgument`], ...).
+pub fn mill_mesh(mesh: &Mesh, options: &MillOptions) -> Result<MillReport> {
+    let start = std::time::Instant::now();
+    // Refuse bad options before the long optimisation, not after it.
+    options.tool.validate()?;
+    options.layers.validate()?;
+    options.program.validate()?;
+    if !(options.voxel.is_finite() && options.voxel > 0.0) {
+        return Err(FieldError::InvalidArgument(format!("bad voxel size {}", options.voxel)));
+    }
+    if let Some(spacing) = options.layers_mesh
+        && !(spacing.is_finite() && spacing > 0.0)
+    {
+        return Err(FieldError::InvalidArgument(format!("bad layer lattice spacing {spacing}")));
+    }
+    let part = crate::milling::MeshSdf::new(mesh)?;
+    let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
+    let grow = [options.stock_side, options.stock_top];
+    if !grow.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        return Err(FieldError::InvalidArgument("stock margins must be finite and >= 0".into()));
+    }
+    let side = Vector3::new(options.stock_side, options.stock_side, 0.0);
+    let block = Aabb::new(bbox.min - side, bbox.max + side + Vector3::new(0.0, 0.0, options.stock_top));
+    let problem = MillingProblem::new(&part, block, options.tool, options.grid, options.margin)?;
+    let planar = crate::milling::pretrain_planar(&options.layers)?;
+    let check_tool = options.layers.check_tool.unwrap_or(options.tool);
+    let before = crate::milling::count_collisions(&planar.to_f64()?, &problem, &check_tool)?;
+    let (g, report) = crate::milling::optimize_layers(planar, &problem, &options.layers)?;
+    let g = g.to_f64()?;
+    let after = match report.collisions {
+        Some(c) => c,
+        None => crate::milling::count_collisions(&g, &problem, &check_tool)?,
+    };
+    let program = mill_program(&g, &problem, &options.program)?;
+    let layers = match options.layers_mesh {
+        Some(spacing) => Some(layer_mesh(&g, &problem, options.program.layer_step, spacing)?),
+        None => None,
+    };
+    let simulation =
+        simulate_program(&program.text, mesh, &block, &options.tool, options.voxel, &options.program)?;
+    Ok(MillReport {
+        block,
+        collisions_before: before,
+        collisions_after: after,
+        optimisation: report,
+        program,
+        simulation,
+        layers,
+        field: g,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
