@@ -4,6 +4,8 @@
 //! conservative), and either two adjacent children or a run of triangles. Triangles are
 //! stored in leaf order as `(v0, e1, e2)` in f64, relative to the mesh's bounding-box
 //! centre so that f32 boxes keep their precision for parts far from the origin.
+//! Ray queries walk the same tree collapsed to 4-wide nodes (four child boxes tested at
+//! once); point queries (closest point, winding numbers) walk the binary nodes.
 //! Traversal is iterative with a fixed stack; any-hit queries stop at the first hit.
 
 // Per-axis loops index several parallel arrays at once; NaN-aware negated comparisons
