@@ -81,6 +81,14 @@ impl FieldError {
         }
     }
 
+    /// The first of `fields` (name, value) that is not finite and `> 0`, as an error.
+    pub(crate) fn check_positive(fields: &[(&'static str, f64)]) -> Result<(), Self> {
+        match fields.iter().find(|(_, v)| !(v.is_finite() && *v > 0.0)) {
+            Some(&(field, v)) => Err(Self::config(field, format!("must be finite and > 0, got {v}"))),
+            None => Ok(()),
+        }
+    }
+
     pub(crate) fn geom(e: s2g_geom::GeomError) -> Self {
         match e {
             s2g_geom::GeomError::EmptyMesh => Self::EmptyMesh,

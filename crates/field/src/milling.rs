@@ -73,18 +73,8 @@ impl Default for Tool {
 impl Tool {
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
-        let pos = |field: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(FieldError::config(field, format!("must be finite and > 0, got {v}")))
-            }
-        };
-        pos("tool.radius", self.radius)?;
-        pos("tool.axial_step", self.axial_step)?;
-        if !(self.axial_offset.is_finite() && self.axial_offset >= 0.0) {
-            return Err(FieldError::config("tool.axial_offset", "must be finite and >= 0"));
-        }
+        FieldError::check_positive(&[("tool.radius", self.radius), ("tool.axial_step", self.axial_step)])?;
+        FieldError::check_non_negative(&[("tool.axial_offset", self.axial_offset)])?;
         if !(self.length.is_finite() && self.length > self.axial_offset) {
             return Err(FieldError::config("tool.length", "must be finite and > axial_offset"));
         }

@@ -103,25 +103,18 @@ impl Default for ProgramOptions {
 impl ProgramOptions {
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
-        let pos = |field: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(FieldError::config(field, format!("must be finite and > 0, got {v}")))
-            }
-        };
-        pos("program.layer_step", self.layer_step)?;
-        pos("program.link_distance", self.link_distance)?;
-        pos("program.retract", self.retract)?;
-        pos("program.feed", self.feed)?;
-        pos("program.spindle_rpm", self.spindle_rpm)?;
-        pos("program.flute_length", self.flute_length)?;
-        pos("program.check_step", self.check_step)?;
-        pos("program.move_step", self.move_step)?;
-        pos("program.max_angle_step_deg", self.max_angle_step_deg)?;
-        if !(self.flute_clearance.is_finite() && self.flute_clearance >= 0.0) {
-            return Err(FieldError::config("program.flute_clearance", "must be finite and >= 0"));
-        }
+        FieldError::check_positive(&[
+            ("program.layer_step", self.layer_step),
+            ("program.link_distance", self.link_distance),
+            ("program.retract", self.retract),
+            ("program.feed", self.feed),
+            ("program.spindle_rpm", self.spindle_rpm),
+            ("program.flute_length", self.flute_length),
+            ("program.check_step", self.check_step),
+            ("program.move_step", self.move_step),
+            ("program.max_angle_step_deg", self.max_angle_step_deg),
+        ])?;
+        FieldError::check_non_negative(&[("program.flute_clearance", self.flute_clearance)])?;
         if !(self.vertical_snap_deg.is_finite() && (0.0..90.0).contains(&self.vertical_snap_deg)) {
             return Err(FieldError::config("program.vertical_snap_deg", "must be in [0, 90)"));
         }
