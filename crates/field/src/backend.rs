@@ -1,6 +1,8 @@
 //! Which Burn CPU backend runs the networks.
 
-use burn::tensor::Device;
+use burn::tensor::{Device, Tensor};
+
+use crate::error::{FieldError, Result};
 
 /// Which Burn CPU backend trains and evaluates the networks (tensor paths only; the
 /// per-point queries of [`SirenF64`](crate::SirenF64) and [`NeuralSdf`](crate::NeuralSdf)
@@ -47,4 +49,9 @@ impl Backend {
             Backend::NdArray => Device::ndarray(),
         }
     }
+}
+
+/// A tensor's values on the host, in row-major order.
+pub(crate) fn host_values<const D: usize>(t: Tensor<D>) -> Result<Vec<f32>> {
+    t.try_into_data().map_err(FieldError::backend)?.try_into_vec::<f32>().map_err(FieldError::backend)
 }

@@ -480,10 +480,6 @@ fn cross(a: Tensor<2>, b: Tensor<2>) -> Tensor<2> {
     )
 }
 
-fn read2(t: Tensor<2>) -> Result<Vec<f32>> {
-    t.try_into_data().map_err(FieldError::backend)?.try_into_vec::<f32>().map_err(FieldError::backend)
-}
-
 /// The most tool points per evaluation of the inter-layer collision term (a subsample
 /// beyond that).
 const LAYER_POINTS: usize = 8192;
@@ -564,7 +560,7 @@ fn milling_losses_with(
     // The part's distance at the current tool points (host SDF). Only points closer than
     // the clearance contribute to Eq. 15 (the ReLU is zero, with zero gradient, elsewhere),
     // so only those enter the tensor graph; the loss is still the mean over all `m`.
-    let p_host = read2(p.clone().detach())?;
+    let p_host = crate::backend::host_values(p.clone().detach())?;
     let eps = constants.part_clearance;
     let (mut part_rows, mut phi0, mut grad0, mut p0) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut layer_rows = Vec::new();
@@ -822,12 +818,7 @@ fn adam_step(
         ],
         0,
     );
-    let values = parts
-        .inner()
-        .try_into_data()
-        .map_err(FieldError::backend)?
-        .try_into_vec::<f32>()
-        .map_err(FieldError::backend)?;
+    let values = crate::backend::host_values(parts.inner())?;
     if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
         return Err(FieldError::Diverged { loss: *bad, step });
     }

@@ -392,12 +392,7 @@ fn fit_with(
             );
             // Eq. (46): the weighted sum.
             let loss = (parts.clone() * weights).sum();
-            let values = parts
-                .inner()
-                .try_into_data()
-                .map_err(FieldError::backend)?
-                .try_into_vec::<f32>()
-                .map_err(FieldError::backend)?;
+            let values = crate::backend::host_values(parts.inner())?;
             let total = (values[0] as f64 * w.surface
                 + values[1] as f64 * w.normal
                 + values[2] as f64 * w.general

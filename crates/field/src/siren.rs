@@ -314,13 +314,7 @@ impl Siren {
             .iter()
             .map(|layer| {
                 let (w, b) = Self::params(layer);
-                let read = |t: Tensor<2>| -> Result<Vec<f32>> {
-                    t.try_into_data()
-                        .map_err(FieldError::backend)?
-                        .try_into_vec::<f32>()
-                        .map_err(FieldError::backend)
-                };
-                Ok((read(w)?, read(b)?))
+                Ok((crate::backend::host_values(w)?, crate::backend::host_values(b)?))
             })
             .collect()
     }
