@@ -1,4 +1,4 @@
-//! `s2g field sdf`: the JSON report, the written field, and one-line errors.
+//! `s2g field sdf` and `s2g field mill`: reports, written files, and one-line errors.
 
 use std::process::{Command, Output};
 
@@ -77,4 +77,31 @@ fn sdf_errors_are_one_line() {
         .output()
         .unwrap();
     one_line_error(&out);
+}
+
+#[test]
+fn field_mill_errors_are_one_line_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("cup.ngc");
+    let missing = dir.path().join("missing.stl");
+    let out = s2g()
+        .args(["field", "mill", missing.to_str().unwrap(), "-o", program.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = one_line_error(&out);
+    assert!(err.contains("missing.stl"), "{err}");
+    // Impossible tools are refused before the optimisation starts.
+    for (flag, value, field) in [
+        ("--tool-radius", "-1", "tool.radius"),
+        ("--tool-length", "NaN", "tool.length"),
+        ("--grid", "0", "layer_step"),
+    ] {
+        let out = s2g()
+            .args(["field", "mill", "--cup", &format!("{flag}={value}"), "-o", program.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = one_line_error(&out);
+        assert!(err.contains(field), "{flag} {value}: {err}");
+    }
+    assert!(!program.exists(), "a failed run wrote {}", program.display());
 }
