@@ -713,9 +713,7 @@ impl LayerOptions {
         if self.batch_size == 0 {
             return Err(FieldError::config("batch_size", "must be at least 1"));
         }
-        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
-            return Err(FieldError::config("learning_rate", "must be finite and > 0"));
-        }
+        FieldError::check_positive(&[("learning_rate", self.learning_rate)])?;
         let w = self.weights;
         FieldError::check_non_negative(&[
             ("weights.spacing", w.spacing),

@@ -120,17 +120,8 @@ impl SdfOptions {
                 format!("must be in [0, 1], got {}", self.near_fraction),
             ));
         }
-        for (field, v) in [("near_sigma", self.near_sigma), ("padding", self.padding)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(FieldError::config(field, format!("must be finite and >= 0, got {v}")));
-            }
-        }
-        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
-            return Err(FieldError::config(
-                "learning_rate",
-                format!("must be finite and > 0, got {}", self.learning_rate),
-            ));
-        }
+        FieldError::check_non_negative(&[("near_sigma", self.near_sigma), ("padding", self.padding)])?;
+        FieldError::check_positive(&[("learning_rate", self.learning_rate)])?;
         let f = self.final_learning_rate_fraction;
         if !(f > 0.0 && f <= 1.0) {
             return Err(FieldError::config(

@@ -64,12 +64,7 @@ impl SirenConfig {
         if self.width > 1 << 16 || self.sine_layers > 1 << 10 {
             return Err(FieldError::config("width", "network too large (width <= 65536, layers <= 1024)"));
         }
-        for (field, w) in [("first_omega", self.first_omega), ("hidden_omega", self.hidden_omega)] {
-            if !(w.is_finite() && w > 0.0) {
-                return Err(FieldError::config(field, format!("must be finite and > 0, got {w}")));
-            }
-        }
-        Ok(())
+        FieldError::check_positive(&[("first_omega", self.first_omega), ("hidden_omega", self.hidden_omega)])
     }
 
     /// The layer widths, input (3) to output (1).
