@@ -99,13 +99,18 @@ impl Sweep {
         self.prims.guard[..self.prims.nguard].iter().any(|p| p.contains(&self.seg, q, delta))
     }
 
+    /// The cutting primitives, then the guard's when asked.
+    fn parts(&self, guard: bool) -> impl Iterator<Item = &Prim> {
+        let n = if guard { self.prims.nguard } else { 0 };
+        self.prims.cut[..self.prims.ncut].iter().chain(&self.prims.guard[..n])
+    }
+
     /// Axis-aligned bounds of the swept cutting part (and the guard, when asked).
     pub fn aabb(&self, guard: bool) -> (Point3, Point3) {
         let s = &self.seg;
         let mut lo = Point3::from([f64::INFINITY; 3]);
         let mut hi = Point3::from([f64::NEG_INFINITY; 3]);
-        let n = if guard { self.prims.nguard } else { 0 };
-        for p in self.prims.cut[..self.prims.ncut].iter().chain(&self.prims.guard[..n]) {
+        for p in self.parts(guard) {
             let (h0, h1, r) = p.bound();
             for i in 0..3 {
                 let ai = s.a[i];
@@ -121,9 +126,20 @@ impl Sweep {
         }
         (lo, hi)
     }
-}
 
-impl Sweep {
+    /// One cylinder about the axis `(h_lo, h_hi, radius)` bounding every cutting primitive
+    /// (and the guard's, when asked).
+    fn bound(&self, guard: bool) -> (f64, f64, f64) {
+        let (mut h_lo, mut h_hi, mut r) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
+        for p in self.parts(guard) {
+            let (l, h, rr) = p.bound();
+            h_lo = h_lo.min(l);
+            h_hi = h_hi.max(h);
+            r = r.max(rr);
+        }
+        (h_lo, h_hi, r)
+    }
+
     /// Bounds on the two axes other than `k` of the points of the sweep (its cutting part,
     /// and the guard when asked) whose coordinate `k` lies in `[z0, z1]`; `None` when there
     /// are none. Each point is `p0 + t d + h a + rho` with `t` in `[0, 1]`, `h` in the
@@ -133,14 +149,7 @@ impl Sweep {
     /// tighter than the whole sweep's box.
     pub fn slab_bounds(&self, k: usize, z0: f64, z1: f64, guard: bool) -> Option<[(f64, f64); 2]> {
         let s = &self.seg;
-        let n = if guard { self.prims.nguard } else { 0 };
-        let (mut h_lo, mut h_hi, mut r) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
-        for p in self.prims.cut[..self.prims.ncut].iter().chain(&self.prims.guard[..n]) {
-            let (l, h, rr) = p.bound();
-            h_lo = h_lo.min(l);
-            h_hi = h_hi.max(h);
-            r = r.max(rr);
-        }
+        let (h_lo, h_hi, r) = self.bound(guard);
         let rad = |i: usize| r * (1.0 - s.a[i] * s.a[i]).max(0.0).sqrt();
         let (lo, hi) = (z0 - rad(k) - s.p0[k], z1 + rad(k) - s.p0[k]);
         let f = |(t, h): (f64, f64)| t * s.d[k] + h * s.a[k];
@@ -218,13 +227,7 @@ impl SweepBox {
             (t - a * t.dot(&a)).normalize()
         };
         let v = a.cross(&u);
-        let (mut h_lo, mut h_hi, mut r) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
-        for p in &sw.prims.cut[..sw.prims.ncut] {
-            let (l, h, rr) = p.bound();
-            h_lo = h_lo.min(l);
-            h_hi = h_hi.max(h);
-            r = r.max(rr);
-        }
+        let (h_lo, h_hi, r) = sw.bound(false);
         let along = if len > 1e-12 { len } else { 0.0 };
         let lo = [-r - pad, -r - pad, h_lo + s.da.min(0.0) - pad];
         let hi = [along + r + pad, r + pad, h_hi + s.da.max(0.0) + pad];
@@ -419,14 +422,7 @@ pub(crate) fn run_batch(
         };
         // Layers of bricks across the grid axis closest to the tool axis; in each, only the
         // bricks within the slab bounds of the sweep are candidates.
-        let a = sw.seg.a;
-        let k = if a.x.abs() >= a.y.abs() && a.x.abs() >= a.z.abs() {
-            0
-        } else if a.y.abs() >= a.z.abs() {
-            1
-        } else {
-            2
-        };
+        let k = sw.seg.a.iamax();
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
         rows.clear();
         for bk in r[k].0..=r[k].1 {
