@@ -198,9 +198,15 @@ impl VoxelGrid {
         self.bricks.len() * std::mem::size_of::<Brick>()
     }
 
+    /// Index into `bricks` of brick `(bx, by, bz)`.
+    #[inline]
+    fn brick_index(&self, bx: usize, by: usize, bz: usize) -> usize {
+        bx + self.bdims[0] * (by + self.bdims[1] * bz)
+    }
+
     #[inline]
     fn locate(&self, i: usize, j: usize, k: usize) -> (usize, usize, u64) {
-        let b = (i / BRICK) + self.bdims[0] * ((j / BRICK) + self.bdims[1] * (k / BRICK));
+        let b = self.brick_index(i / BRICK, j / BRICK, k / BRICK);
         let bit = (i % BRICK) + BRICK * (j % BRICK);
         (b, k % BRICK, 1u64 << bit)
     }
@@ -239,7 +245,7 @@ impl VoxelGrid {
                 let (y0, y1) = span(1, by);
                 for bx in lo[0] / BRICK..=hi[0] / BRICK {
                     let (x0, x1) = span(0, bx);
-                    let brick = &self.bricks[bx + self.bdims[0] * (by + self.bdims[1] * bz)];
+                    let brick = &self.bricks[self.brick_index(bx, by, bz)];
                     let row = (0xffu64 >> (BRICK - 1 - (x1 - x0))) << x0;
                     let mask = (y0..=y1).fold(0u64, |m, y| m | row << (BRICK * y));
                     if brick[z0..=z1].iter().any(|&w| w & mask != 0) {

@@ -336,8 +336,8 @@ impl Region2 {
     ///
     /// The region is first simplified at `eps` and grown by `distance + eps` with
     /// [`Region2::offset`], whose zero-width spikes are removed
-    /// ([`Region2::without_spikes`]); then every vertex and edge midpoint of the result is checked
-    /// against this region's exact boundary, and where the offset came out too close
+    /// ([`Region2::without_spikes`]); then every vertex and edge midpoint of the result is
+    /// checked against this region's exact boundary, and where the offset came out too close
     /// (numerical notches of the offset engine) the capsules of the nearby edges are
     /// added.
     pub fn grown_safe(&self, distance: f64, eps: f64, arc_step: f64) -> Region2 {

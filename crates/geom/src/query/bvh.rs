@@ -527,7 +527,8 @@ impl RayF32 {
         self.tmax = (t as f32).next_up() * (1.0 + 1e-6);
     }
     /// Entry parameters of the segment into the four boxes of `n`; a lane the segment
-    /// misses gets NaN (even an unbounded segment's `tmax` is not above it). Written lane by lane, which the compiler turns into SIMD.
+    /// misses gets NaN (even an unbounded segment's `tmax` is not above it). Written lane
+    /// by lane, which the compiler turns into SIMD.
     ///
     /// The comparisons are written as `if a < b { a } else { b }`, which is one `minps`
     /// or `maxps` (`f32::min` and `max` carry NaN fix-ups that made the box test a third
