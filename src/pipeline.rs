@@ -126,6 +126,13 @@ pub struct MillOptions {
     pub carver: Carver,
     /// Run the contour pass on every layer (the paper always does). Default true.
     pub contour: bool,
+    /// Largest axial depth of a roughing cut, in tool diameters: each setup clears its
+    /// free region once per this depth and machines the layers in between with their
+    /// contour and the steps the roughing cut left along the walls
+    /// ([`PlanOptions::roughing_depth`]); the finished shape is the same as clearing every
+    /// layer. 0 clears every layer whole, as the paper does. Default 1 (a full-width
+    /// slot one diameter deep, a usual roughing limit for end mills).
+    pub roughing_depth_diameters: f64,
 }
 
 impl MillOptions {
@@ -161,6 +168,7 @@ impl Default for MillOptions {
             residual_smoothing: 8,
             carver: Carver::Exact,
             contour: true,
+            roughing_depth_diameters: 1.0,
         }
     }
 }
@@ -418,6 +426,12 @@ impl MillRun {
         }
         if mesh.is_empty() {
             return Err(crate::geom::GeomError::EmptyMesh.into());
+        }
+        let d = opts.roughing_depth_diameters;
+        if !(d.is_finite() && d >= 0.0) {
+            return Err(MillError::InvalidOption(format!(
+                "roughing depth must be finite and >= 0 diameters, got {d}"
+            )));
         }
         if let ProgramLayout::Rotary(_) = opts.layout {
             if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
@@ -801,6 +815,8 @@ impl Job {
                 StrategyKind::Spiral => Strategy::Spiral,
             },
             contour: opts.contour,
+            roughing_depth: (opts.roughing_depth_diameters > 0.0)
+                .then(|| opts.roughing_depth_diameters * tool.diameter()),
             clearance_height: clearance,
             stock: Some(stock_in_setup(stock, setup)),
             rapid_feed: rapid,

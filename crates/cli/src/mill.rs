@@ -50,6 +50,11 @@ pub struct Args {
     /// Controller dialect: linuxcnc, grbl or fanuc.
     #[arg(long, default_value = "linuxcnc")]
     dialect: String,
+    /// Largest depth of a roughing cut, in tool diameters: the free region is cleared once
+    /// per this depth and the layers between get their contour and the steps left along
+    /// the walls. 0 clears every layer whole, as the paper does.
+    #[arg(long, default_value_t = 1.0)]
+    roughing_depth: f64,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -127,6 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         resolution: args.res,
         seed: args.seed,
         orient_points: args.points,
+        roughing_depth_diameters: args.roughing_depth,
         ..MillOptions::default()
     };
 

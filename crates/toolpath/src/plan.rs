@@ -95,6 +95,15 @@ pub struct PlanOptions {
     /// Layers planned concurrently before their motions are streamed (bounds memory).
     /// Default 32.
     pub layers_per_batch: usize,
+    /// Largest axial depth of cut of a roughing layer; `None` (default) clears every layer
+    /// whole, as the paper does (§3.3). With `Some(d)`, the levels are grouped top down so
+    /// that each group spans at most `d`: its lowest level (the roughing level) clears the
+    /// whole free region in one cut of the group's depth, and only then are the group's
+    /// finer levels above it machined, each with its contour and with clearing limited to
+    /// the material the roughing cut left there (the steps along the part's walls). The
+    /// finished shape is the same; the clearing passes of all but one level per group are
+    /// saved. A `d` below the layer height changes nothing.
+    pub roughing_depth: Option<f64>,
 }
 
 impl Default for PlanOptions {
@@ -122,6 +131,7 @@ impl Default for PlanOptions {
             rapid_feed: 5000.0,
             rest_cell: None,
             layers_per_batch: 32,
+            roughing_depth: None,
         }
     }
 }
@@ -173,6 +183,9 @@ impl PlanOptions {
         }
         if let Some(c) = self.rest_cell {
             pos("rest_cell", c)?;
+        }
+        if let Some(d) = self.roughing_depth {
+            pos("roughing_depth", d)?;
         }
         if let Strategy::Zigzag { angle_deg } = self.strategy
             && !angle_deg.is_finite()
@@ -237,12 +250,14 @@ pub struct LayerPlan {
     pub index: usize,
     /// Level of the tool tip.
     pub z: f64,
-    /// The level above (previous layer, or the stock top): material above it is gone.
+    /// The level above (previous layer, or the stock top; for a roughing level, the
+    /// previous roughing level): material above it is gone.
     pub z_above: f64,
     /// Where the tool centre may go: stock outline grown by the radius, minus the keep-out
     /// grown by radius + allowance.
     pub free: Region2,
-    /// The region the clearing strategy fills (`free`, restricted to remaining material).
+    /// The region the clearing strategy fills (`free`, restricted to remaining material and,
+    /// on a level above a roughing level, to what the roughing cut could not reach).
     pub clearing_region: Region2,
     /// Contour passes along the offset keep-out (closed loops, or pieces where clipped).
     pub contour: Vec<Polyline2>,
@@ -384,7 +399,17 @@ impl Ctx<'_> {
         !rest.any_in_box(&Point3::new(p.x - r, p.y - r, z), &Point3::new(p.x + r, p.y + r, z_above))
     }
 
-    pub(crate) fn plan_layer(&self, index: usize, z: f64, z_above: f64, keepout: &Region2) -> LayerPlan {
+    /// Plans one layer. `roughed` is the free region of the roughing level below, whose cut
+    /// (from below this layer up past its slab) already removed the material its tool
+    /// centres reach: only the rest of `free` needs clearing.
+    pub(crate) fn plan_layer(
+        &self,
+        index: usize,
+        z: f64,
+        z_above: f64,
+        keepout: &Region2,
+        roughed: Option<&Region2>,
+    ) -> LayerPlan {
         let r = self.tool.radius;
         let off = keepout.grown_safe(
             r + self.opts.finishing_allowance,
@@ -393,12 +418,16 @@ impl Ctx<'_> {
         );
         let rect = self.centre_rect();
         let free = rect.difference(&off);
+        let to_clear = match roughed {
+            Some(done) => free.difference(done),
+            None => free.clone(),
+        };
         let (clip, clearing_region) = match self.rest {
             Some(rest) => {
                 let reach = self.material_reach(rest, z, z_above);
-                (rect.intersection(&reach), free.intersection(&reach))
+                (rect.intersection(&reach), to_clear.intersection(&reach))
             }
-            None => (rect, free.clone()),
+            None => (rect, to_clear),
         };
         let start = Point2::new(self.start.x, self.start.y);
         // Contour: the offset keep-out's boundary inside the stock outline; part on the
@@ -458,7 +487,9 @@ impl Ctx<'_> {
 }
 
 /// Plans every layer of a setup (without emitting): for inspection and tests. Memory grows
-/// with the number of layers; [`plan_setup`] streams instead.
+/// with the number of layers; [`plan_setup`] streams instead. The plans come in level
+/// order (top down), which is the machining order unless
+/// [`roughing_depth`](PlanOptions::roughing_depth) groups the levels.
 pub fn plan_layers<E>(
     part: &Mesh,
     setup: &Setup,
@@ -468,11 +499,68 @@ pub fn plan_layers<E>(
 ) -> Result<(SetupSlices, Vec<LayerPlan>), ToolpathError<E>> {
     let slices = slice_setup(part, setup, tool, opts)?;
     let ctx = make_ctx(&slices, tool, opts, rest);
-    let layers = (0..slices.levels.len())
-        .into_par_iter()
-        .map(|l| ctx.plan_layer(l, slices.levels[l], z_above(&slices, l), &slices.keepouts[l]))
+    let groups = roughing_groups(&slices, opts);
+    let mut layers: Vec<LayerPlan> = plan_groups(&ctx, &slices, &groups)
+        .into_iter()
+        .flat_map(|(rough, fine)| fine.into_iter().chain([rough]))
         .collect();
+    layers.sort_by_key(|p| p.index);
     Ok((slices, layers))
+}
+
+/// One roughing group: the roughing level and the finer levels above it (down to the
+/// roughing level's previous group), machined after it.
+#[derive(Debug, Clone)]
+struct Group {
+    rough: usize,
+    fine: std::ops::Range<usize>,
+}
+
+/// The levels grouped top down so that no group spans more than the roughing depth (each
+/// level its own group without one).
+fn roughing_groups(slices: &SetupSlices, opts: &PlanOptions) -> Vec<Group> {
+    let levels = &slices.levels;
+    let depth = opts.roughing_depth.unwrap_or(0.0);
+    let mut groups = Vec::new();
+    let (mut start, mut top) = (0, slices.stock.max.z);
+    for l in 0..levels.len() {
+        let next_too_deep = levels.get(l + 1).is_none_or(|&z| top - z > depth + opts.level_tolerance);
+        if next_too_deep {
+            groups.push(Group { rough: l, fine: start..l });
+            (start, top) = (l + 1, levels[l]);
+        }
+    }
+    groups
+}
+
+/// Plans `groups` in parallel: the roughing levels first (each cuts from its level up to the
+/// previous roughing level), then the finer levels, limited to what their roughing level
+/// left. Returns each group's roughing plan and its finer plans, top down.
+fn plan_groups(ctx: &Ctx<'_>, slices: &SetupSlices, groups: &[Group]) -> Vec<(LayerPlan, Vec<LayerPlan>)> {
+    let level = |l: usize| slices.levels[l];
+    let rough: Vec<LayerPlan> = groups
+        .par_iter()
+        .map(|g| {
+            let z_above = if g.fine.start == 0 { slices.stock.max.z } else { level(g.fine.start - 1) };
+            ctx.plan_layer(g.rough, level(g.rough), z_above, &slices.keepouts[g.rough], None)
+        })
+        .collect();
+    let fine: Vec<(usize, usize)> =
+        groups.iter().enumerate().flat_map(|(k, g)| g.fine.clone().map(move |l| (k, l))).collect();
+    let mut fine_plans: Vec<Vec<LayerPlan>> =
+        groups.iter().map(|g| Vec::with_capacity(g.fine.len())).collect();
+    let planned: Vec<(usize, LayerPlan)> = fine
+        .par_iter()
+        .map(|&(k, l)| {
+            let plan =
+                ctx.plan_layer(l, level(l), z_above(slices, l), &slices.keepouts[l], Some(&rough[k].free));
+            (k, plan)
+        })
+        .collect();
+    for (k, plan) in planned {
+        fine_plans[k].push(plan);
+    }
+    rough.into_iter().zip(fine_plans).collect()
 }
 
 fn z_above(slices: &SetupSlices, l: usize) -> f64 {
@@ -532,24 +620,28 @@ pub fn plan_setup_rest<S: MotionSink>(
         PlanSummary { layers: slices.levels.len(), stock: Some(slices.stock), ..Default::default() };
     let (mut cut, mut air) = (0.0, 0.0);
     let batch = opts.layers_per_batch.max(1);
-    let n = slices.levels.len();
-    let mut l0 = 0;
-    while l0 < n {
-        let l1 = (l0 + batch).min(n);
-        let plans: Vec<LayerPlan> = (l0..l1)
-            .into_par_iter()
-            .map(|l| ctx.plan_layer(l, slices.levels[l], z_above(&slices, l), &slices.keepouts[l]))
-            .collect();
-        for plan in &plans {
-            if plan.contour.is_empty() && plan.clearing.is_empty() {
-                summary.skipped_layers += 1;
-                continue;
-            }
-            cut += plan.cut_air.0;
-            air += plan.cut_air.1;
-            em.layer(plan, &ctx)?;
+    let groups = roughing_groups(&slices, opts);
+    let mut g0 = 0;
+    while g0 < groups.len() {
+        // Whole groups, at least one, up to `batch` levels.
+        let mut g1 = g0 + 1;
+        let mut count = groups[g0].fine.len() + 1;
+        while g1 < groups.len() && count + groups[g1].fine.len() < batch {
+            count += groups[g1].fine.len() + 1;
+            g1 += 1;
         }
-        l0 = l1;
+        for (rough, fine) in plan_groups(&ctx, &slices, &groups[g0..g1]) {
+            for plan in std::iter::once(&rough).chain(&fine) {
+                if plan.contour.is_empty() && plan.clearing.is_empty() {
+                    summary.skipped_layers += 1;
+                    continue;
+                }
+                cut += plan.cut_air.0;
+                air += plan.cut_air.1;
+                em.layer(plan, &ctx)?;
+            }
+        }
+        g0 = g1;
     }
     em.finish()?;
     let st = em.stats();

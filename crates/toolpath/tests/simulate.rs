@@ -296,3 +296,63 @@ fn strategy_comparison_table() {
         }
     }
 }
+
+/// Roughing groups (`roughing_depth`) clear the free region once per group and only the
+/// steps along the walls on the levels between: the simulated part must come out the same
+/// (same voxels removed, within the voxels along paths that differ), without gouges or
+/// rapids through material, with much less cutting.
+#[test]
+fn roughing_groups_leave_the_same_part_with_less_cutting() {
+    let bunny = {
+        let p = format!("{}/../../assets/stanford_bunny.stl", env!("CARGO_MANIFEST_DIR"));
+        let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
+        s2g_geom::normalize_unit_cube(&m).expect("normalise").0
+    };
+    for (name, part) in [("bunny", bunny), ("example001", openscad("openscad_Old_example001.stl"))] {
+        let bb = part.bbox().expect("bbox");
+        let e = bb.extent().max();
+        let h = e / 96.0;
+        let ext = bb.extent();
+        let grow = [0, 1, 2].map(|a| ((ext[a] / h).ceil() * h - ext[a]) * 0.5 + h);
+        let g = nalgebra::Vector3::new(grow[0], grow[1], grow[2]);
+        let stock = Aabb::new(bb.min - g, bb.max + g);
+        let spec = grid_over(&stock, h);
+        let target = voxelize(&part, &spec).expect("voxelize");
+        let tool = Tool::flat(0.03 * e);
+        let base = PlanOptions { layer_height: e / 96.0, stock: Some(stock), ..Default::default() };
+        let run = |opts: &PlanOptions| {
+            simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
+                plan_setup(&part, &Setup::top(), &tool, opts, sim).expect("plan")
+            })
+        };
+        let (whole, whole_report, whole_residual) = run(&base);
+        let rough_opts = PlanOptions { roughing_depth: Some(tool.diameter()), ..base.clone() };
+        let (rough, report, residual) = run(&rough_opts);
+        assert_eq!(report.gouge_voxels, 0, "{name}: gouges, first at line {:?}", report.first_gouge_line);
+        assert_eq!(report.rapid_collision_voxels, 0, "{name}: rapids through material");
+        assert_eq!(rough.layers, whole.layers, "{name}: same levels");
+        let mut differ = residual.clone();
+        differ.xor(&whole_residual).expect("same grid");
+        let differ = differ.count();
+        println!(
+            "{name}: cutting {:.2} with roughing groups, {:.2} clearing every level; {differ} of {} removed voxels differ",
+            rough.cutting_length, whole.cutting_length, whole_report.removed_voxels
+        );
+        assert!(
+            (differ as f64) <= 0.002 * whole_report.removed_voxels as f64,
+            "{name}: {differ} voxels differ of {} removed ({} with roughing)",
+            whole_report.removed_voxels,
+            report.removed_voxels
+        );
+        assert!(
+            rough.cutting_length < 0.6 * whole.cutting_length,
+            "{name}: roughing groups cut {} against {} clearing every level",
+            rough.cutting_length,
+            whole.cutting_length
+        );
+        // A depth below the layer height groups nothing: the program is the paper's.
+        let none = PlanOptions { roughing_depth: Some(0.5 * base.layer_height), ..base.clone() };
+        let (same, _, _) = run(&none);
+        assert_eq!(same, whole, "{name}: a roughing depth below the layer height changes the plan");
+    }
+}
