@@ -9,7 +9,7 @@ use crate::error::ToolpathError;
 use crate::link::{Emitter, LinkParams};
 use crate::region::{Point2, Polyline2, Region2, nearest_index};
 use crate::rest::RemainingMaterial;
-use crate::slice::{flat_levels, keepouts, layer_levels, setup_triangles};
+use crate::slice::{Keepouts, flat_levels, layer_levels, setup_triangles, slab_regions};
 use crate::strategy::Strategy;
 use crate::tool::Tool;
 
@@ -279,6 +279,26 @@ pub fn slice_setup<E>(
     tool: &Tool,
     opts: &PlanOptions,
 ) -> Result<SetupSlices, ToolpathError<E>> {
+    let s = slice_levels(part, setup, tool, opts)?;
+    let n = s.levels.len();
+    let keepouts = Keepouts::new(s.slabs).advance(n);
+    Ok(SetupSlices { stock: s.stock, part_bbox: s.part_bbox, levels: s.levels, keepouts })
+}
+
+/// A setup's slicing before the keep-outs' running union: the slab regions instead.
+struct Sliced {
+    stock: Aabb,
+    part_bbox: Aabb,
+    levels: Vec<f64>,
+    slabs: Vec<Region2>,
+}
+
+fn slice_levels<E>(
+    part: &Mesh,
+    setup: &Setup,
+    tool: &Tool,
+    opts: &PlanOptions,
+) -> Result<Sliced, ToolpathError<E>> {
     check_tool_opts(tool, opts)?;
     if part.is_empty() {
         return Err(ToolpathError::EmptyMesh);
@@ -300,8 +320,8 @@ pub fn slice_setup<E>(
         Vec::new()
     };
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
-    let keepouts = keepouts(&tris, &levels, opts.level_tolerance);
-    Ok(SetupSlices { stock, part_bbox, levels, keepouts })
+    let slabs = slab_regions(&tris, &levels, opts.level_tolerance);
+    Ok(Sliced { stock, part_bbox, levels, slabs })
 }
 
 pub(crate) struct Ctx<'a> {
@@ -498,9 +518,10 @@ pub fn plan_layers<E>(
     rest: Option<&dyn RemainingMaterial>,
 ) -> Result<(SetupSlices, Vec<LayerPlan>), ToolpathError<E>> {
     let slices = slice_setup(part, setup, tool, opts)?;
-    let ctx = make_ctx(&slices, tool, opts, rest);
-    let groups = roughing_groups(&slices, opts);
-    let mut layers: Vec<LayerPlan> = plan_groups(&ctx, &slices, &groups)
+    let ctx = make_ctx(&slices.stock, tool, opts, rest);
+    let groups = roughing_groups(&slices.levels, slices.stock.max.z, opts);
+    let levels = Levels { z: &slices.levels, top: slices.stock.max.z, keepouts: &slices.keepouts, base: 0 };
+    let mut layers: Vec<LayerPlan> = plan_groups(&ctx, &levels, &groups)
         .into_iter()
         .flat_map(|(rough, fine)| fine.into_iter().chain([rough]))
         .collect();
@@ -516,13 +537,12 @@ struct Group {
     fine: std::ops::Range<usize>,
 }
 
-/// The levels grouped top down so that no group spans more than the roughing depth (each
-/// level its own group without one).
-fn roughing_groups(slices: &SetupSlices, opts: &PlanOptions) -> Vec<Group> {
-    let levels = &slices.levels;
+/// The levels grouped top down from the stock's `top` so that no group spans more than the
+/// roughing depth (each level its own group without one).
+fn roughing_groups(levels: &[f64], top: f64, opts: &PlanOptions) -> Vec<Group> {
     let depth = opts.roughing_depth.unwrap_or(0.0);
     let mut groups = Vec::new();
-    let (mut start, mut top) = (0, slices.stock.max.z);
+    let (mut start, mut top) = (0, top);
     for l in 0..levels.len() {
         let next_too_deep = levels.get(l + 1).is_none_or(|&z| top - z > depth + opts.level_tolerance);
         if next_too_deep {
@@ -533,16 +553,41 @@ fn roughing_groups(slices: &SetupSlices, opts: &PlanOptions) -> Vec<Group> {
     groups
 }
 
+/// The levels of a setup and the keep-outs of some of them (`keepouts[i]` is level
+/// `base + i`'s).
+struct Levels<'a> {
+    z: &'a [f64],
+    /// The stock top.
+    top: f64,
+    keepouts: &'a [Region2],
+    base: usize,
+}
+
+impl Levels<'_> {
+    fn keepout(&self, l: usize) -> &Region2 {
+        &self.keepouts[l - self.base]
+    }
+
+    /// The level above level `l` (the stock top above the first).
+    fn above(&self, l: usize) -> f64 {
+        if l == 0 { self.top } else { self.z[l - 1] }
+    }
+}
+
 /// Plans `groups` in parallel: the roughing levels first (each cuts from its level up to the
 /// previous roughing level), then the finer levels, limited to what their roughing level
 /// left. Returns each group's roughing plan and its finer plans, top down.
-fn plan_groups(ctx: &Ctx<'_>, slices: &SetupSlices, groups: &[Group]) -> Vec<(LayerPlan, Vec<LayerPlan>)> {
-    let level = |l: usize| slices.levels[l];
+fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(LayerPlan, Vec<LayerPlan>)> {
     let rough: Vec<LayerPlan> = groups
         .par_iter()
         .map(|g| {
-            let z_above = if g.fine.start == 0 { slices.stock.max.z } else { level(g.fine.start - 1) };
-            ctx.plan_layer(g.rough, level(g.rough), z_above, &slices.keepouts[g.rough], None)
+            ctx.plan_layer(
+                g.rough,
+                levels.z[g.rough],
+                levels.above(g.fine.start),
+                levels.keepout(g.rough),
+                None,
+            )
         })
         .collect();
     let fine: Vec<(usize, usize)> =
@@ -552,9 +597,8 @@ fn plan_groups(ctx: &Ctx<'_>, slices: &SetupSlices, groups: &[Group]) -> Vec<(La
     let planned: Vec<(usize, LayerPlan)> = fine
         .par_iter()
         .map(|&(k, l)| {
-            let plan =
-                ctx.plan_layer(l, level(l), z_above(slices, l), &slices.keepouts[l], Some(&rough[k].free));
-            (k, plan)
+            let roughed = Some(&rough[k].free);
+            (k, ctx.plan_layer(l, levels.z[l], levels.above(l), levels.keepout(l), roughed))
         })
         .collect();
     for (k, plan) in planned {
@@ -563,17 +607,13 @@ fn plan_groups(ctx: &Ctx<'_>, slices: &SetupSlices, groups: &[Group]) -> Vec<(La
     rough.into_iter().zip(fine_plans).collect()
 }
 
-fn z_above(slices: &SetupSlices, l: usize) -> f64 {
-    if l == 0 { slices.stock.max.z } else { slices.levels[l - 1] }
-}
-
 fn make_ctx<'a>(
-    slices: &SetupSlices,
+    stock: &Aabb,
     tool: &'a Tool,
     opts: &'a PlanOptions,
     rest: Option<&'a dyn RemainingMaterial>,
 ) -> Ctx<'a> {
-    let stock = slices.stock;
+    let stock = *stock;
     let clear_z = stock.max.z + opts.clearance_height;
     let start = opts
         .safe_start
@@ -605,33 +645,52 @@ pub fn plan_setup_rest<S: MotionSink>(
     rest: Option<&dyn RemainingMaterial>,
     sink: &mut S,
 ) -> Result<PlanSummary, ToolpathError<S::Error>> {
-    let slices = slice_setup(part, setup, tool, opts)?;
-    let ctx = make_ctx(&slices, tool, opts, rest);
-    let clear_z = slices.stock.max.z + opts.clearance_height;
+    let sliced = slice_levels(part, setup, tool, opts)?;
+    let stock = sliced.stock;
+    let ctx = make_ctx(&stock, tool, opts, rest);
+    let clear_z = stock.max.z + opts.clearance_height;
     let params = LinkParams {
         clear_z: clear_z.max(ctx.start.z),
         gap: opts.retract_gap.unwrap_or(0.5 * opts.layer_height),
         max_link: opts.max_stay_down_link.unwrap_or(2.0 * tool.diameter()),
-        stock: slices.stock,
+        stock,
     };
     let mut em = Emitter::new(sink, tool, opts, params);
     em.begin(setup, &ctx.start, opts.strategy.name())?;
-    let mut summary =
-        PlanSummary { layers: slices.levels.len(), stock: Some(slices.stock), ..Default::default() };
+    let mut summary = PlanSummary { layers: sliced.levels.len(), stock: Some(stock), ..Default::default() };
     let (mut cut, mut air) = (0.0, 0.0);
+    let groups = roughing_groups(&sliced.levels, stock.max.z, opts);
+    // Batches of whole groups, at least one, up to `layers_per_batch` levels.
     let batch = opts.layers_per_batch.max(1);
-    let groups = roughing_groups(&slices, opts);
+    let mut batches: Vec<std::ops::Range<usize>> = Vec::new();
     let mut g0 = 0;
     while g0 < groups.len() {
-        // Whole groups, at least one, up to `batch` levels.
         let mut g1 = g0 + 1;
         let mut count = groups[g0].fine.len() + 1;
         while g1 < groups.len() && count + groups[g1].fine.len() < batch {
             count += groups[g1].fine.len() + 1;
             g1 += 1;
         }
-        for (rough, fine) in plan_groups(&ctx, &slices, &groups[g0..g1]) {
-            for plan in std::iter::once(&rough).chain(&fine) {
+        batches.push(g0..g1);
+        g0 = g1;
+    }
+    // The levels of a batch: from its first group's first level to its last group's
+    // roughing level.
+    let first_level = |b: &std::ops::Range<usize>| groups[b.start].fine.start;
+    let end_level = |b: &std::ops::Range<usize>| groups[b.end - 1].rough + 1;
+    // The keep-outs' running union is sequential: the next batch's keep-outs are computed
+    // while this batch's layers are planned.
+    let mut chain = Keepouts::new(sliced.slabs);
+    let mut window = batches.first().map(|b| chain.advance(end_level(b))).unwrap_or_default();
+    for (i, b) in batches.iter().enumerate() {
+        let levels = Levels { z: &sliced.levels, top: stock.max.z, keepouts: &window, base: first_level(b) };
+        let next_end = batches.get(i + 1).map(end_level);
+        let (plans, next) = rayon::join(
+            || plan_groups(&ctx, &levels, &groups[b.clone()]),
+            || next_end.map(|end| chain.advance(end)).unwrap_or_default(),
+        );
+        for (rough, fine) in &plans {
+            for plan in std::iter::once(rough).chain(fine) {
                 if plan.contour.is_empty() && plan.clearing.is_empty() {
                     summary.skipped_layers += 1;
                     continue;
@@ -641,7 +700,7 @@ pub fn plan_setup_rest<S: MotionSink>(
                 em.layer(plan, &ctx)?;
             }
         }
-        g0 = g1;
+        window = next;
     }
     em.finish()?;
     let st = em.stats();

@@ -71,8 +71,38 @@ pub(crate) fn layer_levels(top: f64, bottom: f64, h: f64, flats: &[f64], tol: f6
     out
 }
 
-/// Keep-out regions (XY projection of material above each level + `tol`), one per level.
-pub(crate) fn keepouts(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Vec<Region2> {
+/// The keep-out regions (XY projection of material above each level + `tol`, one per
+/// level) as a running union of slab regions from the top down, computed a range
+/// of levels at a time so that a caller can plan the levels it has while the next ones
+/// are computed (the union is the one sequential step of slicing).
+pub(crate) struct Keepouts {
+    slabs: Vec<Region2>,
+    acc: Region2,
+    done: usize,
+}
+
+impl Keepouts {
+    pub(crate) fn new(slabs: Vec<Region2>) -> Self {
+        Self { slabs, acc: Region2::empty(), done: 0 }
+    }
+
+    /// The keep-outs of the levels after those already returned, up to `end` (exclusive,
+    /// at most the number of levels).
+    pub(crate) fn advance(&mut self, end: usize) -> Vec<Region2> {
+        let end = end.min(self.slabs.len());
+        let mut out = Vec::with_capacity(end.saturating_sub(self.done));
+        for s in &mut self.slabs[self.done.min(end)..end] {
+            self.acc = self.acc.union(&std::mem::take(s));
+            out.push(self.acc.clone());
+        }
+        self.done = self.done.max(end);
+        out
+    }
+}
+
+/// The XY projection of the part's material in each level's slab (from the level + `tol`
+/// up to the level above + `tol`, the first one unbounded above), one per level.
+pub(crate) fn slab_regions(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Vec<Region2> {
     let n = levels.len();
     if n == 0 {
         return Vec::new();
@@ -92,7 +122,7 @@ pub(crate) fn keepouts(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Vec<Re
             bucket.push(t as u32);
         }
     }
-    let slabs: Vec<Region2> = buckets
+    buckets
         .par_iter()
         .enumerate()
         .map(|(l, bucket)| {
@@ -112,14 +142,7 @@ pub(crate) fn keepouts(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Vec<Re
                 .collect();
             Region2::union_contours(contours)
         })
-        .collect();
-    let mut out = Vec::with_capacity(n);
-    let mut acc = Region2::empty();
-    for s in slabs {
-        acc = acc.union(&s);
-        out.push(acc.clone());
-    }
-    out
+        .collect()
 }
 
 /// The XY projection of a triangle clipped to `lo <= z <= hi` (Sutherland-Hodgman).
