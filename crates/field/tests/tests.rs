@@ -1,5 +1,6 @@
 //! Integration tests of s2g-field: one binary, one module per topic.
 
+mod additive;
 mod derivatives;
 mod errors;
 mod layer;
