@@ -901,3 +901,57 @@ pub fn bent_arm_mesh(
     let mesh = Mesh::new(vertices, tris).map_err(FieldError::geom)?;
     Ok(if mesh.signed_volume() < 0.0 { mesh.flipped() } else { mesh })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use s2g_geom::Sphere;
+
+    /// `G = cos(8x) + k z` (one sine layer of two: `sin(8x + π/2)` and `sin(0.001 z)`, read
+    /// out with weights `1` and `1000 k`; the second term is `k z` within 2e-7 on the
+    /// unit cube); `cos = false` drops the first term (planar layers).
+    fn bowl(k: f32, cos: bool) -> Siren {
+        let w0 = vec![8.0, 0.0, 0.0, 0.0, 0.0, 0.001];
+        let b0 = vec![std::f32::consts::FRAC_PI_2, 0.0];
+        let w1 = vec![if cos { 1.0 } else { 0.0 }, 1000.0 * k];
+        let device = Backend::default().device();
+        Siren::from_weights(&[3, 2, 1], vec![(w0, b0), (w1, vec![0.0])], 1.0, 30.0, &device)
+    }
+
+    /// Layers curving up into a bowl around `x = 0` (`G = cos 8x + z/2`): a nozzle of
+    /// radius 0.3 along `+z` at the origin has ring points at `x = ±0.3` on layers already
+    /// printed (`cos 2.4 + 0.025 < 1`) inside the part, so Eq. 13 is positive and the pose
+    /// counts as colliding; planar layers (`G = z/2`) are clear.
+    #[test]
+    fn ring_points_on_printed_layers_collide() {
+        let ball = Sphere { center: Point3::origin(), radius: 10.0 };
+        let bounds = Aabb::new(Point3::new(-0.5, -0.5, -0.5), Point3::new(0.5, 0.5, 0.5));
+        let samples = PrintSamples {
+            poses: vec![Point3::origin()],
+            surface: vec![Point3::new(0.5, 0.0, 0.0)],
+            normals: vec![Vector3::x()],
+            base: vec![],
+        };
+        let nozzle = Tool { radius: 0.3, length: 0.5, axial_offset: 0.05, axial_step: 0.1, ring_points: 8 };
+        let problem = PrintProblem::with_samples(&ball, nozzle, bounds, -100.0, samples).unwrap();
+        let constants = PrintConstants::default();
+        let value = |t: Tensor<1>| -> f32 { t.into_scalar() };
+
+        let g = bowl(0.5, true);
+        let host = g.to_f64().unwrap();
+        let (v, grad) = host.value_gradient([0.0, 0.0, 0.0]);
+        assert!((v - 1.0).abs() < 1e-6 && grad[0].abs() < 1e-6 && (grad[2] - 0.5).abs() < 1e-6);
+        let losses = print_losses(&g, &problem, &[0], &[0], 0.0, &constants).unwrap();
+        assert!(value(losses.collision) > 0.0);
+        assert_eq!(losses.colliding_poses, vec![0]);
+        assert_eq!(value(losses.platform), 0.0);
+        let (count, bad) = print_collisions(&host, &problem, &nozzle).unwrap();
+        assert_eq!((count.part, count.platform, bad), (1, 0, vec![0]));
+
+        let flat = bowl(0.5, false);
+        let losses = print_losses(&flat, &problem, &[0], &[0], 0.0, &constants).unwrap();
+        assert_eq!(value(losses.collision), 0.0);
+        assert!(losses.colliding_poses.is_empty());
+        assert_eq!(print_collisions(&flat.to_f64().unwrap(), &problem, &nozzle).unwrap().0.part, 0);
+    }
+}
