@@ -63,6 +63,7 @@ mod error;
 mod eval;
 mod layer;
 mod milling;
+mod path;
 mod program;
 mod rng;
 mod sdf;
@@ -86,6 +87,7 @@ pub use milling::{
     MillingWeights, Tool, colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers,
     pretrain_planar,
 };
+pub use path::{PathGeometry, geodesic_curvature, path_spacing, path_tangent, projected_path_gradient};
 pub use program::{
     MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh, mill_mesh,
     mill_program, simulate_program,

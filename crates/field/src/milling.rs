@@ -39,7 +39,7 @@ use s2g_geom::{Aabb, Mesh, MeshIndex, Normalization, Point3, Real, SignedDistanc
 
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
-use crate::layer::{LayerGeometry, hessian_times_gradient, layer_normal};
+use crate::layer::{LayerGeometry, cross, hessian_times_gradient, layer_normal};
 use crate::rng::SplitMix64;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 
@@ -471,18 +471,6 @@ fn frame(n: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
     let e1 = layer_normal(raw);
     let e2 = cross(n, e1.clone());
     (e1, e2)
-}
-
-fn cross(a: Tensor<2>, b: Tensor<2>) -> Tensor<2> {
-    let c = |t: &Tensor<2>, k| t.clone().narrow(1, k, 1);
-    Tensor::cat(
-        vec![
-            c(&a, 1) * c(&b, 2) - c(&a, 2) * c(&b, 1),
-            c(&a, 2) * c(&b, 0) - c(&a, 0) * c(&b, 2),
-            c(&a, 0) * c(&b, 1) - c(&a, 1) * c(&b, 0),
-        ],
-        1,
-    )
 }
 
 /// The most tool points per evaluation of the inter-layer collision term (a subsample

@@ -5,4 +5,5 @@ mod derivatives;
 mod errors;
 mod layer;
 mod milling;
+mod path;
 mod sdf;
