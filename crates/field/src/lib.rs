@@ -87,7 +87,11 @@ pub use milling::{
     MillingWeights, Tool, colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers,
     pretrain_planar,
 };
-pub use path::{PathGeometry, geodesic_curvature, path_spacing, path_tangent, projected_path_gradient};
+pub use path::{
+    DirectionLosses, PathGeometry, PathOptions, PathReport, PathStats, PathWeights, direction_losses,
+    geodesic_curvature, optimize_path, path_curvature_loss, path_spacing, path_spacing_loss, path_stats,
+    path_tangent, projected_path_gradient,
+};
 pub use program::{
     MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh, mill_mesh,
     mill_program, simulate_program,

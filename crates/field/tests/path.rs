@@ -181,3 +181,127 @@ fn geodesic_curvature_of_networks_matches_finite_differences() {
     // The networks' paths do curve: the comparison is not between zeros.
     assert!(checked >= 6, "only {checked} points with |κ_g| > 0.05");
 }
+
+/// `n` points in the annulus `0.15 <= r <= 0.45`, `|z| <= 0.3` (a deterministic
+/// low-discrepancy sequence), with the circular direction field `θ̂` there.
+fn annulus(n: usize) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let frac = |x: f64| x - x.floor();
+    let mut points = Vec::with_capacity(n);
+    let mut dirs = Vec::with_capacity(n);
+    for i in 0..n {
+        let k = i as f64 + 0.5;
+        let r = (0.15f64.powi(2) + frac(k * 0.618_033_988_7) * (0.45f64.powi(2) - 0.15f64.powi(2))).sqrt();
+        let a = std::f64::consts::TAU * frac(k * 0.754_877_666_2);
+        let z = 0.6 * frac(k * 0.569_840_290_9) - 0.3;
+        points.push([r * a.cos(), r * a.sin(), z]);
+        dirs.push([-a.sin(), a.cos(), 0.0]);
+    }
+    (points, dirs)
+}
+
+/// A planar layer field `G ≈ z`, fitted once per call (well under a second).
+fn planar_layer() -> s2g_field::SirenF64 {
+    let opts = s2g_field::LayerOptions {
+        network: SirenConfig { sine_layers: 2, width: 32, first_omega: 3.0, hidden_omega: 30.0, seed: 0 },
+        pretrain_steps: 200,
+        ..Default::default()
+    };
+    s2g_field::pretrain_planar(&opts).unwrap().to_f64().unwrap()
+}
+
+#[test]
+fn path_field_learns_contour_parallel_circles() {
+    // Planar layers, paths prescribed along θ̂ in an annulus (contour-parallel to a round
+    // boundary) with unit spacing: P should become ±r, whose paths are circles with
+    // κ_g = ±1/r.
+    let layer = planar_layer();
+    let (points, dirs) = annulus(600);
+    let options = s2g_field::PathOptions { steps: 250, ..Default::default() };
+    let device = Backend::default().device();
+    let before_net = Siren::new(&options.network, &device).unwrap().to_f64().unwrap();
+    let before = s2g_field::path_stats(&layer, &before_net, &points, &dirs, Backend::default()).unwrap();
+    let (net, report) = s2g_field::optimize_path(&layer, &points, &dirs, &options).unwrap();
+    let after =
+        s2g_field::path_stats(&layer, &net.to_f64().unwrap(), &points, &dirs, Backend::default()).unwrap();
+    println!("before {before:?}\nafter {after:?}\n{report:?}");
+    assert!(report.totals[1] < 0.05 * report.totals[0], "total loss {:?}", report.totals);
+    // Eq. 28 from |∇_s P| ≈ 0 to ≈ 1; the non-normalised Eq. 20 starts small (the random
+    // P is nearly flat) and ends as sin² of the angle to θ̂ (|∇G × ∇P| ≈ 1): under 1°.
+    assert!(report.final_losses[0] < 0.02 * report.initial_losses[0], "spacing {report:?}");
+    assert!(report.final_losses[1] < 3e-4, "alignment {report:?}");
+    assert!(before.mean_angle_deg > 30.0, "random P already aligned: {before:?}");
+    assert!(after.mean_angle_deg < 5.0, "mean angle to θ̂ {after:?}");
+    assert!((after.spacing_mean - 1.0).abs() < 0.05 && after.spacing_cv < 0.1, "spacing {after:?}");
+    // Circles of radius 0.15..0.45: mean 1/r about 3.3.
+    let mean_inv_r = points.iter().map(|p| 1.0 / p[0].hypot(p[1])).sum::<f64>() / points.len() as f64;
+    assert!(
+        (after.mean_abs_curvature / mean_inv_r - 1.0).abs() < 0.1,
+        "mean |κ_g| {} vs mean 1/r {mean_inv_r}",
+        after.mean_abs_curvature
+    );
+}
+
+#[test]
+fn curvature_loss_straightens_the_paths() {
+    // Spacing only (no direction prescribed) leaves P's paths as they come out of the
+    // random start; adding Eq. 25 (κ̄ = 0) straightens them.
+    let layer = planar_layer();
+    let (points, _) = annulus(400);
+    let none = vec![[0.0; 3]; points.len()];
+    let run = |curvature: f64| {
+        let options = s2g_field::PathOptions {
+            steps: 120,
+            weights: s2g_field::PathWeights { curvature, ..Default::default() },
+            ..Default::default()
+        };
+        let (net, report) = s2g_field::optimize_path(&layer, &points, &none, &options).unwrap();
+        let stats = s2g_field::path_stats(&layer, &net.to_f64().unwrap(), &points, &none, Backend::default())
+            .unwrap();
+        (stats, report)
+    };
+    let (free, free_report) = run(0.0);
+    let (straight, report) = run(0.3);
+    println!("free {free:?}\nstraight {straight:?}\n{report:?}");
+    assert_eq!(free_report.final_losses[3], 0.0);
+    assert!(report.final_losses[3] < 0.5 * report.initial_losses[3], "Eq. 25 {report:?}");
+    assert!(straight.mean_angle_deg.is_nan());
+    assert!(straight.mean_abs_curvature < 0.5 * free.mean_abs_curvature, "{straight:?} vs {free:?}");
+    assert!((straight.spacing_mean - 1.0).abs() < 0.1, "{straight:?}");
+}
+
+#[test]
+fn path_optimisation_is_deterministic_and_refuses_bad_input() {
+    use s2g_field::{FieldError, PathOptions, optimize_path};
+    let layer = planar_layer();
+    let (points, dirs) = annulus(64);
+    let options = PathOptions { steps: 5, batch_size: 32, ..Default::default() };
+    let (_, a) = optimize_path(&layer, &points, &dirs, &options).unwrap();
+    let (_, b) = optimize_path(&layer, &points, &dirs, &options).unwrap();
+    assert_eq!((a.initial_losses, a.final_losses), (b.initial_losses, b.final_losses));
+    let err = |p: &[[f64; 3]], d: &[[f64; 3]], o: &PathOptions| optimize_path(&layer, p, d, o).unwrap_err();
+    assert!(matches!(err(&[], &[], &options), FieldError::InvalidArgument(_)));
+    assert!(matches!(err(&points, &dirs[1..], &options), FieldError::InvalidArgument(_)));
+    let mut bad = points.clone();
+    bad[3][1] = f64::NAN;
+    assert!(matches!(err(&bad, &dirs, &options), FieldError::NonFinite { index: 3, .. }));
+    let mut bad_dirs = dirs.clone();
+    bad_dirs[7][0] = f64::INFINITY;
+    assert!(matches!(
+        err(&points, &bad_dirs, &options),
+        FieldError::NonFinite { what: "direction", index: 7 }
+    ));
+    for o in [
+        PathOptions { steps: 0, ..options.clone() },
+        PathOptions { target_spacing: 0.0, ..options.clone() },
+        PathOptions { learning_rate: f64::NAN, ..options.clone() },
+        PathOptions {
+            weights: s2g_field::PathWeights { alignment: -1.0, ..Default::default() },
+            ..options.clone()
+        },
+    ] {
+        assert!(matches!(err(&points, &dirs, &o), FieldError::InvalidConfig { .. }), "{o:?}");
+    }
+    let t = Tensor::<2>::zeros([2, 1], &Backend::default().device());
+    assert!(s2g_field::path_curvature_loss(t.clone(), t.clone(), 0.0, 0.0).is_err());
+    assert!(s2g_field::path_curvature_loss(t.clone(), t, -1.0, 0.1).is_err());
+}
