@@ -25,7 +25,9 @@
 //! direction field (Eq. 17-22, [`direction_losses`]) and the toolpath curvature (Eq. 25
 //! with the singularity mask of Eq. 52-53, [`path_curvature_loss`]). [`optimize_path`]
 //! fits a path field on a fixed layer field by Adam on their weighted sum (the sequential
-//! scheme of §7.3), and [`path_stats`] measures a pair of fields.
+//! scheme of §7.3), and [`path_stats`] measures a pair of fields. [`fit_contour_paths`]
+//! fits the path field of contour-parallel milling toolpaths (§7.4) over a
+//! [`MillingProblem`]'s poses.
 //!
 //! Divisions are guarded like [`LayerGeometry`](crate::LayerGeometry)'s by
 //! [`GRAD_EPS`](crate::GRAD_EPS): where
@@ -40,7 +42,10 @@ use burn::tensor::{Tensor, TensorData};
 
 use crate::backend::{Backend, host_values};
 use crate::error::{FieldError, Result};
+use s2g_geom::Vector3;
+
 use crate::layer::{cross, gradient_norm, hessian_times_gradient, layer_normal};
+use crate::milling::MillingProblem;
 use crate::rng::SplitMix64;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 
@@ -478,4 +483,44 @@ pub fn path_stats(
             regular.iter().sum::<f64>() / regular.len() as f64
         },
     })
+}
+
+/// The contour-parallel direction field of a milling problem at its poses: `n × ∇d`, the
+/// layer normal `n` of `layer` crossed with the gradient of the part's distance `d`, the
+/// direction along the part's outline within the layer (unit length; zero where `∇d` is
+/// along `n`, e.g. over the top of the part, or where either is undefined). Returns the
+/// poses in unit-cube coordinates and the directions.
+pub fn contour_directions(layer: &SirenF64, problem: &MillingProblem<'_>) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let nz = problem.normalization();
+    problem
+        .poses()
+        .iter()
+        .map(|x| {
+            let u = nz.to_unit(x);
+            let (_, g) = layer.value_gradient([u.x, u.y, u.z]);
+            let n = Vector3::new(g[0], g[1], g[2]);
+            let d = n.cross(&problem.part().gradient(x));
+            let d = d
+                .try_normalize(1e-6)
+                .filter(|d| d.iter().all(|c| c.is_finite()))
+                .unwrap_or_else(Vector3::zeros);
+            ([u.x, u.y, u.z], [d.x, d.y, d.z])
+        })
+        .unzip()
+}
+
+/// Fits the path field of contour-parallel toolpaths on the layer field `layer` over
+/// `problem`'s poses: [`optimize_path`] with the directions of [`contour_directions`], so
+/// that the iso-curves of `P` on each layer run parallel to the part's outline, spaced
+/// evenly (`|∇_s P| → options.target_spacing` per unit-cube length). For
+/// [`mill_program_with_paths`](crate::mill_program_with_paths).
+///
+/// Errors: as [`optimize_path`]'s.
+pub fn fit_contour_paths(
+    layer: &SirenF64,
+    problem: &MillingProblem<'_>,
+    options: &PathOptions,
+) -> Result<(Siren, PathReport)> {
+    let (points, directions) = contour_directions(layer, problem);
+    optimize_path(layer, &points, &directions, options)
 }
