@@ -79,6 +79,19 @@ pub fn hessian_times_gradient(gradient: Tensor<2>, hessian: Tensor<3>) -> Tensor
     (hessian * gradient.reshape([n, 1, 3])).sum_dim(2).reshape([n, 3])
 }
 
+/// The row-wise cross product `a × b`, `[n, 3]`, of `a` and `b` `[n, 3]`.
+pub(crate) fn cross(a: Tensor<2>, b: Tensor<2>) -> Tensor<2> {
+    let c = |t: &Tensor<2>, k| t.clone().narrow(1, k, 1);
+    Tensor::cat(
+        vec![
+            c(&a, 1) * c(&b, 2) - c(&a, 2) * c(&b, 1),
+            c(&a, 2) * c(&b, 0) - c(&a, 0) * c(&b, 2),
+            c(&a, 0) * c(&b, 1) - c(&a, 1) * c(&b, 0),
+        ],
+        1,
+    )
+}
+
 /// The nine Hessian entries as `[n, 1]` columns, row-major.
 fn entries(hessian: Tensor<3>) -> Vec<Tensor<2>> {
     let n = hessian.dims()[0];

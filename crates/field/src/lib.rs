@@ -23,6 +23,18 @@
 //!   [`count_collisions`]), a simultaneous five-axis program from its layers and normals
 //!   written by `s2g-gcode` ([`mill_program`]), simulated in `s2g-voxsim` for gouges
 //!   ([`simulate_program`]); [`mill_mesh`] runs it all.
+//! - Toolpaths (§3.2, §4.3-4.5, §7.3-7.4): a path field `P` whose iso-curves on each layer
+//!   are the toolpaths: tangent, spacing and geodesic curvature ([`PathGeometry`]), the
+//!   path losses and their optimisation on a fixed layer field ([`optimize_path`],
+//!   [`path_stats`]), and contour-parallel milling toolpaths ([`fit_contour_paths`],
+//!   [`mill_program_with_paths`]).
+//! - Printing (§4.1, §4.6, §5.1, §7.1): a layer field optimised from planar layers by the
+//!   support- and collision-free total loss (Eq. 37: support-free Eq. 30, base Eq. 31, the
+//!   nozzle sampled as points against printed material Eq. 13 and the platform Eq. 36, and
+//!   the layer regularisers) so that the build direction (the layer normal) keeps every
+//!   overhang within the self-supporting angle ([`optimize_print_layers`],
+//!   [`overhang_stats`], [`print_collisions`]); [`bent_arm_mesh`] is a part planar layers
+//!   cannot print without support.
 //! - Reproducible: seeds drive this crate's own generator for weights, samples and batches,
 //!   and the CPU backends run single-threaded, so the same options give the same field.
 //! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a
@@ -49,17 +61,25 @@
 #[cfg(not(any(feature = "flex", feature = "ndarray")))]
 compile_error!("s2g-field needs a Burn backend: enable the `flex` (default) or `ndarray` feature");
 
+mod additive;
 mod backend;
 mod checkpoint;
 mod error;
 mod eval;
 mod layer;
 mod milling;
+mod path;
 mod program;
 mod rng;
 mod sdf;
 mod siren;
 
+pub use additive::{
+    OverhangStats, PrintCollisionCount, PrintConstants, PrintLosses, PrintOptions, PrintProblem, PrintReport,
+    PrintSamples, PrintWeights, base_loss, bent_arm_mesh, optimize_print_layers, overhang_angle,
+    overhang_angles, overhang_stats, pretrain_planar_print, print_collisions, print_losses,
+    support_free_loss,
+};
 pub use backend::Backend;
 pub use error::{FieldError, Result};
 pub use eval::{SdfError, sdf_error, validation_points};
@@ -72,9 +92,14 @@ pub use milling::{
     MillingWeights, Tool, colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers,
     pretrain_planar,
 };
+pub use path::{
+    DirectionLosses, PathGeometry, PathOptions, PathReport, PathStats, PathWeights, contour_directions,
+    direction_losses, fit_contour_paths, geodesic_curvature, optimize_path, path_curvature_loss,
+    path_spacing, path_spacing_loss, path_stats, path_tangent, projected_path_gradient,
+};
 pub use program::{
-    MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh, mill_mesh,
-    mill_program, simulate_program,
+    ContourPaths, MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh,
+    mill_mesh, mill_program, mill_program_with_paths, simulate_program,
 };
 pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
 pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};

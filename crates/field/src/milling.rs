@@ -39,9 +39,9 @@ use s2g_geom::{Aabb, Mesh, MeshIndex, Normalization, Point3, Real, SignedDistanc
 
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
-use crate::layer::{LayerGeometry, hessian_times_gradient, layer_normal};
+use crate::layer::{LayerGeometry, cross, hessian_times_gradient, layer_normal};
 use crate::rng::SplitMix64;
-use crate::siren::{Siren, SirenConfig, SirenF64};
+use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 
 /// A cylindrical tool (a flat end mill with its holder, as one axisymmetric unit),
 /// sampled as points (Appendix B of seed 002). The tool's base point (the cutting end's
@@ -261,9 +261,14 @@ impl MillingWeights {
     /// The collision weight at `step` of `steps`: linear from `collision_start` to
     /// `collision_end` (the "gradual weight-increasing strategy" of §5.5).
     pub fn collision_at(&self, step: usize, steps: usize) -> f64 {
-        let t = if steps <= 1 { 1.0 } else { (step as f64 / (steps - 1) as f64).clamp(0.0, 1.0) };
-        self.collision_start + t * (self.collision_end - self.collision_start)
+        ramp(self.collision_start, self.collision_end, step, steps)
     }
+}
+
+/// Linear from `start` at step 0 to `end` at step `steps - 1` (`end` when `steps <= 1`).
+pub(crate) fn ramp(start: f64, end: f64, step: usize, steps: usize) -> f64 {
+    let t = if steps <= 1 { 1.0 } else { (step as f64 / (steps - 1) as f64).clamp(0.0, 1.0) };
+    start + t * (end - start)
 }
 
 /// Constants inside the individual losses. The seed's text gives their form but not all
@@ -468,21 +473,107 @@ fn frame(n: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
     (e1, e2)
 }
 
-fn cross(a: Tensor<2>, b: Tensor<2>) -> Tensor<2> {
-    let c = |t: &Tensor<2>, k| t.clone().narrow(1, k, 1);
-    Tensor::cat(
-        vec![
-            c(&a, 1) * c(&b, 2) - c(&a, 2) * c(&b, 1),
-            c(&a, 2) * c(&b, 0) - c(&a, 0) * c(&b, 2),
-            c(&a, 0) * c(&b, 1) - c(&a, 1) * c(&b, 0),
-        ],
-        1,
-    )
-}
-
 /// The most tool points per evaluation of the inter-layer collision term (a subsample
 /// beyond that).
 const LAYER_POINTS: usize = 8192;
+
+/// The layer regularisers of `G` at a batch of points (shared by Eq. 37 and Eq. 40): the
+/// spacing loss (Eq. 26, `mean |∇|∇G||²` with `∇|∇G| = ∇²G ∇G / |∇G|`), the zero-gradient
+/// loss (Eq. 27) and the curvature loss (Eq. 24) with the singularity mask (Eq. 52-53).
+/// `scale` maps part units to the unit cube.
+pub(crate) fn regularisers(
+    out: &FieldHessian,
+    geo: &LayerGeometry,
+    scale: f64,
+    constants: &LossConstants,
+) -> (Tensor<1>, Tensor<1>, Tensor<1>) {
+    let grad_norm = geo.spacing.clone(); // [n, 1]
+    let dnorm = hessian_times_gradient(out.gradient.clone(), out.hessian.clone()) / grad_norm.clone();
+    let spacing = dnorm.square().sum_dim(1).mean();
+    let zero_gradient = grad_norm.clone().neg().add_scalar(constants.min_gradient).clamp_min(0.0).mean();
+    let kappa_bar = constants.max_curvature / scale; // 1 / unit-cube lengths
+    let s = constants.singular_gradient;
+    let mask = sigmoid(grad_norm.sub_scalar(s).div_scalar(0.1 * s)).detach();
+    let curvature = (mask * geo.max_abs_curvature().sub_scalar(kappa_bar).clamp_min(0.0))
+        .mean()
+        .mul_scalar(constants.curvature_factor * scale); // back to 1 / part units
+    (spacing, zero_gradient, curvature)
+}
+
+/// The points of `tool` (rings rotated by `phase`) placed at the poses `x_world` `[n, 3]`
+/// (part units) along the unit normals `normal` `[n, 3]`: `p = x + a n + u e1 + v e2`,
+/// `[n * t, 3]` with pose `k / t` for row `k`, differentiable through the normals; and `t`.
+pub(crate) fn tool_points(
+    x_world: Tensor<2>,
+    normal: Tensor<2>,
+    tool: &Tool,
+    phase: f64,
+) -> (Tensor<2>, usize) {
+    let device = x_world.device();
+    let n = x_world.dims()[0];
+    let local = tool.points(phase);
+    let t = local.len();
+    let col = |k: usize| -> Tensor<3> {
+        let v: Vec<f32> = local.iter().map(|p| p[k] as f32).collect();
+        Tensor::<2>::from_data(TensorData::new(v, [1, t]), &device).reshape([1, t, 1])
+    };
+    let (a, u, v) = (col(0), col(1), col(2));
+    let (e1, e2) = frame(normal.clone());
+    let lift = |d: Tensor<2>| d.reshape([n, 1, 3]);
+    let p = lift(x_world) + lift(normal) * a + lift(e1) * u + lift(e2) * v; // [n, t, 3]
+    (p.reshape([n * t, 3]), t)
+}
+
+/// The inter-layer collision term (Eq. 13): `ReLU(k (ε - (G(p) - G(x))))` summed over the
+/// tool points `rows` of `p` (`[m, 3]`, part units, `t` per pose, pose values `g_x`
+/// `[n, 1]`) where material is in the way, divided by `m`. At most `LAYER_POINTS` of the
+/// rows enter the graph: an even subsample, offset by the phase, rescaled to the sum over
+/// all of them. Also returns the batch positions (`row / t`, ascending, distinct) of the
+/// poses with a positive term.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn layer_collision(
+    g: &Siren,
+    normalization: &Normalization,
+    p: Tensor<2>,
+    g_x: Tensor<2>,
+    rows: &[usize],
+    t: usize,
+    m: usize,
+    phase: f64,
+    constants: &LossConstants,
+) -> Result<(Tensor<1>, Vec<usize>)> {
+    let device = p.device();
+    if rows.is_empty() {
+        return Ok((Tensor::<1>::zeros([1], &device), Vec::new()));
+    }
+    let stride = rows.len().div_ceil(LAYER_POINTS);
+    let offset =
+        ((phase.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU) * stride as f64) as usize % stride;
+    let kept: Vec<usize> = rows.iter().copied().skip(offset).step_by(stride).collect();
+    let weight = rows.len() as f64 / kept.len() as f64;
+    let s_len = kept.len();
+    let pose_of: Vec<i64> = kept.iter().map(|&k| (k / t) as i64).collect();
+    let kept: Vec<i64> = kept.iter().map(|&k| k as i64).collect();
+    let kept = Tensor::<1, Int>::from_data(TensorData::new(kept, [s_len]), &device);
+    let pose_host = pose_of.clone();
+    let pose_of = Tensor::<1, Int>::from_data(TensorData::new(pose_of, [s_len]), &device);
+    let tr = normalization.translation;
+    let shift =
+        Tensor::<2>::from_data(TensorData::new(vec![tr.x as f32, tr.y as f32, tr.z as f32], [1, 3]), &device);
+    let p_unit = p.select(0, kept).mul_scalar(normalization.scale) + shift;
+    let g_p = g.forward(p_unit);
+    let g_x = g_x.select(0, pose_of);
+    let terms = (g_p - g_x)
+        .neg()
+        .add_scalar(constants.layer_clearance)
+        .mul_scalar(constants.collision_slope)
+        .clamp_min(0.0);
+    let values = crate::backend::host_values(terms.clone().detach())?;
+    let mut active: Vec<usize> =
+        values.iter().zip(&pose_host).filter(|(v, _)| **v > 0.0).map(|(_, &k)| k as usize).collect();
+    active.dedup();
+    Ok((terms.sum().mul_scalar(weight / m as f64), active))
+}
 
 /// Evaluates the milling losses of `g` at the poses `idx` of `problem`, with the tool's
 /// rings rotated by `phase`.
@@ -529,33 +620,11 @@ fn milling_losses_with(
 
     let out = g.forward_hessian(x_unit);
     let geo = LayerGeometry::new(out.gradient.clone(), out.hessian.clone());
-    let grad_norm = geo.spacing.clone(); // [n, 1]
-
-    // Regularisation (Eq. 26, 27, 24 with Eq. 52-53).
-    let dnorm = hessian_times_gradient(out.gradient.clone(), out.hessian.clone()) / grad_norm.clone();
-    let spacing = dnorm.square().sum_dim(1).mean();
-    let zero_gradient = grad_norm.clone().neg().add_scalar(constants.min_gradient).clamp_min(0.0).mean();
-    let kappa_bar = constants.max_curvature / scale; // 1 / unit-cube lengths
-    let s = constants.singular_gradient;
-    let mask = sigmoid(grad_norm.clone().sub_scalar(s).div_scalar(0.1 * s)).detach();
-    let curvature = (mask * geo.max_abs_curvature().sub_scalar(kappa_bar).clamp_min(0.0))
-        .mean()
-        .mul_scalar(constants.curvature_factor * scale); // back to 1 / part units
+    let (spacing, zero_gradient, curvature) = regularisers(&out, &geo, scale, constants);
 
     // Tool points, [n * t, 3], in the part's units.
-    let local = tool.points(phase);
-    let t = local.len();
-    let col = |k: usize| -> Tensor<3> {
-        let v: Vec<f32> = local.iter().map(|p| p[k] as f32).collect();
-        Tensor::<2>::from_data(TensorData::new(v, [1, t]), &device).reshape([1, t, 1])
-    };
-    let (a, u, v) = (col(0), col(1), col(2));
-    let nrm = geo.normal.clone();
-    let (e1, e2) = frame(nrm.clone());
-    let lift = |d: Tensor<2>| d.reshape([n, 1, 3]);
-    let p = lift(x_world.clone()) + lift(nrm) * a + lift(e1) * u + lift(e2) * v; // [n, t, 3]
+    let (p, t) = tool_points(x_world, geo.normal.clone(), tool, phase);
     let m = n * t;
-    let p = p.reshape([m, 3]);
 
     // The part's distance at the current tool points (host SDF). Only points closer than
     // the clearance contribute to Eq. 15 (the ReLU is zero, with zero gradient, elsewhere),
@@ -600,39 +669,18 @@ fn milling_losses_with(
         phi.neg().add_scalar(eps).mul_scalar(scale * k_slope).clamp_min(0.0).sum().div_scalar(m as f64)
     };
 
-    // Eq. 13 for milling: G(p) >= G(x) + ε for tool points in the material still there,
-    // on at most `LAYER_POINTS` of them (an even subsample, offset by the phase, rescaled
-    // to the mean over all `m`).
-    let layer_collision = if layer_rows.is_empty() {
-        Tensor::<1>::zeros([1], &device)
-    } else {
-        let stride = layer_rows.len().div_ceil(LAYER_POINTS);
-        let offset = ((phase.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU) * stride as f64)
-            as usize
-            % stride;
-        let rows: Vec<usize> = layer_rows.iter().copied().skip(offset).step_by(stride).collect();
-        let weight = layer_rows.len() as f64 / rows.len() as f64;
-        let s_len = rows.len();
-        let pose_of: Vec<i64> = rows.iter().map(|&k| (k / t) as i64).collect();
-        let rows: Vec<i64> = rows.iter().map(|&k| k as i64).collect();
-        let rows = Tensor::<1, Int>::from_data(TensorData::new(rows, [s_len]), &device);
-        let pose_of = Tensor::<1, Int>::from_data(TensorData::new(pose_of, [s_len]), &device);
-        let tr = problem.normalization.translation;
-        let shift = Tensor::<2>::from_data(
-            TensorData::new(vec![tr.x as f32, tr.y as f32, tr.z as f32], [1, 3]),
-            &device,
-        );
-        let p_unit = p.select(0, rows).mul_scalar(scale) + shift;
-        let g_p = g.forward(p_unit);
-        let g_x = out.value.clone().select(0, pose_of);
-        (g_p - g_x)
-            .neg()
-            .add_scalar(constants.layer_clearance)
-            .mul_scalar(k_slope)
-            .clamp_min(0.0)
-            .sum()
-            .mul_scalar(weight / m as f64)
-    };
+    // Eq. 13 for milling: G(p) >= G(x) + ε for tool points in the material still there.
+    let (layer_collision, _) = layer_collision(
+        g,
+        &problem.normalization,
+        p,
+        out.value.clone(),
+        &layer_rows,
+        t,
+        m,
+        phase,
+        constants,
+    )?;
     let near_poses = idx.iter().zip(&near).filter(|(_, h)| **h).map(|(&i, _)| i).collect();
 
     Ok(MillingLosses { part_collision, layer_collision, spacing, zero_gradient, curvature, near_poses })
@@ -745,12 +793,18 @@ impl LayerOptions {
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`].
 pub fn pretrain_planar(options: &LayerOptions) -> Result<Siren> {
     options.validate()?;
-    let device = options.backend.device().autodiff();
-    let mut net = Siren::new(&options.network, &device)?;
+    fit_planar(&options.network, options.pretrain_steps, options.seed, options.backend)
+}
+
+/// Fits a new network of `network` to `G(x̂) = ẑ` by `steps` Adam steps (see
+/// [`pretrain_planar`]), on `backend`'s autodiff device.
+pub(crate) fn fit_planar(network: &SirenConfig, steps: usize, seed: u64, backend: Backend) -> Result<Siren> {
+    let device = backend.device().autodiff();
+    let mut net = Siren::new(network, &device)?;
     let mut opt = AdamConfig::new().init();
-    let mut rng = SplitMix64::new(options.seed, 0x504c_414e);
+    let mut rng = SplitMix64::new(seed, 0x504c_414e);
     let n = 512;
-    for step in 0..options.pretrain_steps {
+    for step in 0..steps {
         let pts: Vec<f32> = (0..3 * n).map(|_| rng.uniform(-0.6, 0.6) as f32).collect();
         let z: Vec<f32> = pts.chunks_exact(3).map(|c| c[2]).collect();
         let x = Tensor::<2>::from_data(TensorData::new(pts, [n, 3]), &device);
@@ -827,8 +881,8 @@ fn adam_step(
 
 /// Draws batches: up to half from the "hot" poses (those whose tool last came closer to
 /// the part than the clearance, in turn), the rest from a shuffled pass over all poses.
-struct Batcher {
-    rng: SplitMix64,
+pub(crate) struct Batcher {
+    pub(crate) rng: SplitMix64,
     order: Vec<usize>,
     cursor: usize,
     hot: std::collections::VecDeque<usize>,
@@ -836,7 +890,7 @@ struct Batcher {
 }
 
 impl Batcher {
-    fn new(np: usize, seed: u64) -> Self {
+    pub(crate) fn new(np: usize, seed: u64) -> Self {
         Self {
             rng: SplitMix64::new(seed, 0x4d49_4c4c),
             order: (0..np).collect(),
@@ -847,7 +901,7 @@ impl Batcher {
     }
 
     /// A batch of `size` distinct poses (fewer when there are fewer poses), `forced` first.
-    fn batch(&mut self, size: usize, forced: &[usize], out: &mut Vec<usize>) {
+    pub(crate) fn batch(&mut self, size: usize, forced: &[usize], out: &mut Vec<usize>) {
         let np = self.order.len();
         let size = size.min(np);
         out.clear();
@@ -887,7 +941,7 @@ impl Batcher {
     }
 
     /// Marks the poses of `batch` hot (in `near`) or cold (not in it).
-    fn update(&mut self, batch: &[usize], near: &[usize]) {
+    pub(crate) fn update(&mut self, batch: &[usize], near: &[usize]) {
         for &i in batch {
             self.is_hot[i] = false;
         }
@@ -1028,6 +1082,20 @@ pub fn optimize_layers(
     Ok((g, report))
 }
 
+/// The tool points `local` (tool frame `(axial, u, v)`) placed at `x` along the unit axis
+/// `n`, with the frame of the tensor losses (`e1` from `+x` projected off `n`).
+pub(crate) fn place_tool<'l>(
+    x: &Point3,
+    n: &Vector3,
+    local: &'l [[f64; 3]],
+) -> impl Iterator<Item = Point3> + 'l {
+    let raw = Vector3::x() - n * n.x;
+    let e1 = raw.try_normalize(1e-12).unwrap_or_else(|| n.cross(&Vector3::y()).normalize());
+    let e2 = n.cross(&e1);
+    let (x, n) = (*x, *n);
+    local.iter().map(move |q| x + n * q[0] + e1 * q[1] + e2 * q[2])
+}
+
 /// Counts of sampled tool poses in collision.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CollisionCount {
@@ -1070,12 +1138,8 @@ pub fn colliding_poses(
             bad.push(i);
             continue;
         };
-        let raw = Vector3::x() - n * n.x;
-        let e1 = raw.try_normalize(1e-12).unwrap_or_else(|| n.cross(&Vector3::y()).normalize());
-        let e2 = n.cross(&e1);
         let (mut hit_part, mut hit_layer) = (false, false);
-        for q in &local {
-            let p = x + n * q[0] + e1 * q[1] + e2 * q[2];
+        for p in place_tool(x, &n, &local) {
             let d = problem.part.distance(&p);
             if d < 0.0 {
                 hit_part = true;

@@ -14,7 +14,9 @@
 //!   along the normal (counted in [`MillProgram::poses_reoriented`]). The rotary angles follow `s2g-gcode`'s conventions
 //!   ([`s2g_gcode::rotary_angles`]), C unwrapped to the nearest turn of the previous
 //!   block's.
-//! - **Toolpaths.** On each layer a nearest-neighbour chain over its poses; consecutive
+//! - **Toolpaths.** On each layer a nearest-neighbour chain over its poses, or, with a path
+//!   field ([`mill_program_with_paths`]), a chain along the iso-curves of `P` (contour-
+//!   parallel toolpaths when `P` follows the part's outline); consecutive
 //!   poses closer than [`ProgramOptions::link_distance`] are joined by a feed move, others
 //!   by a retract along the tool axis, a traverse and a plunge (or via a vertical tool above
 //!   the block); when none of the nearest remaining poses can be reached, the tool steps
@@ -154,6 +156,9 @@ pub struct MillProgram {
     pub poses_reoriented: usize,
     /// Feed moves between neighbouring poses.
     pub links: usize,
+    /// Of the links, those between two poses on the same iso-curve of the path field
+    /// ([`mill_program_with_paths`]; `0` without one).
+    pub curve_links: usize,
     /// Retract-traverse-plunge jumps.
     pub jumps: usize,
     /// Motion blocks written.
@@ -225,7 +230,7 @@ fn axis_of(axes: RotaryAxes, s: &State) -> Vector3 {
 }
 
 /// Builds the simultaneous five-axis program of the module docs for the layer field `g`
-/// over `problem`'s poses.
+/// over `problem`'s poses, with nearest-neighbour toolpaths on each layer.
 ///
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::InvalidArgument`]
 /// when no pose passes the clearance proof, [`FieldError::Program`] if the writer fails.
@@ -233,6 +238,48 @@ pub fn mill_program(
     g: &SirenF64,
     problem: &MillingProblem<'_>,
     options: &ProgramOptions,
+) -> Result<MillProgram> {
+    build_program(g, problem, options, None)
+}
+
+/// The path field of contour-parallel toolpaths (§3.2, §7.4 of seed 002), for
+/// [`mill_program_with_paths`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContourPaths {
+    /// `P`, on the same unit-cube coordinates as the layer field (for example from
+    /// [`fit_contour_paths`](crate::fit_contour_paths)): its iso-curves on each layer are
+    /// the toolpaths.
+    pub field: SirenF64,
+    /// Spacing of the milled iso-curves, in the part's units: `P` levels `step × scale ×
+    /// median |∇P|` apart. Finite and `> 0`.
+    pub step: f64,
+}
+
+/// [`mill_program`] with contour-parallel toolpaths: on each layer the poses are taken
+/// along the iso-curves of the path field `paths.field`, each pose belonging to the
+/// iso-curve `round(P(x) / δ)` (`δ` from [`ContourPaths::step`]). From a pose, the nearest
+/// remaining pose on the same iso-curve within [`ProgramOptions::link_distance`] comes
+/// first (the tool follows the curve), then the nearest remaining pose (the next curve,
+/// or a jump). The layers, tool axes, links, jumps and the clearance proof of every pose
+/// and move are [`mill_program`]'s; [`MillProgram::curve_links`] counts the feed links
+/// along an iso-curve.
+///
+/// Errors: as [`mill_program`]'s; [`FieldError::InvalidConfig`] for a bad `paths.step`.
+pub fn mill_program_with_paths(
+    g: &SirenF64,
+    problem: &MillingProblem<'_>,
+    options: &ProgramOptions,
+    paths: &ContourPaths,
+) -> Result<MillProgram> {
+    FieldError::check_positive(&[("paths.step", paths.step)])?;
+    build_program(g, problem, options, Some(paths))
+}
+
+fn build_program(
+    g: &SirenF64,
+    problem: &MillingProblem<'_>,
+    options: &ProgramOptions,
+    paths: Option<&ContourPaths>,
 ) -> Result<MillProgram> {
     options.validate()?;
     let tool = *problem.tool();
@@ -255,7 +302,10 @@ pub fn mill_program(
         tilt: f64,
         c: f64,
         vertical: bool,
+        /// The iso-curve of `P` (0 for every pose without a path field).
+        curve: i64,
     }
+    let curve_step = paths.map(|p| gradient_step(&p.field, problem, p.step));
     let mut poses = Vec::new();
     let mut skipped = 0usize;
     let mut reoriented = 0usize;
@@ -291,14 +341,25 @@ pub fn mill_program(
             continue;
         };
         reoriented += turned as usize;
-        poses.push(Pose { tip: *x, g: gx, tilt, c, vertical });
+        let curve = match (paths, curve_step) {
+            (Some(p), Some(step)) => {
+                let v = p.field.value([u.x, u.y, u.z]);
+                if !v.is_finite() {
+                    skipped += 1;
+                    continue;
+                }
+                (v / step).round() as i64
+            }
+            _ => 0,
+        };
+        poses.push(Pose { tip: *x, g: gx, tilt, c, vertical, curve });
     }
     if poses.is_empty() {
         return Err(FieldError::InvalidArgument("no pose passes the tool clearance check".into()));
     }
 
     // Layers, top first; a nearest-neighbour chain on each.
-    let h = level_step(g, problem, options.layer_step);
+    let h = gradient_step(g, problem, options.layer_step);
     let g_top = poses.iter().map(|p| p.g).fold(f64::NEG_INFINITY, f64::max);
     let layer_of = |p: &Pose| ((g_top - p.g) / h).round() as i64;
     let mut by_layer: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
@@ -317,10 +378,13 @@ pub fn mill_program(
         poses_unclear: skipped,
         poses_reoriented: reoriented,
         links: 0,
+        curve_links: 0,
         jumps: 0,
         blocks: 0,
     };
     let mut cur: Option<State> = None;
+    // The pose the tool last reached (None after a step back along the trail).
+    let mut from_pose: Option<usize> = None;
     // Every waypoint written, in order: the way back when no remaining pose can be reached
     // from where the tool is (retracing checked moves is safe).
     let mut trail: Vec<State> = Vec::new();
@@ -354,6 +418,7 @@ pub fn mill_program(
                     }
                 }
                 if started {
+                    from_pose = Some(i);
                     cur = Some(target);
                     out.poses_used += 1;
                     milled_any = true;
@@ -362,10 +427,16 @@ pub fn mill_program(
                 }
                 continue;
             };
-            // The nearest remaining poses first: a feed link to a neighbour, else a jump.
+            // The nearest remaining poses first: a feed link to a neighbour, else a jump;
+            // with a path field, the near ones on the current iso-curve before all others
+            // (without one every pose is on curve 0 and this is the plain nearest order).
             let mut order: Vec<usize> = (0..left.len()).collect();
             let dist = |k: usize| (poses[left[k]].tip - from.tip).norm_squared();
-            order.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+            let from_curve = from_pose.map(|i| poses[i].curve);
+            let off_curve = |k: usize| {
+                !(Some(poses[left[k]].curve) == from_curve && dist(k) <= options.link_distance.powi(2))
+            };
+            order.sort_by(|&a, &b| off_curve(a).cmp(&off_curve(b)).then(dist(a).total_cmp(&dist(b))));
             let mut found = None;
             for &k in order.iter().take(CANDIDATES) {
                 let target = target_of(&poses[left[k]], from.c);
@@ -388,6 +459,7 @@ pub fn mill_program(
                         w.feed_to(&from, &back, true)?;
                         trail.pop();
                         cur = Some(back);
+                        from_pose = None;
                         backtracks += 1;
                         continue;
                     }
@@ -397,7 +469,8 @@ pub fn mill_program(
                 backtracks = 0;
                 continue;
             };
-            left.swap_remove(k);
+            let on_curve = link && paths.is_some() && Some(poses[left[k]].curve) == from_curve;
+            from_pose = Some(left.swap_remove(k));
             let mut prev = from;
             for s in &route {
                 w.feed_to(&prev, s, true)?;
@@ -406,6 +479,7 @@ pub fn mill_program(
             trail.extend_from_slice(&route);
             if link {
                 out.links += 1;
+                out.curve_links += on_curve as usize;
             } else {
                 out.jumps += 1;
             }
@@ -646,9 +720,10 @@ fn merge_rotary_blocks(text: &str, axes: RotaryAxes) -> String {
     out
 }
 
-/// The `G` step between layers `layer_step` apart (part units): `layer_step` in unit-cube
-/// lengths times the median `|∇G|` over the poses (the optimisation changes `|∇G|`).
-fn level_step(g: &SirenF64, problem: &MillingProblem<'_>, layer_step: f64) -> f64 {
+/// The step of a field `g` (`G`, or a path field `P`) between iso-surfaces `layer_step`
+/// apart (part units): `layer_step` in unit-cube lengths times the median `|∇g|` over the
+/// poses (the optimisation changes `|∇g|`).
+fn gradient_step(g: &SirenF64, problem: &MillingProblem<'_>, layer_step: f64) -> f64 {
     let nz = problem.normalization();
     let mut norms: Vec<f64> = problem
         .poses()
@@ -692,7 +767,7 @@ pub fn layer_mesh(g: &SirenF64, problem: &MillingProblem<'_>, layer_step: f64, s
     let values: Vec<f64> = problem.poses().iter().map(value).collect();
     let top = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let bottom = values.iter().copied().fold(f64::INFINITY, f64::min);
-    let h = level_step(g, problem, layer_step);
+    let h = gradient_step(g, problem, layer_step);
     let levels = ((top - bottom) / h).round();
     if !(levels.is_finite() && levels <= 1000.0) {
         return Err(FieldError::InvalidArgument("too many layers (> 1000)".into()));

@@ -3,9 +3,10 @@
 //! simulated without gouges, and typed errors.
 
 use s2g_field::{
-    FieldError, LayerOptions, MeshSdf, MillOptions, MillingProblem, MillingWeights, ProgramOptions, Tool,
-    count_collisions, cup_mesh, layer_mesh, mill_mesh, mill_program, milling_losses, optimize_layers,
-    pretrain_planar, simulate_program,
+    ContourPaths, FieldError, LayerOptions, MeshSdf, MillOptions, MillingProblem, MillingWeights,
+    PathOptions, ProgramOptions, Tool, contour_directions, count_collisions, cup_mesh, fit_contour_paths,
+    layer_mesh, mill_mesh, mill_program, mill_program_with_paths, milling_losses, optimize_layers,
+    path_stats, pretrain_planar, simulate_program,
 };
 use s2g_gcode::{Motion, MotionRecorder, ParseOptions, RotaryAxes, parse_str};
 use s2g_geom::{Aabb, MeshIndex, Point3, SignedDistance, Sphere};
@@ -58,6 +59,20 @@ fn cup_is_closed_with_the_expected_volume_and_an_overhang() {
         cup_mesh(f64::NAN, 50.0, 24.0, 20.0, 8.0, 5.0, 64),
         Err(FieldError::InvalidArgument(_))
     ));
+}
+
+/// The counts of a program, without its text.
+struct ContourSummary<'a>(&'a s2g_field::MillProgram);
+
+impl std::fmt::Debug for ContourSummary<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = self.0;
+        write!(
+            f,
+            "layers {} used {} skipped {} links {} (on curve {}) jumps {} blocks {}",
+            p.layers, p.poses_used, p.poses_skipped, p.links, p.curve_links, p.jumps, p.blocks
+        )
+    }
 }
 
 fn small_cup() -> (s2g_geom::Mesh, Aabb) {
@@ -178,6 +193,42 @@ fn optimised_cup_layers_have_no_colliding_poses_and_mill_without_gouges() {
         assert_eq!(sim.gouge_voxels, 0, "{name}: {sim:?}");
         assert!(sim.removed_fraction > 0.3 && sim.removed_fraction <= 1.0, "{name}: {sim:?}");
     }
+
+    // Contour-parallel toolpaths from a path field along the cup's outline (§7.4): the
+    // same clearance proof of every pose and move, no gouges, and most feed links along
+    // an iso-curve of P.
+    let path_options = PathOptions { steps: 300, ..PathOptions::default() };
+    let (paths, path_report) = fit_contour_paths(&g, &problem, &path_options).unwrap();
+    let paths = ContourPaths { field: paths.to_f64().unwrap(), step: 6.0 };
+    let (points, dirs) = contour_directions(&g, &problem);
+    let stats = path_stats(&g, &paths.field, &points, &dirs, s2g_field::Backend::default()).unwrap();
+    let contour = mill_program_with_paths(&g, &problem, &popts, &paths).unwrap();
+    let sim = simulate_program(&contour.text, &cup, &block, &tool, 2.0, &popts).unwrap();
+    println!(
+        "paths {path_report:?}\n{stats:?}\ncontour {contour:?}\nnearest {program:?}\n{sim:?}",
+        contour = ContourSummary(&contour),
+        program = ContourSummary(&program)
+    );
+    assert!(stats.mean_angle_deg < 15.0, "{stats:?}");
+    assert_eq!(sim.gouge_voxels, 0, "contour: {sim:?}");
+    assert!(sim.removed_fraction > 0.3, "contour: {sim:?}");
+    assert!(
+        contour.poses_used + 10 >= program.poses_used,
+        "{} vs {}",
+        contour.poses_used,
+        program.poses_used
+    );
+    assert!(
+        2 * contour.curve_links > contour.links,
+        "{} of {} links along a curve",
+        contour.curve_links,
+        contour.links
+    );
+    assert_eq!(program.curve_links, 0);
+    assert!(matches!(
+        mill_program_with_paths(&g, &problem, &popts, &ContourPaths { step: 0.0, ..paths.clone() }),
+        Err(FieldError::InvalidConfig { .. })
+    ));
 
     // Typed errors, no panics.
     let bad = ProgramOptions { feed: f64::NAN, ..popts.clone() };

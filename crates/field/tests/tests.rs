@@ -1,7 +1,9 @@
 //! Integration tests of s2g-field: one binary, one module per topic.
 
+mod additive;
 mod derivatives;
 mod errors;
 mod layer;
 mod milling;
+mod path;
 mod sdf;
