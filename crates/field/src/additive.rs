@@ -41,7 +41,7 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Int, Tensor, TensorData};
 use s2g_geom::{Aabb, Mesh, Normalization, Point3, SignedDistance, Vector3, sample_surface};
 
-use crate::backend::{Backend, host_values};
+use crate::backend::{Backend, finite_losses, host_values};
 use crate::error::{FieldError, Result};
 use crate::layer::{LayerGeometry, layer_normal};
 use crate::milling::{
@@ -450,9 +450,10 @@ impl PrintLosses {
             + (self.collision.clone() + self.platform.clone()).mul_scalar(collision_weight)
     }
 
-    /// The seven values, in the order of [`PrintReport::final_losses`].
-    fn values(&self) -> Result<[f32; 7]> {
-        let all = Tensor::cat(
+    /// The seven values, in the order of [`PrintReport::final_losses`], or
+    /// [`FieldError::Diverged`] at `step`.
+    fn values(&self, step: usize) -> Result<[f32; 7]> {
+        let v = finite_losses(
             vec![
                 self.support_free.clone(),
                 self.base.clone(),
@@ -462,9 +463,8 @@ impl PrintLosses {
                 self.zero_gradient.clone(),
                 self.curvature.clone(),
             ],
-            0,
-        );
-        let v = host_values(all.detach())?;
+            step,
+        )?;
         Ok([v[0], v[1], v[2], v[3], v[4], v[5], v[6]])
     }
 }
@@ -711,10 +711,7 @@ pub fn optimize_print_layers(
         let phase = poses.rng.uniform(0.0, std::f64::consts::TAU);
         let losses = print_losses(&g, problem, &pidx, &sidx, phase, &options.constants)?;
         let total = losses.total(&options.weights, options.weights.collision_at(step, options.steps));
-        let values = losses.values()?;
-        if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
-            return Err(FieldError::Diverged { loss: *bad, step });
-        }
+        let values = losses.values(step)?;
         let grads = GradientsParams::from_grads(total.backward(), &g);
         g = opt.step(options.learning_rate, g, grads);
         poses.update(&pidx, &losses.colliding_poses);

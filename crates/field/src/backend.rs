@@ -55,3 +55,14 @@ impl Backend {
 pub(crate) fn host_values<const D: usize>(t: Tensor<D>) -> Result<Vec<f32>> {
     t.try_into_data().map_err(FieldError::backend)?.try_into_vec::<f32>().map_err(FieldError::backend)
 }
+
+/// The values of one step's losses on the host, in order, or [`FieldError::Diverged`] at
+/// `step` with the first that is not finite (the check every optimisation loop makes
+/// before its update).
+pub(crate) fn finite_losses(losses: Vec<Tensor<1>>, step: usize) -> Result<Vec<f32>> {
+    let values = host_values(Tensor::cat(losses, 0).inner())?;
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(&loss) => Err(FieldError::Diverged { loss, step }),
+        None => Ok(values),
+    }
+}

@@ -860,7 +860,7 @@ fn adam_step(
 ) -> Result<(Siren, [f32; 5], Vec<usize>)> {
     let losses = milling_losses_with(&g, problem, tool, idx, phase, &options.constants)?;
     let total = losses.total(&options.weights, collision_weight);
-    let parts = Tensor::cat(
+    let values = crate::backend::finite_losses(
         vec![
             losses.part_collision.clone(),
             losses.layer_collision.clone(),
@@ -868,12 +868,8 @@ fn adam_step(
             losses.zero_gradient.clone(),
             losses.curvature.clone(),
         ],
-        0,
-    );
-    let values = crate::backend::host_values(parts.inner())?;
-    if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
-        return Err(FieldError::Diverged { loss: *bad, step });
-    }
+        step,
+    )?;
     let grads = GradientsParams::from_grads(total.backward(), &g);
     let g = opt.step(options.learning_rate, g, grads);
     Ok((g, [values[0], values[1], values[2], values[3], values[4]], losses.near_poses))

@@ -40,7 +40,7 @@ use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::activation::sigmoid;
 use burn::tensor::{Tensor, TensorData};
 
-use crate::backend::{Backend, host_values};
+use crate::backend::{Backend, finite_losses, host_values};
 use crate::error::{FieldError, Result};
 use s2g_geom::Vector3;
 
@@ -390,11 +390,8 @@ pub fn optimize_path(
             + dir.alignment.clone().mul_scalar(w.alignment)
             + dir.continuity.clone().mul_scalar(w.continuity)
             + curvature.clone().mul_scalar(w.curvature);
-        let parts = Tensor::cat(vec![spacing, dir.alignment, dir.continuity, curvature, total.clone()], 0);
-        let values = host_values(parts.inner())?;
-        if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
-            return Err(FieldError::Diverged { loss: *bad, step });
-        }
+        let values =
+            finite_losses(vec![spacing, dir.alignment, dir.continuity, curvature, total.clone()], step)?;
         last = [values[0], values[1], values[2], values[3]];
         totals[1] = values[4];
         if step == 0 {
