@@ -3,12 +3,15 @@
 //! Table 1: quality and machining time per policy. Table 2: surface coverage of the
 //! orientation strategies. Table 3: fixed fine / fixed coarse / random / chosen
 //! parameters. Table 4: the chosen policy with one clearing strategy (or the contour pass)
-//! removed at a time.
+//! removed at a time. Table 5 (reward ablations) is the policy table of policies trained
+//! with other reward weights (`s2g train --reward-weights`). Learned policies can also be
+//! evaluated fine-tuned on each part (Appendix A.7), and policies trained with different
+//! seeds as one row with a 95 % confidence interval (Appendix A.8).
 
 use serde_json::{Value, json};
 
 use crate::geom::Mesh;
-use crate::learn::LearnedPolicy;
+use crate::learn::{LearnedPolicy, TrainOptions};
 use crate::pipeline::{MillError, MillOptions, Milled, mill};
 use crate::policy::{Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, StrategyKind};
 use crate::voxsim::RewardWeights;
@@ -32,6 +35,46 @@ pub struct Row {
     pub unsafe_parts: usize,
     /// Mean total reward (Eq. 13, the paper's weights; see [`Milled::total_reward`]).
     pub reward: f64,
+    /// For a [seed group](SeedGroup): half-widths of the 95 % confidence intervals of the
+    /// mean over its members (Student's t, one value per member: its mean over the parts).
+    pub ci95: Option<Ci95>,
+}
+
+/// Half-widths of 95 % confidence intervals of a row's means.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Ci95 {
+    /// Of the IoU.
+    pub iou: f64,
+    /// Of the normal consistency.
+    pub normal_consistency: f64,
+    /// Of the machining time, seconds.
+    pub machining_time_s: f64,
+    /// Of the total reward.
+    pub reward: f64,
+}
+
+/// Policies that differ only in their training seed, reported as one row: the mean of
+/// their rows, with confidence intervals (seed 000 Appendix A.8).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SeedGroup {
+    /// The row's name.
+    pub name: String,
+    /// The policies (names as [`policy_by_name`] takes them, usually policy files).
+    pub members: Vec<String>,
+}
+
+/// What [`evaluate`] computes besides the policy rows.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EvalOptions {
+    /// Which tables.
+    pub tables: TableSet,
+    /// When positive, every learned policy (`learned` or a policy file) also gets a row
+    /// `NAME +ftN`: the policy fine-tuned on each part for this many episodes before
+    /// milling it (seed 000 Appendix A.7: five), the episodes milled as the evaluation
+    /// mills. Default 0.
+    pub finetune_episodes: usize,
+    /// Rows of policies trained with different seeds (Appendix A.8).
+    pub seed_groups: Vec<SeedGroup>,
 }
 
 /// Mean surface coverage of the orientation strategies (Table 2).
@@ -58,13 +101,32 @@ pub struct Tables {
     pub parts: Vec<String>,
     /// Table 1 (and 3): one row per policy.
     pub policies: Vec<Row>,
-    /// Table 2.
-    pub orientation: CoverageRow,
+    /// Table 2, when computed.
+    pub orientation: Option<CoverageRow>,
     /// Table 4: the chosen policy without one clearing strategy each.
     pub ablation: Vec<Row>,
 }
 
-/// The policies of Tables 1 and 3, by name: `heuristic`, `random`, `fixed-fine` or `fine` (smallest tool and layer), `fixed-coarse`
+/// Which tables [`evaluate`] computes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TableSet {
+    /// Tables 1 and 3: one row per policy.
+    pub policies: bool,
+    /// Table 2: orientation strategies (from heuristic runs, made if no policy is `heuristic`).
+    pub orientation: bool,
+    /// Table 4: the heuristic policy without one clearing strategy (or the contour) each.
+    pub strategies: bool,
+}
+
+impl Default for TableSet {
+    /// All of them.
+    fn default() -> Self {
+        Self { policies: true, orientation: true, strategies: true }
+    }
+}
+
+/// The policies of Tables 1 and 3, by name: `learned` (the policy shipped in the crate,
+/// [`LearnedPolicy::bundled`]), `heuristic`, `random`, `fixed-fine` or `fine` (smallest tool and layer), `fixed-coarse`
 /// or `coarse` (largest tool and layer), `fixed:RADIUS,LAYER,STRATEGY` (planning units), or
 /// the path of a policy file written by `s2g train`. `None` for anything else.
 pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<dyn Policy>> {
@@ -79,6 +141,7 @@ pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<
         return None;
     }
     match name {
+        "learned" => LearnedPolicy::bundled().ok().map(|p| Box::new(p) as Box<dyn Policy>),
         "heuristic" => Some(Box::new(HeuristicPolicy::default())),
         "random" => Some(Box::new(RandomPolicy::new(seed))),
         "fine" | "fixed-fine" => Some(fixed(0, 0)),
@@ -108,32 +171,112 @@ fn mean_row(name: &str, runs: &[Milled]) -> Row {
         machining_time_s: avg(&|m| m.simulation.machining_time_s),
         unsafe_parts: runs.iter().filter(|m| !m.is_safe()).count(),
         reward: avg(&|m| m.total_reward(&RewardWeights::default())),
+        ci95: None,
     }
 }
 
-/// Evaluates `policies` (see [`policy_by_name`]) on `parts`; `on_run(part, row)` is told
-/// before each run. Table 4 is computed with the heuristic policy.
+/// The two-sided 95 % quantile of Student's t with `dof` degrees of freedom.
+fn t95(dof: usize) -> f64 {
+    const T: [f64; 10] = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228];
+    match dof {
+        0 => f64::NAN,
+        d if d <= T.len() => T[d - 1],
+        d if d <= 30 => 2.228 - (2.228 - 2.042) * (d - 10) as f64 / 20.0,
+        _ => 1.960,
+    }
+}
+
+/// The mean of `rows` (one per seed) named `name`, with 95 % confidence intervals of the
+/// mean (none for a single row).
+fn group_row(name: &str, rows: &[Row]) -> Row {
+    let n = rows.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&Row) -> f64| rows.iter().map(f).sum::<f64>() / n;
+    let half = |f: &dyn Fn(&Row) -> f64| {
+        let m = mean(f);
+        let var = rows.iter().map(|r| (f(r) - m).powi(2)).sum::<f64>() / (n - 1.0);
+        t95(rows.len() - 1) * (var / n).sqrt()
+    };
+    Row {
+        name: name.to_owned(),
+        iou: mean(&|r| r.iou),
+        f1: mean(&|r| r.f1),
+        chamfer_x1000: mean(&|r| r.chamfer_x1000),
+        normal_consistency: mean(&|r| r.normal_consistency),
+        machining_time_s: mean(&|r| r.machining_time_s),
+        unsafe_parts: rows.iter().map(|r| r.unsafe_parts).max().unwrap_or(0),
+        reward: mean(&|r| r.reward),
+        ci95: (rows.len() > 1).then(|| Ci95 {
+            iou: half(&|r| r.iou),
+            normal_consistency: half(&|r| r.normal_consistency),
+            machining_time_s: half(&|r| r.machining_time_s),
+            reward: half(&|r| r.reward),
+        }),
+    }
+}
+
+/// Whether `name` is a learned policy: `learned` or a policy file.
+fn is_learned(name: &str) -> bool {
+    name == "learned" || std::path::Path::new(name).is_file()
+}
+
+/// Evaluates `policies` (see [`policy_by_name`]) on `parts`, for what `eval` asks;
+/// `on_run(part, row)` is told before each run. Table 4 is computed with the heuristic
+/// policy.
 pub fn evaluate(
     parts: &[(String, Mesh)],
     policies: &[String],
+    eval: &EvalOptions,
     opts: &MillOptions,
     on_run: &mut dyn FnMut(&str, &str),
 ) -> Result<Tables, MillError> {
+    let which = eval.tables;
     let space = opts.action_space();
     let mut tables = Tables { parts: parts.iter().map(|(n, _)| n.clone()).collect(), ..Tables::default() };
     let mut heuristic_runs = Vec::new();
-    for name in policies {
+    let milled = |name: &str, finetune: usize, on_run: &mut dyn FnMut(&str, &str)| {
+        let label = if finetune > 0 { format!("{name} +ft{finetune}") } else { name.to_owned() };
         let mut runs = Vec::with_capacity(parts.len());
         for (part, mesh) in parts {
-            on_run(part, name);
-            let mut policy = policy_by_name(name, &space, opts.seed)
-                .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {name:?}")))?;
+            on_run(part, &label);
+            let mut policy = if finetune > 0 {
+                let mut learned = LearnedPolicy::named(name)?;
+                let train = TrainOptions { seed: opts.seed, mill: opts.clone(), ..TrainOptions::default() };
+                learned.finetune(mesh, part, finetune, &train, &mut |_| {})?;
+                Box::new(learned) as Box<dyn Policy>
+            } else {
+                policy_by_name(name, &space, opts.seed)
+                    .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {name:?}")))?
+            };
             runs.push(mill(mesh, policy.as_mut(), opts, &mut |_| {})?);
         }
-        tables.policies.push(mean_row(name, &runs));
+        Ok::<_, MillError>((mean_row(&label, &runs), runs))
+    };
+    for name in policies.iter().filter(|_| which.policies) {
+        let (row, runs) = milled(name, 0, on_run)?;
+        tables.policies.push(row);
         if name == "heuristic" {
             heuristic_runs = runs;
         }
+        if eval.finetune_episodes > 0 && is_learned(name) {
+            tables.policies.push(milled(name, eval.finetune_episodes, on_run)?.0);
+        }
+    }
+    for group in eval.seed_groups.iter().filter(|_| which.policies) {
+        let mut rows = Vec::with_capacity(group.members.len());
+        let mut tuned = Vec::new();
+        for member in &group.members {
+            rows.push(milled(member, 0, on_run)?.0);
+            if eval.finetune_episodes > 0 {
+                tuned.push(milled(member, eval.finetune_episodes, on_run)?.0);
+            }
+        }
+        tables.policies.push(group_row(&group.name, &rows));
+        if !tuned.is_empty() {
+            tables.policies.push(group_row(&format!("{} +ft{}", group.name, eval.finetune_episodes), &tuned));
+        }
+    }
+    if !(which.orientation || which.strategies) {
+        return Ok(tables);
     }
     if heuristic_runs.is_empty() {
         for (part, mesh) in parts {
@@ -143,14 +286,17 @@ pub fn evaluate(
     }
     let n = heuristic_runs.len().max(1) as f64;
     let cov = |f: &dyn Fn(&Milled) -> f64| heuristic_runs.iter().map(f).sum::<f64>() / n;
-    tables.orientation = CoverageRow {
+    tables.orientation = Some(CoverageRow {
         six_axes: cov(&|m| m.orientation.baselines.six_axes),
         random5: cov(&|m| m.orientation.baselines.random5),
         random6: cov(&|m| m.orientation.baselines.random6),
         plain_greedy: cov(&|m| m.orientation.baselines.plain_greedy),
         ours: cov(&|m| m.orientation.final_coverage()),
         upper_bound: cov(&|m| m.orientation.upper_bound),
-    };
+    });
+    if !which.strategies {
+        return Ok(tables);
+    }
     tables.ablation.push(mean_row("none removed", &heuristic_runs));
     for removed in StrategyKind::ALL {
         let strategies: Vec<StrategyKind> = StrategyKind::ALL.into_iter().filter(|&s| s != removed).collect();
@@ -173,27 +319,38 @@ pub fn evaluate(
 }
 
 fn row_json(r: &Row) -> Value {
-    json!({
+    let mut v = json!({
         "name": r.name, "iou": r.iou, "f1": r.f1, "chamfer_x1000": r.chamfer_x1000,
         "normal_consistency": r.normal_consistency, "machining_time_s": r.machining_time_s,
         "unsafe_parts": r.unsafe_parts, "reward": r.reward,
-    })
+    });
+    if let Some(c) = &r.ci95 {
+        v["ci95"] = json!({
+            "iou": c.iou, "normal_consistency": c.normal_consistency,
+            "machining_time_s": c.machining_time_s, "reward": c.reward,
+        });
+    }
+    v
 }
 
 impl Tables {
-    /// The tables as JSON.
+    /// The tables as JSON; a table not computed is left out.
     pub fn to_json(&self) -> Value {
-        let o = &self.orientation;
-        json!({
+        let mut v = json!({
             "parts": self.parts,
             "policies": self.policies.iter().map(|r| (r.name.clone(), row_json(r))).collect::<serde_json::Map<_, _>>(),
             "table1_policies": self.policies.iter().map(row_json).collect::<Vec<_>>(),
-            "table2_orientation": {
+        });
+        if let Some(o) = &self.orientation {
+            v["table2_orientation"] = json!({
                 "six_axes": o.six_axes, "random5": o.random5, "random6": o.random6,
                 "plain_greedy": o.plain_greedy, "ours": o.ours, "upper_bound": o.upper_bound,
-            },
-            "table4_strategy_ablation": self.ablation.iter().map(row_json).collect::<Vec<_>>(),
-        })
+            });
+        }
+        if !self.ablation.is_empty() {
+            v["table4_strategy_ablation"] = self.ablation.iter().map(row_json).collect::<Vec<_>>().into();
+        }
+        v
     }
 
     /// The tables as Markdown, laid out like the paper's.
@@ -201,15 +358,20 @@ impl Tables {
         let rows = |rows: &[Row]| -> String {
             rows.iter()
                 .map(|r| {
+                    let pm = |v: f64, h: Option<f64>, d: usize| match h {
+                        Some(h) => format!("{v:.d$} ± {h:.d$}"),
+                        None => format!("{v:.d$}"),
+                    };
+                    let c = r.ci95.as_ref();
                     format!(
-                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} | {:.4} | {} |\n",
+                        "| {} | {} | {:.3} | {:.3} | {} | {} | {} | {} |\n",
                         r.name,
-                        r.iou,
+                        pm(r.iou, c.map(|c| c.iou), 3),
                         r.f1,
                         r.chamfer_x1000,
-                        r.normal_consistency,
-                        r.machining_time_s,
-                        r.reward,
+                        pm(r.normal_consistency, c.map(|c| c.normal_consistency), 3),
+                        pm(r.machining_time_s, c.map(|c| c.machining_time_s), 1),
+                        pm(r.reward, c.map(|c| c.reward), 4),
                         r.unsafe_parts
                     )
                 })
@@ -217,20 +379,55 @@ impl Tables {
         };
         let head =
             "| | IoU | F1 | CD x1000 | NC | T (s) | reward | unsafe |\n|---|---|---|---|---|---|---|---|\n";
-        let o = &self.orientation;
-        format!(
-            "Parts: {}\n\n### Tables 1 and 3: policies\n\n{head}{}\n### Table 2: orientation selection (surface coverage)\n\n\
-             | 6-axes | Rand(5) | Rand(6) | plain greedy | ours | upper bound |\n|---|---|---|---|---|---|\n\
-             | {:.2}% | {:.2}% | {:.2}% | {:.2}% | {:.2}% | {:.2}% |\n\n### Table 4: clearing strategies removed one at a time\n\n{head}{}",
-            self.parts.join(", "),
-            rows(&self.policies),
-            100.0 * o.six_axes,
-            100.0 * o.random5,
-            100.0 * o.random6,
-            100.0 * o.plain_greedy,
-            100.0 * o.ours,
-            100.0 * o.upper_bound,
-            rows(&self.ablation),
-        )
+        let mut out = format!("Parts: {}\n", self.parts.join(", "));
+        if !self.policies.is_empty() {
+            out += &format!("\n### Tables 1 and 3: policies\n\n{head}{}", rows(&self.policies));
+        }
+        if let Some(o) = &self.orientation {
+            out += &format!(
+                "\n### Table 2: orientation selection (surface coverage)\n\n\
+                 | 6-axes | Rand(5) | Rand(6) | plain greedy | ours | upper bound |\n|---|---|---|---|---|---|\n\
+                 | {:.2}% | {:.2}% | {:.2}% | {:.2}% | {:.2}% | {:.2}% |\n",
+                100.0 * o.six_axes,
+                100.0 * o.random5,
+                100.0 * o.random6,
+                100.0 * o.plain_greedy,
+                100.0 * o.ours,
+                100.0 * o.upper_bound,
+            );
+        }
+        if !self.ablation.is_empty() {
+            out += &format!(
+                "\n### Table 4: clearing strategies removed one at a time\n\n{head}{}",
+                rows(&self.ablation)
+            );
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(iou: f64, reward: f64) -> Row {
+        Row { name: "x".into(), iou, reward, machining_time_s: 10.0 * reward, ..Row::default() }
+    }
+
+    /// Three seeds: the mean and Student's t interval with two degrees of freedom
+    /// (t = 4.303), checked by hand; one seed has no interval.
+    #[test]
+    fn seed_groups_are_means_with_student_t_intervals() {
+        let g = group_row("learned", &[row(0.80, 3.0), row(0.84, 3.3), row(0.82, 3.6)]);
+        assert!((g.iou - 0.82).abs() < 1e-12 && (g.reward - 3.3).abs() < 1e-12, "{g:?}");
+        let c = g.ci95.expect("three seeds have an interval");
+        // sd(iou) = 0.02, sd(reward) = 0.3, n = 3.
+        assert!((c.iou - 4.303 * 0.02 / 3f64.sqrt()).abs() < 1e-9, "{c:?}");
+        assert!((c.reward - 4.303 * 0.3 / 3f64.sqrt()).abs() < 1e-9, "{c:?}");
+        assert!((c.machining_time_s - 10.0 * c.reward).abs() < 1e-9, "{c:?}");
+        assert!(group_row("one", &[row(0.8, 3.0)]).ci95.is_none());
+        assert_eq!(t95(1), 12.706);
+        assert_eq!(t95(1000), 1.960);
+        assert!(t95(20) < t95(10) && t95(20) > t95(1000));
     }
 }

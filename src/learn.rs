@@ -25,12 +25,15 @@
 //! unit cube at 100 mm), so that it does not change with the grid's resolution.
 //!
 //! A deterministic environment repeats itself: the outcome of every action sequence tried
-//! is kept, and an episode replays the simulation only when it leaves what was tried.
+//! is kept, and an episode simulates only when it leaves what was tried. It then continues
+//! a copy of the run at the longest prefix of its actions that was simulated (copies are
+//! kept for the most recent [`MachiningEnv::SNAPSHOTS`] prefixes and for every part's
+//! start), so no setup is machined twice while its copy is kept.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::path::Path;
 
-use s2g_rl::{Dqn, DqnConfig, Encoder, Environment, EpisodeStats, RlError, Step};
+use s2g_rl::{DgcnnConfig, DgcnnEncoder, Dqn, DqnConfig, Encoder, Environment, EpisodeStats, RlError, Step};
 use serde::{Deserialize, Serialize};
 
 use crate::geom::Mesh;
@@ -71,20 +74,157 @@ impl Encoder for GeometricEncoder {
     }
 }
 
+/// The shape encoders a policy can read its states from.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum EncoderKind {
+    /// The cheap [`GeometricEncoder`] (the default).
+    #[default]
+    Geometric,
+    /// A DGCNN ([`DgcnnEncoder`], seed 000 §3.5) on the setup's visible surface samples
+    /// ([`SetupFeatures::points`]). Its weights are the config's seeded initialisation,
+    /// frozen: no pretrained DGCNN can be had offline, and the Q-network learns on top of
+    /// the random EdgeConv features.
+    Dgcnn(DgcnnConfig),
+}
+
+/// A built encoder of [`SetupFeatures`]: what [`EncoderKind`] names.
+pub enum SetupEncoder {
+    /// See [`GeometricEncoder`].
+    Geometric(GeometricEncoder),
+    /// See [`EncoderKind::Dgcnn`].
+    Dgcnn(Box<DgcnnEncoder>),
+}
+
+impl std::fmt::Debug for SetupEncoder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Geometric(g) => f.debug_tuple("Geometric").field(g).finish(),
+            Self::Dgcnn(d) => f.debug_tuple("Dgcnn").field(d.config()).finish(),
+        }
+    }
+}
+
+impl SetupEncoder {
+    /// The encoder `kind` names for an action space of `radii` tool radii.
+    pub fn new(kind: &EncoderKind, radii: usize) -> Result<Self, MillError> {
+        Ok(match kind {
+            EncoderKind::Geometric => Self::Geometric(GeometricEncoder { radii }),
+            EncoderKind::Dgcnn(config) => {
+                Self::Dgcnn(Box::new(DgcnnEncoder::new(config.clone()).map_err(rl_error)?))
+            }
+        })
+    }
+
+    /// The name policy files give it: `geometric` or `dgcnn`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Geometric(_) => "geometric",
+            Self::Dgcnn(_) => "dgcnn",
+        }
+    }
+}
+
+impl Encoder for SetupEncoder {
+    type Input = SetupFeatures;
+
+    fn dim(&self) -> usize {
+        match self {
+            Self::Geometric(g) => g.dim(),
+            Self::Dgcnn(d) => d.dim(),
+        }
+    }
+
+    fn encode(&self, f: &SetupFeatures) -> Vec<f32> {
+        match self {
+            Self::Geometric(g) => g.encode(f),
+            Self::Dgcnn(d) => d.encode(&f.points),
+        }
+    }
+}
+
 /// The state the Q-network reads: the encoder's features, then the setup's index over the
 /// number of setups and the fraction of the stock still to remove.
-pub fn observation(encoder: &GeometricEncoder, ctx: &SetupContext<'_>) -> Vec<f32> {
+pub fn observation(encoder: &impl Encoder<Input = SetupFeatures>, ctx: &SetupContext<'_>) -> Vec<f32> {
     let mut s = encoder.encode(ctx.features);
     s.push(ctx.index as f32 / ctx.setups.max(1) as f32);
     s.push(ctx.features.removal_fraction.clamp(0.0, 1.0) as f32);
     s
 }
 
-/// The state of `run`'s next setup.
-fn state(encoder: &GeometricEncoder, run: &MillRun) -> Vec<f32> {
-    let features = run.features();
-    observation(encoder, &run.context(&features))
+/// What the state of a setup is made of: its features (the removal fraction as left by
+/// the setups before it), its index and the number of setups.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct View {
+    features: SetupFeatures,
+    index: usize,
+    setups: usize,
 }
+
+impl View {
+    /// The view of `run`'s next setup.
+    fn of(run: &MillRun) -> Self {
+        Self { features: run.features(), index: run.machined().len(), setups: run.setup_count() }
+    }
+
+    fn state(&self, encoder: &SetupEncoder, space: &ActionSpace) -> Vec<f32> {
+        let ctx = SetupContext { index: self.index, setups: self.setups, space, features: &self.features };
+        observation(encoder, &ctx)
+    }
+}
+
+/// What one step gave, whatever the encoder and the reward weights, so that it can be
+/// kept, shared by trainings and written to an [outcome file](MachiningEnv::save_outcomes).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Outcome {
+    /// `R_s` after the step (Eq. 10).
+    preservation: f64,
+    /// `R_f` (Eq. 11) after the last step, 0 before.
+    final_iou: f64,
+    /// `R_MRR` (Eq. 12, cm³/min) after the last step, 0 before.
+    mrr_cm3_per_min: f64,
+    /// The next setup; `None` once every setup is machined.
+    next: Option<View>,
+}
+
+impl Outcome {
+    /// The outcome of the step that machined `run`'s latest setup.
+    fn of(run: &MillRun) -> Result<Self, MillError> {
+        let r = run.rewards(&RewardWeights::default())?;
+        let last = run.next_setup().is_none();
+        Ok(Self {
+            preservation: r.preservation,
+            final_iou: if last { r.final_iou } else { 0.0 },
+            mrr_cm3_per_min: if last { run.report().mrr_mm3_per_min / 1000.0 } else { 0.0 },
+            next: (!last).then(|| View::of(run)),
+        })
+    }
+
+    /// The step: `λ_s R_s`, plus `λ_f R_f + λ_MRR R_MRR` on the last step (Eq. 13).
+    fn step(&self, w: &RewardWeights, encoder: &SetupEncoder, space: &ActionSpace) -> Step {
+        let reward = w.lambda_s * self.preservation
+            + w.lambda_f * self.final_iou
+            + w.lambda_mrr * self.mrr_cm3_per_min;
+        let state = match &self.next {
+            Some(view) => view.state(encoder, space),
+            None => vec![0.0; encoder.dim() + 2],
+        };
+        Step { state, reward: reward as f32, done: self.next.is_none() }
+    }
+}
+
+/// One line of an outcome file: a part's first view (empty prefix) or a step's outcome.
+#[derive(Debug, Serialize, Deserialize)]
+struct OutcomeLine {
+    /// The part's [fingerprint](MachiningEnv::fingerprint).
+    part: String,
+    prefix: Vec<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    first: Option<View>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    outcome: Option<Outcome>,
+}
+
+const OUTCOME_MAGIC: &str = "S2GOUTCOMES 1";
 
 /// Options of [`train_policy`] and of the machining environment.
 #[derive(Debug, Clone, PartialEq)]
@@ -103,6 +243,12 @@ pub struct TrainOptions {
     /// The agent. Default: the paper's network (two layers of 128, Adam 1e-3, γ 0.95,
     /// ε 1 → 0.01) with the buffer, batch and schedule scaled to a few hundred steps.
     pub dqn: DqnConfig,
+    /// The shape encoder of the states. Default [`EncoderKind::Geometric`].
+    pub encoder: EncoderKind,
+    /// An outcome file ([`MachiningEnv::save_outcomes`]): read before training, so that
+    /// what an earlier training (any encoder, seed or reward weights) simulated is not
+    /// simulated again, and written after it. Default `None`.
+    pub outcomes: Option<std::path::PathBuf>,
 }
 
 impl Default for TrainOptions {
@@ -126,6 +272,8 @@ impl Default for TrainOptions {
                 target_sync_every: 100,
                 ..DqnConfig::default()
             },
+            encoder: EncoderKind::Geometric,
+            outcomes: None,
         }
     }
 }
@@ -133,86 +281,224 @@ impl Default for TrainOptions {
 /// The machining environment: one episode mills one part of the corpus, one step one setup.
 pub struct MachiningEnv {
     parts: Vec<(String, Mesh)>,
+    /// Per part: its name, a hash of its mesh and one of the milling options.
+    fingerprints: Vec<String>,
     opts: MillOptions,
     weights: RewardWeights,
-    encoder: GeometricEncoder,
+    encoder: SetupEncoder,
     space: ActionSpace,
     /// The part of the current episode and the actions taken so far.
     part: usize,
     taken: Vec<usize>,
-    /// A run at some prefix of `taken` (`None` until one is needed).
-    run: Option<(usize, Vec<usize>, MillRun)>,
-    /// Every (part, action prefix) tried: the step it gave.
-    outcomes: HashMap<(usize, Vec<usize>), Step>,
-    /// First states per part.
-    first: HashMap<usize, Vec<f32>>,
+    /// Every (part, action prefix) tried: what it gave.
+    outcomes: HashMap<(usize, Vec<usize>), Outcome>,
+    /// Per part: the view of its first setup.
+    first: HashMap<usize, View>,
+    /// Per part: its run before any setup is machined (made when first needed).
+    bases: HashMap<usize, MillRun>,
+    /// Runs after the setups of a (part, action prefix), the most recent first out of
+    /// `order` once there are more than [`SNAPSHOTS`](Self::SNAPSHOTS).
+    snapshots: HashMap<(usize, Vec<usize>), MillRun>,
+    order: VecDeque<(usize, Vec<usize>)>,
 }
 
 impl MachiningEnv {
-    /// An environment over `parts` (named meshes) milled with `opts`, rewarded with `weights`.
+    /// An environment over `parts` (named meshes) milled with `opts`, rewarded with
+    /// `weights`, its states from the geometric encoder.
     pub fn new(
         parts: Vec<(String, Mesh)>,
         opts: MillOptions,
         weights: RewardWeights,
     ) -> Result<Self, MillError> {
+        Self::with_encoder(parts, opts, weights, &EncoderKind::Geometric)
+    }
+
+    /// [`new`](Self::new) with the states from `encoder`.
+    pub fn with_encoder(
+        parts: Vec<(String, Mesh)>,
+        opts: MillOptions,
+        weights: RewardWeights,
+        encoder: &EncoderKind,
+    ) -> Result<Self, MillError> {
         if parts.is_empty() {
             return Err(MillError::InvalidOption("the training corpus has no part".into()));
         }
         let space = opts.action_space();
+        let opts = per_setup(&opts);
         Ok(Self {
+            fingerprints: parts.iter().map(|(name, mesh)| Self::fingerprint(name, mesh, &opts)).collect(),
             parts,
-            encoder: GeometricEncoder { radii: space.radii.len() },
+            encoder: SetupEncoder::new(encoder, space.radii.len())?,
             space,
-            opts: per_setup(&opts),
+            opts,
             weights,
             part: 0,
             taken: Vec::new(),
-            run: None,
             outcomes: HashMap::new(),
             first: HashMap::new(),
+            bases: HashMap::new(),
+            snapshots: HashMap::new(),
+            order: VecDeque::new(),
         })
     }
+
+    /// Most runs kept at action prefixes besides each part's start.
+    pub const SNAPSHOTS: usize = 256;
 
     /// The action space (planning units).
     pub fn space(&self) -> &ActionSpace {
         &self.space
     }
 
+    /// What identifies a part's outcomes in an outcome file: its name, then an FNV-1a hash
+    /// of its vertices, faces and the milling options (outcomes of another mesh or other
+    /// options are not reused).
+    fn fingerprint(name: &str, mesh: &Mesh, opts: &MillOptions) -> String {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bytes: &[u8]| {
+            for &b in bytes {
+                h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+            }
+        };
+        for v in mesh.vertices() {
+            v.coords.iter().for_each(|c| eat(&c.to_bits().to_le_bytes()));
+        }
+        for f in mesh.triangles() {
+            f.iter().for_each(|i| eat(&i.to_le_bytes()));
+        }
+        eat(format!("{opts:?}").as_bytes());
+        format!("{name}#{h:016x}")
+    }
+
+    /// Reads the outcomes in `path` (written by [`save_outcomes`](Self::save_outcomes)) of
+    /// this environment's parts and options, and returns how many it took. A missing file
+    /// is no outcome; a file that is not an outcome file is an error. Outcomes are
+    /// deterministic, so a training that reads them gives what it would have simulated.
+    pub fn load_outcomes(&mut self, path: &Path) -> Result<usize, MillError> {
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+            Err(e) => return Err(MillError::InvalidOption(format!("{}: {e}", path.display()))),
+        };
+        let mut lines = text.lines();
+        if lines.next() != Some(OUTCOME_MAGIC) {
+            return Err(MillError::InvalidOption(format!("{}: not an outcome file", path.display())));
+        }
+        let index: HashMap<&str, usize> =
+            self.fingerprints.iter().enumerate().map(|(i, f)| (f.as_str(), i)).collect();
+        let mut taken = 0;
+        for (n, line) in lines.enumerate() {
+            let entry: OutcomeLine = serde_json::from_str(line)
+                .map_err(|e| MillError::InvalidOption(format!("{}:{}: {e}", path.display(), n + 2)))?;
+            let Some(&part) = index.get(entry.part.as_str()) else { continue };
+            if entry.prefix.iter().any(|&a| a >= self.space.len()) {
+                continue;
+            }
+            if let Some(view) = entry.first {
+                self.first.insert(part, view);
+                taken += 1;
+            }
+            if let Some(outcome) = entry.outcome {
+                self.outcomes.insert((part, entry.prefix), outcome);
+                taken += 1;
+            }
+        }
+        Ok(taken)
+    }
+
+    /// Writes every outcome this environment knows to `path`, atomically, in a fixed
+    /// order (one JSON line each after a magic line).
+    pub fn save_outcomes(&self, path: &Path) -> Result<(), MillError> {
+        let mut lines: Vec<(usize, Vec<usize>, String)> = Vec::new();
+        let json =
+            |e: &OutcomeLine| serde_json::to_string(e).map_err(|e| MillError::InvalidOption(e.to_string()));
+        for (&part, view) in &self.first {
+            let e = OutcomeLine {
+                part: self.fingerprints[part].clone(),
+                prefix: Vec::new(),
+                first: Some(view.clone()),
+                outcome: None,
+            };
+            lines.push((part, Vec::new(), json(&e)?));
+        }
+        for ((part, prefix), outcome) in &self.outcomes {
+            let e = OutcomeLine {
+                part: self.fingerprints[*part].clone(),
+                prefix: prefix.clone(),
+                first: None,
+                outcome: Some(outcome.clone()),
+            };
+            lines.push((*part, prefix.clone(), json(&e)?));
+        }
+        lines.sort();
+        let mut text = String::from(OUTCOME_MAGIC);
+        text.push('\n');
+        for (_, _, l) in lines {
+            text.push_str(&l);
+            text.push('\n');
+        }
+        crate::geom::write_bytes_atomic(path, text.as_bytes())?;
+        Ok(())
+    }
+
     /// Starts an episode on `part`: its first state, computed once per part.
     fn start(&mut self, part: usize) -> Result<Vec<f32>, MillError> {
         self.part = part;
         self.taken.clear();
-        if let Some(s) = self.first.get(&part) {
-            return Ok(s.clone());
+        if !self.first.contains_key(&part) {
+            let run = self.base(part)?;
+            let view = View::of(&run);
+            self.first.insert(part, view);
         }
-        let run = self.fresh_run(part)?;
-        let s = state(&self.encoder, &run);
-        self.first.insert(part, s.clone());
-        self.run = Some((part, Vec::new(), run));
-        Ok(s)
+        Ok(self.first[&part].state(&self.encoder, &self.space))
     }
 
-    fn fresh_run(&self, part: usize) -> Result<MillRun, MillError> {
-        MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})
+    /// A copy of `part`'s run before any setup.
+    fn base(&mut self, part: usize) -> Result<MillRun, MillError> {
+        if let Some(run) = self.bases.get(&part) {
+            return Ok(run.clone());
+        }
+        let run = MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})?;
+        self.bases.insert(part, run.clone());
+        Ok(run)
     }
 
-    /// Brings the kept run to the current prefix: replays the missing setups when it is at
-    /// a prefix of it, else starts the part again.
-    fn sync_run(&mut self) -> Result<(), MillError> {
-        let usable =
-            matches!(&self.run, Some((p, done, _)) if *p == self.part && self.taken.starts_with(done));
-        if !usable {
-            self.run = Some((self.part, Vec::new(), self.fresh_run(self.part)?));
-        }
-        if let Some((_, done, run)) = self.run.as_mut() {
-            while done.len() < self.taken.len() {
-                let a = self.taken[done.len()];
-                let action = self.space.action(a).ok_or_else(|| bad_action(a, self.space.len()))?;
-                run.machine(action, &mut |_| {})?;
-                done.push(a);
+    /// A run after the current episode's actions: a copy of the one kept at the longest
+    /// prefix of them, with the setups after that prefix machined.
+    fn run_at_taken(&mut self) -> Result<MillRun, MillError> {
+        let part = self.part;
+        let mut done = self.taken.len();
+        let mut run = loop {
+            if done == 0 {
+                break self.base(part)?;
             }
+            if let Some(run) = self.snapshots.get(&(part, self.taken[..done].to_vec())) {
+                break run.clone();
+            }
+            done -= 1;
+        };
+        for k in done..self.taken.len() {
+            let a = self.taken[k];
+            let action = self.space.action(a).ok_or_else(|| bad_action(a, self.space.len()))?;
+            run.machine(action, &mut |_| {})?;
+            run.forget_programs();
+            self.keep(part, self.taken[..=k].to_vec(), &run);
         }
-        Ok(())
+        Ok(run)
+    }
+
+    /// Keeps a copy of `run`, the run after `prefix`, unless it is complete.
+    fn keep(&mut self, part: usize, prefix: Vec<usize>, run: &MillRun) {
+        if run.next_setup().is_none() || self.snapshots.contains_key(&(part, prefix.clone())) {
+            return;
+        }
+        if self.order.len() >= Self::SNAPSHOTS
+            && let Some(old) = self.order.pop_front()
+        {
+            self.snapshots.remove(&old);
+        }
+        self.order.push_back((part, prefix.clone()));
+        self.snapshots.insert((part, prefix), run.clone());
     }
 }
 
@@ -242,24 +528,19 @@ impl Environment for MachiningEnv {
         }
         let mut key = (self.part, self.taken.clone());
         key.1.push(action);
-        if let Some(step) = self.outcomes.get(&key) {
+        if let Some(outcome) = self.outcomes.get(&key) {
             self.taken.push(action);
-            return Ok(step.clone());
+            return Ok(outcome.step(&self.weights, &self.encoder, &self.space));
         }
-        self.sync_run()?;
+        let mut run = self.run_at_taken()?;
         let chosen = self.space.action(action).ok_or_else(|| bad_action(action, self.space.len()))?;
-        let state_dim = self.encoder.dim() + 2;
-        let Some((_, done_actions, run)) = self.run.as_mut() else {
-            return Err(MillError::InvalidOption("no run to step (reset first)".into()));
-        };
         run.machine(chosen, &mut |_| {})?;
-        done_actions.push(action);
+        run.forget_programs();
         self.taken.push(action);
-        let done = run.next_setup().is_none();
-        let reward = step_reward(run, &self.weights)?;
-        let state = if done { vec![0.0; state_dim] } else { state(&self.encoder, run) };
-        let step = Step { state, reward: reward as f32, done };
-        self.outcomes.insert(key, step.clone());
+        self.keep(self.part, self.taken.clone(), &run);
+        let outcome = Outcome::of(&run)?;
+        let step = outcome.step(&self.weights, &self.encoder, &self.space);
+        self.outcomes.insert(key, outcome);
         Ok(step)
     }
 }
@@ -267,8 +548,11 @@ impl Environment for MachiningEnv {
 /// What a policy file says about how its network was made.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PolicyInfo {
-    /// The encoder its states come from (`geometric`).
+    /// The encoder its states come from (`geometric` or `dgcnn`).
     pub encoder: String,
+    /// The DGCNN's shape when `encoder` is `dgcnn` (its weights are its seed's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dgcnn: Option<DgcnnShape>,
     /// Hidden layer widths of the Q-network.
     pub hidden: Vec<usize>,
     /// Length of its states.
@@ -290,14 +574,51 @@ pub struct PolicyInfo {
     pub resolution: usize,
 }
 
+/// The shape and seed of a policy's DGCNN encoder, as its file states them.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DgcnnShape {
+    /// Neighbours per point.
+    pub k: usize,
+    /// EdgeConv widths.
+    pub edge_widths: Vec<usize>,
+    /// Embedding width (features are twice as long).
+    pub embedding: usize,
+    /// Seed of the weights.
+    pub seed: u64,
+}
+
+impl DgcnnShape {
+    fn of(config: &DgcnnConfig) -> Self {
+        Self {
+            k: config.k,
+            edge_widths: config.edge_widths.clone(),
+            embedding: config.embedding,
+            seed: config.seed,
+        }
+    }
+
+    fn config(&self) -> DgcnnConfig {
+        DgcnnConfig {
+            k: self.k,
+            edge_widths: self.edge_widths.clone(),
+            embedding: self.embedding,
+            seed: self.seed,
+            ..DgcnnConfig::default()
+        }
+    }
+}
+
 /// A trained DQN as a [`Policy`]: the greedy action of its Q-network on the setup's state.
 pub struct LearnedPolicy {
     agent: Dqn,
     info: PolicyInfo,
-    encoder: GeometricEncoder,
+    encoder: SetupEncoder,
 }
 
 const POLICY_MAGIC: &[u8; 10] = b"S2GPOLICY\n";
+
+/// The bytes of [`LearnedPolicy::bundled`].
+const BUNDLED_POLICY: &[u8] = include_bytes!("../assets/policy/learned.s2gp");
 
 impl std::fmt::Debug for LearnedPolicy {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -309,6 +630,18 @@ impl LearnedPolicy {
     /// What the file says about the policy.
     pub fn info(&self) -> &PolicyInfo {
         &self.info
+    }
+
+    /// The policy shipped in the crate (`assets/policy/learned.s2gp`, built in): trained by
+    /// `s2g train` on the repository's training split of meshes, never on its evaluation
+    /// split (`assets/policy/README.md` says which and how).
+    pub fn bundled() -> Result<Self, MillError> {
+        Self::from_bytes(BUNDLED_POLICY, Path::new("assets/policy/learned.s2gp"))
+    }
+
+    /// `learned` (the [bundled](Self::bundled) policy) or the path of a policy file.
+    pub fn named(name: &str) -> Result<Self, MillError> {
+        if name == "learned" { Self::bundled() } else { Self::load(Path::new(name)) }
     }
 
     /// Reads a policy file written by [`save`](Self::save).
@@ -326,14 +659,17 @@ impl LearnedPolicy {
         let info: PolicyInfo = serde_json::from_slice(&rest[..eol]).map_err(|e| bad(e.to_string()))?;
         let config = DqnConfig { hidden: info.hidden.clone(), ..DqnConfig::default() };
         let agent = Dqn::from_bytes(&rest[eol + 1..], config).map_err(|e| bad(e.to_string()))?;
-        if info.encoder != "geometric" {
-            return Err(bad(format!("unknown encoder {:?}", info.encoder)));
-        }
-        let encoder = GeometricEncoder { radii: info.radii.len() };
+        let kind = match (info.encoder.as_str(), &info.dgcnn) {
+            ("geometric", _) => EncoderKind::Geometric,
+            ("dgcnn", Some(shape)) => EncoderKind::Dgcnn(shape.config()),
+            (e, _) => return Err(bad(format!("unknown encoder {e:?}"))),
+        };
+        let encoder = SetupEncoder::new(&kind, info.radii.len()).map_err(|e| bad(e.to_string()))?;
         if agent.state_dim() != encoder.dim() + 2 || agent.state_dim() != info.state_dim {
             return Err(bad(format!(
-                "states of {} values, the encoder gives {}",
+                "states of {} values, the {} encoder gives {}",
                 agent.state_dim(),
+                encoder.name(),
                 encoder.dim() + 2
             )));
         }
@@ -367,6 +703,14 @@ impl LearnedPolicy {
             && self.info.strategies.iter().map(String::as_str).eq(space.strategies.iter().map(|s| s.name()))
     }
 
+    /// The kind of encoder the policy reads.
+    fn encoder_kind(&self) -> EncoderKind {
+        match &self.encoder {
+            SetupEncoder::Geometric(_) => EncoderKind::Geometric,
+            SetupEncoder::Dgcnn(d) => EncoderKind::Dgcnn(d.config().clone()),
+        }
+    }
+
     /// Fine-tunes the policy on one part for `episodes` episodes (Appendix A.7: five),
     /// exploring from ε = 0.1 down, and returns each episode's return.
     pub fn finetune(
@@ -388,8 +732,12 @@ impl LearnedPolicy {
         };
         let bytes = self.agent.to_bytes().map_err(rl_error)?;
         let mut agent = Dqn::from_bytes(&bytes, DqnConfig { seed: opts.seed, ..config }).map_err(rl_error)?;
-        let mut env =
-            MachiningEnv::new(vec![(name.to_owned(), mesh.clone())], opts.mill.clone(), opts.weights)?;
+        let mut env = MachiningEnv::with_encoder(
+            vec![(name.to_owned(), mesh.clone())],
+            opts.mill.clone(),
+            opts.weights,
+            &self.encoder_kind(),
+        )?;
         let mut returns = Vec::with_capacity(episodes);
         agent
             .train(&mut env, episodes, |e| {
@@ -433,17 +781,29 @@ pub fn train_policy(
     opts: &TrainOptions,
     on_episode: &mut dyn FnMut(EpisodeStats),
 ) -> Result<LearnedPolicy, MillError> {
-    let mut env = MachiningEnv::new(parts.to_vec(), opts.mill.clone(), opts.weights)?;
+    let mut env = MachiningEnv::with_encoder(parts.to_vec(), opts.mill.clone(), opts.weights, &opts.encoder)?;
+    if let Some(path) = &opts.outcomes {
+        env.load_outcomes(path)?;
+    }
     let mut agent =
         Dqn::for_env(DqnConfig { seed: opts.seed, ..opts.dqn.clone() }, &env).map_err(rl_error)?;
-    agent.train(&mut env, opts.episodes, on_episode).map_err(rl_error)?;
+    let trained = agent.train(&mut env, opts.episodes, on_episode).map_err(rl_error);
+    // What was simulated is kept even when training failed part way.
+    if let Some(path) = &opts.outcomes {
+        env.save_outcomes(path)?;
+    }
+    trained?;
     let space = env.space();
     let scale = match opts.mill.preset {
         Preset::Paper => opts.mill.paper_scale_mm,
         Preset::Shop => 1.0,
     };
     let info = PolicyInfo {
-        encoder: "geometric".into(),
+        encoder: env.encoder.name().into(),
+        dgcnn: match &opts.encoder {
+            EncoderKind::Geometric => None,
+            EncoderKind::Dgcnn(config) => Some(DgcnnShape::of(config)),
+        },
         hidden: opts.dqn.hidden.clone(),
         state_dim: env.state_dim(),
         radii: space.radii.iter().map(|r| r / scale).collect(),
@@ -454,18 +814,7 @@ pub fn train_policy(
         seed: opts.seed,
         resolution: opts.mill.resolution,
     };
-    Ok(LearnedPolicy { encoder: GeometricEncoder { radii: info.radii.len() }, agent, info })
-}
-
-/// The reward of the step that machined `run`'s latest setup: `λ_s R_s` (Eq. 10), plus
-/// `λ_f R_f + λ_MRR R_MRR` (Eq. 11-12, `R_MRR` in cm³/min) once every setup is machined.
-fn step_reward(run: &MillRun, w: &RewardWeights) -> Result<f64, MillError> {
-    let r = run.rewards(w)?;
-    let mut reward = w.lambda_s * r.preservation;
-    if run.next_setup().is_none() {
-        reward += w.lambda_f * r.final_iou + w.lambda_mrr * run.report().mrr_mm3_per_min / 1000.0;
-    }
-    Ok(reward)
+    Ok(LearnedPolicy { encoder: env.encoder, agent, info })
 }
 
 /// Rewards follow each setup only in the per-setup layout.

@@ -19,7 +19,9 @@ mod policy;
 mod render;
 mod report;
 
-pub use crate::eval::{CoverageRow, Row, Tables, evaluate, policy_by_name};
+pub use crate::eval::{
+    Ci95, CoverageRow, EvalOptions, Row, SeedGroup, TableSet, Tables, evaluate, policy_by_name,
+};
 pub use crate::fdm::{
     Bead, BeadShape, Deposition, Extrusion, FdmError, FdmOptions, FdmOutput, FdmReport, FdmStageSeconds,
     Reconstruction, Solid, deposit_beads, deposit_beads_naive, extract_beads, indexed_check, profile_area,
@@ -31,7 +33,8 @@ pub use crate::feature::{
     feature_writer_options, load_job, parse_job,
 };
 pub use crate::learn::{
-    GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, TrainOptions, observation, train_policy,
+    DgcnnShape, EncoderKind, GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, SetupEncoder,
+    TrainOptions, observation, train_policy,
 };
 pub use crate::pipeline::{
     MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,

@@ -384,6 +384,10 @@ pub fn mill(
 /// up to date after each setup. The rotary layout's one program is parsed in one pass, so
 /// its setups are cut in `finish`, and until then `rewards` and the features' removal
 /// fraction describe the uncut stock.
+///
+/// A run is `Clone`: a copy continues independently from the same state (the learning
+/// environment keeps copies at the action prefixes it has simulated).
+#[derive(Clone)]
 pub struct MillRun {
     opts: MillOptions,
     /// The input mesh in the unit cube, for scoring.
@@ -633,6 +637,14 @@ impl MillRun {
         self.sim.borrow().report().clone()
     }
 
+    /// Drops what only [`finish`](Self::finish) needs of the setups machined so far (their
+    /// program texts, the first setup's trace), so that a copy of the run kept to continue
+    /// from costs only its geometry.
+    pub(crate) fn forget_programs(&mut self) {
+        self.setups.iter_mut().for_each(|s| s.text = String::new());
+        self.trace = PathTrace::default();
+    }
+
     /// The setups machined so far (per-setup layout; empty for the rotary layout until
     /// [`finish`](Self::finish)).
     pub fn machined(&self) -> &[SetupProgram] {
@@ -778,6 +790,7 @@ fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
 }
 
 /// What one setup is planned with.
+#[derive(Clone)]
 struct Job {
     setup: Setup,
     action: Action,

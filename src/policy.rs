@@ -137,7 +137,7 @@ pub struct SetupContext<'a> {
 
 /// Cheap geometric facts about one setup's manufacturable shape, for the heuristic
 /// policy and as the learned policy's encoder input.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SetupFeatures {
     /// For each radius of the action space, the fraction of the setup's visible surface
     /// samples that a ball of that radius can touch (1 = the radius loses nothing).

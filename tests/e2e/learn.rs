@@ -147,3 +147,125 @@ fn a_trained_policy_saves_loads_and_mills_like_itself() {
     assert!(LearnedPolicy::load(&dir.path().join("missing")).is_err());
     assert!(policy_by_name("no-such-policy", &space, 0).is_none());
 }
+
+/// The DGCNN encoder plugs into the same environment and policy files: its states are the
+/// DGCNN's features of the setup's surface points (plus the progress), a policy trained on
+/// them saves its encoder's shape, and the loaded policy mills as the saved one did.
+#[test]
+fn a_dgcnn_policy_trains_saves_and_loads() {
+    use shape2gcode::rl::DgcnnConfig;
+    use shape2gcode::{EncoderKind, MachiningEnv};
+    let (parts, opts) = cheap();
+    let config =
+        DgcnnConfig { k: 8, edge_widths: vec![16, 16], embedding: 32, seed: 5, ..DgcnnConfig::default() };
+    let encoder = EncoderKind::Dgcnn(config);
+    let mut env =
+        MachiningEnv::with_encoder(parts.clone(), opts.clone(), RewardWeights::default(), &encoder).unwrap();
+    assert_eq!(env.state_dim(), 2 * 32 + 2, "max and mean pooling of 32, then the progress");
+    let s = env.reset(0).unwrap();
+    assert!(s.iter().all(|v| v.is_finite()) && s[..64].iter().any(|&v| v != 0.0), "{s:?}");
+
+    let train = TrainOptions {
+        episodes: 3,
+        seed: 1,
+        mill: opts.clone(),
+        dqn: DqnConfig { hidden: vec![8], learning_starts: 2, batch_size: 2, ..TrainOptions::default().dqn },
+        encoder,
+        ..TrainOptions::default()
+    };
+    let mut policy = train_policy(&parts, &train, &mut |_| {}).unwrap();
+    assert_eq!(policy.info().encoder, "dgcnn");
+    assert_eq!(policy.info().dgcnn.as_ref().map(|d| d.embedding), Some(32));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("dgcnn.s2gp");
+    policy.save(&path).unwrap();
+    let mut loaded = LearnedPolicy::load(&path).unwrap();
+    assert_eq!(loaded.info(), policy.info());
+    let a = mill(&parts[0].1, &mut policy, &opts, &mut |_| {}).unwrap();
+    let b = mill(&parts[0].1, &mut loaded, &opts, &mut |_| {}).unwrap();
+    assert_eq!(a.programs, b.programs);
+}
+
+/// The policy shipped in the crate loads, speaks the paper's action space, and was trained
+/// only on the training split, never on a part of the evaluation split
+/// (`assets/policy/README.md`).
+#[test]
+fn the_bundled_policy_is_trained_on_the_training_split_only() {
+    let policy = LearnedPolicy::bundled().expect("assets/policy/learned.s2gp");
+    let info = policy.info();
+    let space = shape2gcode::ActionSpace::paper();
+    assert_eq!(info.radii, space.radii);
+    assert_eq!(info.layer_heights, space.layer_heights);
+    assert_eq!(info.strategies, ["zigzag", "periphery", "spiral"]);
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/policy/README.md")).unwrap();
+    let listed = |heading: &str| -> Vec<String> {
+        let section = readme.split(heading).nth(1).unwrap_or_else(|| panic!("README lacks {heading:?}"));
+        section
+            .lines()
+            .skip(1)
+            .take_while(|l| !l.starts_with('#'))
+            .filter_map(|l| l.strip_prefix("- `").and_then(|l| l.split('`').next()))
+            .map(str::to_owned)
+            .collect()
+    };
+    let (train, eval) = (listed("## Training split"), listed("## Evaluation split"));
+    assert!(!train.is_empty() && !eval.is_empty(), "{train:?} / {eval:?}");
+    assert_eq!(info.trained_on, train, "the policy names the training split's parts");
+    for part in &info.trained_on {
+        assert!(!eval.contains(part), "{part} is in both splits");
+    }
+    assert!(info.episodes > 0);
+}
+
+/// Outcome files: what one environment simulated, another with the same parts and options
+/// reads back and steps through identically, under other reward weights too (the file
+/// keeps the reward terms, not their sum); other options take none of it; junk is a typed
+/// error naming the line.
+#[test]
+fn outcome_files_replay_what_was_simulated() {
+    use shape2gcode::MachiningEnv;
+    let (parts, opts) = cheap();
+    let w = RewardWeights::default();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("outcomes.jsonl");
+    let mut env = MachiningEnv::new(parts.clone(), opts.clone(), w).unwrap();
+    assert_eq!(env.load_outcomes(&path).unwrap(), 0, "a missing file is no outcome");
+    let sequences = [[0usize, 19], [19, 3], [19, 0]];
+    let mut steps = Vec::new();
+    for actions in sequences {
+        let s0 = env.reset(0).unwrap();
+        steps.push((s0, actions.map(|a| env.step(a).unwrap())));
+    }
+    env.save_outcomes(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    env.save_outcomes(&path).unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), bytes, "written in a fixed order");
+
+    let mut again = MachiningEnv::new(parts.clone(), opts.clone(), w).unwrap();
+    assert_eq!(again.load_outcomes(&path).unwrap(), 1 + 5, "one first view, five distinct steps");
+    for (actions, (s0, expected)) in sequences.iter().zip(&steps) {
+        assert_eq!(&again.reset(0).unwrap(), s0);
+        for (&a, step) in actions.iter().zip(expected) {
+            assert_eq!(&again.step(a).unwrap(), step, "{actions:?}");
+        }
+    }
+    // Without R_MRR the last step's reward drops by exactly 0.1 R_MRR, the rest is equal.
+    let no_mrr = RewardWeights { lambda_mrr: 0.0, ..w };
+    let mut ablated = MachiningEnv::new(parts.clone(), opts.clone(), no_mrr).unwrap();
+    ablated.load_outcomes(&path).unwrap();
+    ablated.reset(0).unwrap();
+    let first = ablated.step(0).unwrap();
+    assert_eq!(first, steps[0].1[0], "R_MRR only enters the last step");
+    let last = ablated.step(19).unwrap();
+    assert!(last.reward < steps[0].1[1].reward && last.done, "{last:?} vs {:?}", steps[0].1[1]);
+
+    let other = MillOptions { resolution: 20, ..opts };
+    let mut fresh = MachiningEnv::new(parts, other, w).unwrap();
+    assert_eq!(fresh.load_outcomes(&path).unwrap(), 0, "outcomes of other options are not reused");
+    std::fs::write(&path, format!("{}\n{{\"part\": 3}}\n", "S2GOUTCOMES 1")).unwrap();
+    let err = fresh.load_outcomes(&path).unwrap_err().to_string();
+    assert!(err.contains("outcomes.jsonl:2"), "{err}");
+    std::fs::write(&path, "hello\n").unwrap();
+    assert!(fresh.load_outcomes(&path).is_err());
+}

@@ -197,7 +197,9 @@ fn evaluation_tables_are_means_of_single_runs() {
         MillOptions { orient_points: 512, resolution: 24, metric_samples: 2000, ..MillOptions::default() };
     let policies = ["heuristic".to_string(), "coarse".to_string()];
     let mut runs = 0;
-    let tables = evaluate(&parts, &policies, &opts, &mut |_, _| runs += 1).unwrap();
+    let tables =
+        evaluate(&parts, &policies, &shape2gcode::EvalOptions::default(), &opts, &mut |_, _| runs += 1)
+            .unwrap();
     assert_eq!(tables.policies.len(), 2);
     assert_eq!(tables.ablation.len(), 1 + 3 + 1, "none removed, three strategies, contour");
     assert_eq!(runs, parts.len() * (2 + 3 + 1), "runs announced");
@@ -219,7 +221,7 @@ fn evaluation_tables_are_means_of_single_runs() {
             assert_eq!(r.unsafe_parts, 0, "{r:?}");
         }
     }
-    let c = &tables.orientation;
+    let c = tables.orientation.as_ref().expect("Table 2 is computed by default");
     assert!(c.ours <= c.upper_bound + 1e-12 && c.six_axes <= c.upper_bound + 1e-12, "{c:?}");
 }
 

@@ -5,27 +5,43 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use shape2gcode::geom::{Mesh, load_mesh};
-use shape2gcode::{MillOptions, evaluate};
+use shape2gcode::{EvalOptions, MillOptions, SeedGroup, SetupCount, TableSet, evaluate};
 
 use crate::mill::DEFAULT_MESH;
 
 /// Arguments of `s2g eval`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// One mesh to evaluate. Default: the bundled sample (unless --corpus is given).
-    mesh: Option<PathBuf>,
+    /// Meshes to evaluate. Default: the bundled sample (unless --corpus is given).
+    meshes: Vec<PathBuf>,
     /// Evaluate every STL, OBJ, PLY, glTF or GLB file in this folder instead.
     #[arg(long)]
     corpus: Option<PathBuf>,
-    /// Comma-separated policies: heuristic, random, fine, coarse.
-    #[arg(long, default_value = "heuristic,random,fine,coarse")]
+    /// Comma-separated policies: learned (the bundled policy), heuristic, random,
+    /// fixed-fine, fixed-coarse, fixed:R,H,S, or policy files written by `s2g train`.
+    #[arg(long, default_value = "learned,heuristic,random,fixed-fine,fixed-coarse")]
     policies: String,
+    /// Comma-separated tables: `policies` (Tables 1 and 3), `orientation` (Table 2),
+    /// `strategies` (Table 4).
+    #[arg(long, default_value = "policies,orientation,strategies")]
+    tables: String,
     /// Simulation resolution.
     #[arg(long, default_value_t = 256)]
     res: usize,
     /// Surface points for orientation selection.
     #[arg(long, default_value_t = 16384)]
     points: usize,
+    /// Also evaluate each learned policy fine-tuned on each part for this many episodes
+    /// first (Appendix A.7: five); a row `NAME +ftN` each.
+    #[arg(long, default_value_t = 0)]
+    finetune: usize,
+    /// `NAME=POLICY+POLICY+...`: policies trained with different seeds, reported as one row
+    /// with 95 % confidence intervals (Appendix A.8). Repeatable.
+    #[arg(long = "seed-group")]
+    seed_groups: Vec<String>,
+    /// Number of setups: `auto` or a count.
+    #[arg(long, default_value = "auto")]
+    setups: String,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -42,21 +58,31 @@ fn stem(p: &Path) -> String {
     p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
 }
 
-/// Every STL, OBJ, PLY, glTF or GLB file in `dir`, loaded, named by stem, in name order.
-pub fn corpus(dir: &Path) -> anyhow::Result<Vec<(String, Mesh)>> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                matches!(e.to_ascii_lowercase().as_str(), "stl" | "obj" | "ply" | "gltf" | "glb")
-            })
-        })
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        bail!("{}: no mesh files", dir.display());
-    }
+/// The meshes of a command line: the `files` named, or every STL, OBJ, PLY, glTF or GLB
+/// file in `dir`; loaded, named by stem, in file-name order (so that a corpus trains alike
+/// however it is given).
+pub fn parts(files: &[PathBuf], dir: Option<&Path>) -> anyhow::Result<Vec<(String, Mesh)>> {
+    let mut files = match (dir, files) {
+        (Some(_), [_, ..]) => bail!("give meshes or --corpus, not both"),
+        (None, []) => bail!("no meshes (give mesh files or --corpus DIR)"),
+        (None, files) => files.to_vec(),
+        (Some(dir), []) => {
+            let files: Vec<PathBuf> = std::fs::read_dir(dir)
+                .with_context(|| format!("reading {}", dir.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                        matches!(e.to_ascii_lowercase().as_str(), "stl" | "obj" | "ply" | "gltf" | "glb")
+                    })
+                })
+                .collect();
+            if files.is_empty() {
+                bail!("{}: no mesh files", dir.display());
+            }
+            files
+        }
+    };
+    files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
     files
         .iter()
         .map(|p| Ok((stem(p), load_mesh(p).with_context(|| format!("loading {}", p.display()))?)))
@@ -64,23 +90,47 @@ pub fn corpus(dir: &Path) -> anyhow::Result<Vec<(String, Mesh)>> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let parts = match (&args.corpus, &args.mesh) {
-        (Some(_), Some(_)) => bail!("give a mesh or --corpus, not both"),
-        (Some(dir), None) => corpus(dir)?,
-        (None, m) => {
-            let p = m.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
-            vec![(stem(&p), load_mesh(&p)?)]
-        }
+    let parts = if args.corpus.is_none() && args.meshes.is_empty() {
+        parts(&[PathBuf::from(DEFAULT_MESH)], None)?
+    } else {
+        parts(&args.meshes, args.corpus.as_deref())?
     };
     let policies: Vec<String> = args.policies.split(',').map(|s| s.trim().to_owned()).collect();
+    let mut which = TableSet::default();
+    for t in args.tables.split(',').map(str::trim) {
+        match t {
+            "policies" => which.policies = true,
+            "orientation" => which.orientation = true,
+            "strategies" => which.strategies = true,
+            t => bail!("unknown table {t:?} (policies, orientation or strategies)"),
+        }
+    }
+    let mut seed_groups = Vec::new();
+    for g in &args.seed_groups {
+        let Some((name, members)) = g.split_once('=') else {
+            bail!("--seed-group needs NAME=POLICY+POLICY+..., got {g:?}");
+        };
+        let members: Vec<String> = members.split('+').map(|m| m.trim().to_owned()).collect();
+        if name.trim().is_empty() || members.iter().any(String::is_empty) {
+            bail!("--seed-group needs NAME=POLICY+POLICY+..., got {g:?}");
+        }
+        seed_groups.push(SeedGroup { name: name.trim().to_owned(), members });
+    }
+    let setups = match args.setups.as_str() {
+        "auto" => SetupCount::Auto,
+        n => SetupCount::Exactly(n.parse().with_context(|| format!("--setups auto|N, got {n:?}"))?),
+    };
     let opts = MillOptions {
         resolution: args.res,
         orient_points: args.points,
         seed: args.seed,
+        setups,
         ..MillOptions::default()
     };
-    let tables =
-        evaluate(&parts, &policies, &opts, &mut |part, policy| eprintln!("s2g eval: {part} with {policy}"))?;
+    let eval = EvalOptions { tables: which, finetune_episodes: args.finetune, seed_groups };
+    let tables = evaluate(&parts, &policies, &eval, &opts, &mut |part, policy| {
+        eprintln!("s2g eval: {part} with {policy}")
+    })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&tables.to_json())?);
     } else {

@@ -38,13 +38,14 @@ pub struct Args {
     /// Number of setups: `auto` or a count.
     #[arg(long, default_value = "auto")]
     setups: String,
-    /// Policy: `heuristic`, `random`, `fixed-fine`, `fixed-coarse`,
-    /// `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral), or the path of a policy file
-    /// written by `s2g train`.
-    #[arg(long, default_value = "heuristic")]
+    /// Policy: `learned` (the trained DQN shipped with s2g), `heuristic`, `random`,
+    /// `fixed-fine`, `fixed-coarse`, `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral),
+    /// or the path of a policy file written by `s2g train`.
+    #[arg(long, default_value = "learned")]
     policy: String,
-    /// Fine-tune the policy file given by --policy on this mesh for this many episodes
-    /// first (the paper uses five), each episode milled as this run mills the part.
+    /// Fine-tune the learned policy (`learned` or a policy file given by --policy) on this
+    /// mesh for this many episodes first (the paper uses five), each episode milled as this
+    /// run mills the part.
     #[arg(long, default_value_t = 0)]
     finetune: usize,
     /// Controller dialect: linuxcnc, grbl or fanuc.
@@ -137,8 +138,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
 
     let mut policy: Box<dyn Policy> = if args.finetune > 0 {
-        let mut learned = LearnedPolicy::load(Path::new(&args.policy))
-            .with_context(|| format!("--finetune needs a policy file as --policy, got {:?}", args.policy))?;
+        let mut learned = LearnedPolicy::named(&args.policy).with_context(|| {
+            format!("--finetune needs `learned` or a policy file as --policy, got {:?}", args.policy)
+        })?;
         // Fine-tuning episodes mill the part as this run will.
         let train = TrainOptions { seed: args.seed, mill: opts.clone(), ..TrainOptions::default() };
         let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -159,7 +161,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     } else {
         policy_by_name(&args.policy, &opts.action_space(), args.seed).with_context(|| {
             format!(
-                "unknown policy {:?} (heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
+                "unknown policy {:?} (learned, heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
                 args.policy
             )
         })?

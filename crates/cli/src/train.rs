@@ -4,18 +4,24 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
-use shape2gcode::{SetupCount, TrainOptions, train_policy};
+use std::io::IsTerminal;
 
-use crate::eval::corpus;
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use shape2gcode::rl::DgcnnConfig;
+use shape2gcode::voxsim::RewardWeights;
+use shape2gcode::{EncoderKind, SetupCount, TrainOptions, train_policy};
+
+use crate::eval::parts;
 
 /// Arguments of `s2g train`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Train on every STL, OBJ, PLY, glTF or GLB file in this folder.
+    /// The meshes to train on.
+    meshes: Vec<PathBuf>,
+    /// Train on every STL, OBJ, PLY, glTF or GLB file in this folder instead.
     #[arg(long)]
-    corpus: PathBuf,
+    corpus: Option<PathBuf>,
     /// Training episodes (one part each).
     #[arg(long, default_value_t = 300)]
     episodes: usize,
@@ -34,14 +40,42 @@ pub struct Args {
     /// Surface points for orientation selection.
     #[arg(long, default_value_t = 2048)]
     points: usize,
+    /// Shape encoder of the states: `geometric` (the cheap descriptor) or `dgcnn`
+    /// (DGCNN on the setup's surface points, seeded frozen weights).
+    #[arg(long, default_value = "geometric")]
+    encoder: String,
+    /// Reward weights `LAMBDA_S,LAMBDA_F,LAMBDA_MRR` of Eq. 13 (a zero drops its term, as in
+    /// the paper's Table 5).
+    #[arg(long, default_value = "1,1,0.1")]
+    reward_weights: String,
+    /// Outcome file: read first (steps an earlier training simulated are not simulated
+    /// again, whatever its encoder, seed or reward weights) and written after training.
+    #[arg(long)]
+    outcomes: Option<PathBuf>,
     /// Print a JSON summary.
     #[arg(long)]
     json: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let parts = corpus(&args.corpus)?;
+    let parts = parts(&args.meshes, args.corpus.as_deref())?;
     let defaults = TrainOptions::default();
+    let encoder = match args.encoder.as_str() {
+        "geometric" => EncoderKind::Geometric,
+        "dgcnn" => EncoderKind::Dgcnn(DgcnnConfig { seed: args.seed, ..DgcnnConfig::default() }),
+        e => bail!("unknown encoder {e:?} (geometric or dgcnn)"),
+    };
+    let w: Vec<f64> = args
+        .reward_weights
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .ok()
+        .filter(|w: &Vec<f64>| w.len() == 3 && w.iter().all(|x| x.is_finite() && *x >= 0.0))
+        .with_context(|| {
+            format!("--reward-weights needs three weights >= 0, got {:?}", args.reward_weights)
+        })?;
+    let weights = RewardWeights { lambda_s: w[0], lambda_f: w[1], lambda_mrr: w[2] };
     let opts = TrainOptions {
         episodes: args.episodes,
         seed: args.seed,
@@ -50,9 +84,16 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             orient_points: args.points,
             setups: SetupCount::Exactly(args.setups.max(1)),
             seed: args.seed,
-            ..defaults.mill.clone()
+            ..defaults.mill
         },
-        ..defaults
+        // Explore over the first two thirds of the steps, as the defaults do for 300 episodes.
+        dqn: shape2gcode::rl::DqnConfig {
+            epsilon_decay_steps: (2 * args.episodes as u64 * args.setups.max(1) as u64 / 3).max(1),
+            ..defaults.dqn
+        },
+        encoder,
+        weights,
+        outcomes: args.outcomes.clone(),
     };
     let bar = ProgressBar::new(args.episodes as u64);
     bar.set_style(
@@ -60,11 +101,24 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let t = Instant::now();
+    let log_lines = !std::io::stderr().is_terminal();
     let mut returns = Vec::with_capacity(args.episodes);
     let policy = train_policy(&parts, &opts, &mut |e| {
         returns.push(e.total_reward);
         bar.set_position(e.episode + 1);
         bar.set_message(format!("return {:.4}, epsilon {:.3}", e.total_reward, e.epsilon));
+        if !log_lines {
+            return;
+        }
+        // Without a terminal the bar is hidden: one line per episode instead.
+        eprintln!(
+            "s2g train: episode {}/{} return {:.4} epsilon {:.3} ({:.0} s)",
+            e.episode + 1,
+            args.episodes,
+            e.total_reward,
+            e.epsilon,
+            t.elapsed().as_secs_f64()
+        );
     })
     .context("training")?;
     bar.finish_and_clear();
@@ -78,6 +132,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             "parts": policy.info().trained_on,
             "episodes": args.episodes,
             "seconds": seconds,
+            "encoder": policy.info().encoder,
             "mean_return_last_20": mean_last,
             "returns": returns,
         });

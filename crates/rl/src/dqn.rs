@@ -99,7 +99,8 @@ impl std::fmt::Debug for Dqn {
     }
 }
 
-fn backend_device(backend: Backend) -> Device {
+/// The device of a CPU backend (shared with the DGCNN encoder).
+pub(crate) fn backend_device(backend: Backend) -> Device {
     match backend {
         #[cfg(feature = "flex")]
         Backend::Flex => Device::flex(),
@@ -111,7 +112,7 @@ fn backend_device(backend: Backend) -> Device {
     }
 }
 
-fn backend_err(e: impl std::fmt::Debug) -> RlError {
+pub(crate) fn backend_err(e: impl std::fmt::Debug) -> RlError {
     RlError::Backend(format!("{e:?}"))
 }
 

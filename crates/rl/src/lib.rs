@@ -8,6 +8,10 @@
 //!   whatever a problem observes (a shape, a part) into that state vector. Shape2Gcode's
 //!   machining environment lives in the root package and implements both; this crate only
 //!   tests against small environments of its own.
+//! - [`DgcnnEncoder`] is an [`Encoder`] of point clouds (`[[f32; 3]]`): the DGCNN of Wang
+//!   et al. (dynamic-graph EdgeConv layers, max and mean pooling) that the Shape2Gcode paper
+//!   uses for its shape features, with supervised pretraining ([`DgcnnEncoder::fit`]) and
+//!   its weights as bytes.
 //! - [`Dqn`] is the agent: an MLP Q-network (Burn `Linear` layers, ReLU between them;
 //!   the Shape2Gcode paper's two hidden layers of 128 by default), an experience replay ring
 //!   buffer sampled uniformly, a target network copied from the online one every
@@ -48,6 +52,7 @@ compile_error!("s2g-rl needs a Burn backend: enable the `flex` (default) or `nda
 
 mod checkpoint;
 mod config;
+mod dgcnn;
 mod dqn;
 mod env;
 mod error;
@@ -56,6 +61,9 @@ mod replay;
 mod rng;
 
 pub use config::{Backend, DqnConfig, EpsilonDecay};
+#[doc(hidden)]
+pub use dgcnn::knn_graph;
+pub use dgcnn::{DgcnnConfig, DgcnnEncoder, FitOptions, FitReport, RegressionHead};
 pub use dqn::{Dqn, EpisodeStats, TrainStats};
 pub use env::{Encoder, Environment, IdentityEncoder, Step};
 pub use error::RlError;

@@ -23,23 +23,7 @@ impl QNetwork {
     /// random state (`Device::seed` "may be applied globally"), which concurrent agents, or
     /// tests running in parallel, would share.
     pub(crate) fn new(widths: &[usize], rng: &mut SplitMix64, device: &Device) -> Self {
-        let layers = widths
-            .windows(2)
-            .map(|w| {
-                let (d_in, d_out) = (w[0], w[1]);
-                let bound = 1.0 / (d_in as f64).sqrt();
-                let mut uniform = |n: usize| -> Vec<f32> {
-                    (0..n).map(|_| ((2.0 * rng.next_f64() - 1.0) * bound) as f32).collect()
-                };
-                // Burn's row layout stores the weight as [d_input, d_output] (`O = IW + b`).
-                let weight = uniform(d_in * d_out);
-                let bias = uniform(d_out);
-                Linear {
-                    weight: Param::from_data(TensorData::new(weight, [d_in, d_out]), device),
-                    bias: Some(Param::from_data(TensorData::new(bias, [d_out]), device)),
-                }
-            })
-            .collect();
+        let layers = widths.windows(2).map(|w| linear(w[0], w[1], rng, device)).collect();
         Self { layers }
     }
 
@@ -57,5 +41,20 @@ impl QNetwork {
             }
         }
         x
+    }
+}
+
+/// A `d_in -> d_out` layer with weights and biases `U(-1/sqrt(d_in), 1/sqrt(d_in))` drawn
+/// from `rng` (see [`QNetwork::new`] for why not Burn's initialisers).
+pub(crate) fn linear(d_in: usize, d_out: usize, rng: &mut SplitMix64, device: &Device) -> Linear {
+    let bound = 1.0 / (d_in as f64).sqrt();
+    let mut uniform =
+        |n: usize| -> Vec<f32> { (0..n).map(|_| ((2.0 * rng.next_f64() - 1.0) * bound) as f32).collect() };
+    // Burn's row layout stores the weight as [d_input, d_output] (`O = IW + b`).
+    let weight = uniform(d_in * d_out);
+    let bias = uniform(d_out);
+    Linear {
+        weight: Param::from_data(TensorData::new(weight, [d_in, d_out]), device),
+        bias: Some(Param::from_data(TensorData::new(bias, [d_out]), device)),
     }
 }

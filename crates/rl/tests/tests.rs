@@ -5,5 +5,6 @@ mod envs;
 
 mod checkpoint;
 mod determinism;
+mod dgcnn;
 mod errors;
 mod learning;

@@ -26,7 +26,7 @@ struct Col {
 }
 
 /// Dexel field along grid axis `ax`, tool axis sign `sign`.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct Dexel {
     pub ax: usize,
     pub sign: f64,

@@ -363,7 +363,7 @@ impl Store {
     }
 }
 
-/// Reusable buffers of the engine.
+/// Reusable buffers of the engine (a clone starts with empty ones).
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
     pairs: Vec<u64>,
@@ -372,6 +372,12 @@ pub(crate) struct Scratch {
     rows: Vec<(usize, usize, usize, usize)>,
     groups: Vec<(usize, usize, usize)>,
     pub flags: Vec<AtomicU8>,
+}
+
+impl Clone for Scratch {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
 }
 
 /// Brick range `[lo, hi]` (inclusive) along each axis touched by `[lo, hi]` in space.

@@ -18,22 +18,41 @@
 //! axis is within 1e-6 of X, a deterministic choice (the sampled square section then has a
 //! fixed orientation about the axis).
 
-use rand::rngs::StdRng;
-use rand::{RngExt, SeedableRng};
 use s2g_geom::{Point3, Vector3};
 
 use crate::engine::{Stats, Store};
 
 /// State of the Monte-Carlo carver.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct Paper {
-    rng: StdRng,
+    rng: SplitMix64,
     samples_per_unit: f64,
+}
+
+/// SplitMix64 (Steele, Lea and Flood 2014): a small seeded generator that, unlike rand's
+/// `StdRng`, can be cloned with the simulator, so a copy goes on drawing the same stream.
+#[derive(Debug, Clone)]
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[lo, hi)`.
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        let u = (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
+        lo + (hi - lo) * u
+    }
 }
 
 impl Paper {
     pub fn new(samples_per_unit: f64, seed: u64) -> Self {
-        Self { rng: StdRng::seed_from_u64(seed), samples_per_unit }
+        Self { rng: SplitMix64(seed), samples_per_unit }
     }
 
     /// Carves one cutting segment between tool tips `tip0` and `tip1`.
@@ -80,12 +99,12 @@ impl Paper {
         };
         let pi = std::f64::consts::PI;
         for _ in 0..n {
-            let lf: f64 = self.rng.random();
-            let d: f64 = self.rng.random_range(-1.0..1.0);
-            let np: f64 = self.rng.random_range(-1.0..1.0);
-            let r: f64 = self.rng.random_range(0.0..radius);
-            let th: f64 = self.rng.random_range(0.0..pi);
-            let ph: f64 = self.rng.random_range(0.0..2.0 * pi);
+            let lf = self.rng.uniform(0.0, 1.0);
+            let d = self.rng.uniform(-1.0, 1.0);
+            let np = self.rng.uniform(-1.0, 1.0);
+            let r = self.rng.uniform(0.0, radius);
+            let th = self.rng.uniform(0.0, pi);
+            let ph = self.rng.uniform(0.0, 2.0 * pi);
             let ps = start + Vector3::new(r * th.sin() * ph.cos(), r * th.sin() * ph.sin(), r * th.cos());
             let along = start + lu * (lf * len);
             let pc = along + du * (r * th.cos()) + nu * (r * th.sin());

@@ -233,7 +233,7 @@ enum Path {
 }
 
 /// The material simulator (see the crate docs for the model).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Simulator {
     opts: SimOptions,
     store: Store,
