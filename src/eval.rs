@@ -266,7 +266,7 @@ pub fn evaluate(
         let mut tuned = Vec::new();
         for member in &group.members {
             rows.push(milled(member, 0, on_run)?.0);
-            if eval.finetune_episodes > 0 {
+            if eval.finetune_episodes > 0 && is_learned(member) {
                 tuned.push(milled(member, eval.finetune_episodes, on_run)?.0);
             }
         }

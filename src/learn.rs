@@ -224,7 +224,10 @@ struct OutcomeLine {
     outcome: Option<Outcome>,
 }
 
-const OUTCOME_MAGIC: &str = "S2GOUTCOMES 1";
+/// The first line of an outcome file. Outcomes are what this build's pipeline gives: a
+/// change to planning, simulation or features that changes them must change this line, so
+/// that older files are refused rather than trusted.
+const OUTCOME_MAGIC: &str = concat!("S2GOUTCOMES 1 shape2gcode ", env!("CARGO_PKG_VERSION"));
 
 /// Options of [`train_policy`] and of the machining environment.
 #[derive(Debug, Clone, PartialEq)]

@@ -263,7 +263,8 @@ fn outcome_files_replay_what_was_simulated() {
     let other = MillOptions { resolution: 20, ..opts };
     let mut fresh = MachiningEnv::new(parts, other, w).unwrap();
     assert_eq!(fresh.load_outcomes(&path).unwrap(), 0, "outcomes of other options are not reused");
-    std::fs::write(&path, format!("{}\n{{\"part\": 3}}\n", "S2GOUTCOMES 1")).unwrap();
+    let magic = String::from_utf8(bytes).unwrap().lines().next().unwrap().to_owned();
+    std::fs::write(&path, format!("{magic}\n{{\"part\": 3}}\n")).unwrap();
     let err = fresh.load_outcomes(&path).unwrap_err().to_string();
     assert!(err.contains("outcomes.jsonl:2"), "{err}");
     std::fs::write(&path, "hello\n").unwrap();

@@ -96,7 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         parts(&args.meshes, args.corpus.as_deref())?
     };
     let policies: Vec<String> = args.policies.split(',').map(|s| s.trim().to_owned()).collect();
-    let mut which = TableSet::default();
+    let mut which = TableSet { policies: false, orientation: false, strategies: false };
     for t in args.tables.split(',').map(str::trim) {
         match t {
             "policies" => which.policies = true,

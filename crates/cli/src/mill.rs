@@ -38,10 +38,11 @@ pub struct Args {
     /// Number of setups: `auto` or a count.
     #[arg(long, default_value = "auto")]
     setups: String,
-    /// Policy: `learned` (the trained DQN shipped with s2g), `heuristic`, `random`,
-    /// `fixed-fine`, `fixed-coarse`, `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral),
-    /// or the path of a policy file written by `s2g train`.
-    #[arg(long, default_value = "learned")]
+    /// Policy: `heuristic`, `learned` (the DQN policy shipped with s2g, see
+    /// assets/policy/README.md), `random`, `fixed-fine`, `fixed-coarse`,
+    /// `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral), or the path of a policy file
+    /// written by `s2g train`.
+    #[arg(long, default_value = "heuristic")]
     policy: String,
     /// Fine-tune the learned policy (`learned` or a policy file given by --policy) on this
     /// mesh for this many episodes first (the paper uses five), each episode milled as this

@@ -48,6 +48,10 @@ pub struct Args {
     /// the paper's Table 5).
     #[arg(long, default_value = "1,1,0.1")]
     reward_weights: String,
+    /// Gradient updates per environment step (each on its own batch): more extract more from
+    /// each costly simulated setup.
+    #[arg(long, default_value_t = 1)]
+    updates_per_step: u32,
     /// Outcome file: read first (steps an earlier training simulated are not simulated
     /// again, whatever its encoder, seed or reward weights) and written after training.
     #[arg(long)]
@@ -89,6 +93,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         // Explore over the first two thirds of the steps, as the defaults do for 300 episodes.
         dqn: shape2gcode::rl::DqnConfig {
             epsilon_decay_steps: (2 * args.episodes as u64 * args.setups.max(1) as u64 / 3).max(1),
+            updates_per_train: args.updates_per_step,
             ..defaults.dqn
         },
         encoder,

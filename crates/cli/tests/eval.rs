@@ -178,3 +178,51 @@ fn bad_arguments_fail_fast_with_one_line() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("no mesh files"), "{err}");
 }
+
+/// `--tables policies` runs and prints the policy rows alone; the learned policy gets a
+/// fine-tuned row too; a seed group is one row, the mean of its members, with a confidence
+/// interval; malformed groups and unknown tables are one-line errors.
+#[test]
+fn chosen_tables_fine_tuning_and_seed_groups() {
+    let out = s2g()
+        .args(["eval", &data(MESH), "--res", "16", "--points", "256", "--tables", "policies"])
+        .args([
+            "--policies",
+            "fine,coarse,learned",
+            "--finetune",
+            "1",
+            "--seed-group",
+            "fixed=fine+coarse",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let progress = String::from_utf8_lossy(&out.stderr);
+    let announced: Vec<&str> = progress.lines().map(|l| l.rsplit(" with ").next().unwrap_or("")).collect();
+    assert_eq!(announced, ["fine", "coarse", "learned", "learned +ft1", "fine", "coarse"], "{progress}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v.get("table2_orientation").is_none() && v.get("table4_strategy_ablation").is_none(), "{v}");
+    let rows = v["table1_policies"].as_array().unwrap();
+    let names: Vec<&str> = rows.iter().map(|r| r["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["fine", "coarse", "learned", "learned +ft1", "fixed"], "{v}");
+    for r in rows {
+        check_row(r);
+    }
+    // The group is the mean of its members' runs (the same runs as the rows above: the
+    // runs are deterministic), with Student's t interval of two values (t = 12.706).
+    let (fine, coarse, group) = (&rows[0], &rows[1], &rows[4]);
+    for k in ["iou", "machining_time_s", "reward"] {
+        let x = |r: &serde_json::Value| r[k].as_f64().unwrap();
+        assert!((x(group) - 0.5 * (x(fine) + x(coarse))).abs() <= 1e-9 * x(group).abs().max(1.0), "{k}: {v}");
+        let half = 12.706 * (x(fine) - x(coarse)).abs() / 2.0;
+        assert!((group["ci95"][k].as_f64().unwrap() - half).abs() <= 1e-6 * half.max(1.0), "{k}: {group}");
+    }
+    for bad in [["--seed-group", "nameless"], ["--tables", "table9"]] {
+        let out = s2g().args(["eval", &data(MESH), "--res", "16"]).args(bad).output().unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(out.stdout.is_empty());
+    }
+}

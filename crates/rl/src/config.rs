@@ -78,6 +78,10 @@ pub struct DqnConfig {
     pub learning_starts: u64,
     /// One gradient update every this many environment steps, `> 0`. Default `1`.
     pub train_every: u64,
+    /// Gradient updates (each on its own sampled batch) every `train_every` steps,
+    /// `1..=1024`. More than one suits environments whose steps cost far more than an
+    /// update (a simulated machining setup against a small network). Default `1`.
+    pub updates_per_train: u32,
     /// The target network is copied from the online one every this many environment steps,
     /// `> 0`. Default `500`.
     pub target_sync_every: u64,
@@ -107,6 +111,7 @@ impl Default for DqnConfig {
             batch_size: 64,
             learning_starts: 1_000,
             train_every: 1,
+            updates_per_train: 1,
             target_sync_every: 500,
             huber_delta: 1.0,
             max_episode_steps: 1_000,
@@ -153,6 +158,12 @@ impl DqnConfig {
             return Err(RlError::config(
                 "replay_capacity",
                 format!("must be >= batch_size = {}, got {}", self.batch_size, self.replay_capacity),
+            ));
+        }
+        if !(1..=1024).contains(&self.updates_per_train) {
+            return Err(RlError::config(
+                "updates_per_train",
+                format!("must be in 1..=1024, got {}", self.updates_per_train),
             ));
         }
         if self.train_every == 0 {

@@ -283,7 +283,7 @@ impl Dqn {
     /// Each step acts epsilon-greedily, stores the transition, and every
     /// [`train_every`](DqnConfig::train_every) steps (once
     /// [`learning_starts`](DqnConfig::learning_starts) steps are taken and the buffer holds a
-    /// batch) makes one Adam update of the Huber loss between `Q(s, a)` and
+    /// batch) makes [`updates_per_train`](DqnConfig::updates_per_train) Adam updates of the Huber loss between `Q(s, a)` and
     /// `r + gamma * max_a' Q_target(s', a') * (1 - done)`; the target network is copied from
     /// the online one every [`target_sync_every`](DqnConfig::target_sync_every) steps.
     /// Counters, the schedule and the buffer carry over between calls.
@@ -320,8 +320,10 @@ impl Dqn {
                     && self.replay.len() >= self.config.batch_size
                     && self.env_steps.is_multiple_of(self.config.train_every)
                 {
-                    loss_sum += f64::from(self.update()?);
-                    loss_count += 1;
+                    for _ in 0..self.config.updates_per_train {
+                        loss_sum += f64::from(self.update()?);
+                        loss_count += 1;
+                    }
                 }
                 if self.env_steps.is_multiple_of(self.config.target_sync_every) {
                     self.sync_target();

@@ -33,6 +33,7 @@ fn bad_configs_are_refused_naming_the_field() {
     );
     check("capacity < batch", DqnConfig { replay_capacity: 10, batch_size: 64, ..d() }, "replay_capacity");
     check("train_every 0", DqnConfig { train_every: 0, ..d() }, "train_every");
+    check("updates_per_train 0", DqnConfig { updates_per_train: 0, ..d() }, "updates_per_train");
     check("sync 0", DqnConfig { target_sync_every: 0, ..d() }, "target_sync_every");
     check("huber 0", DqnConfig { huber_delta: 0.0, ..d() }, "huber_delta");
     check("huber inf", DqnConfig { huber_delta: f32::INFINITY, ..d() }, "huber_delta");

@@ -118,3 +118,32 @@ fn bandit_greedy_policy_picks_each_contexts_best_arm() {
     assert!((trained - 1.0).abs() < 1e-6, "greedy mean return {trained}");
     assert!(random < 0.35, "random baseline {random}");
 }
+
+/// Several updates per environment step learn the bandit from a fifth of the steps: the
+/// update count is the trained steps times `updates_per_train`, and the greedy policy is
+/// still each context's best arm.
+#[test]
+fn several_updates_per_step_learn_from_fewer_steps() {
+    let mut env = Bandit::default();
+    let config = DqnConfig {
+        hidden: vec![32],
+        learning_rate: 5e-3,
+        gamma: 0.0,
+        epsilon_decay_steps: 60,
+        replay_capacity: 1_000,
+        batch_size: 32,
+        learning_starts: 32,
+        target_sync_every: 50,
+        updates_per_train: 5,
+        seed: 5,
+        ..DqnConfig::default()
+    };
+    let mut agent = Dqn::for_env(config, &env).unwrap();
+    let stats = agent.train(&mut env, 120, |_| {}).unwrap();
+    assert_eq!(stats.env_steps, 120, "one step per bandit episode");
+    assert_eq!(stats.updates, 5 * (120 - 32 + 1), "five updates from step 32 on");
+    for c in 0..Bandit::CONTEXTS {
+        let state = one_hot(c, Bandit::CONTEXTS);
+        assert_eq!(agent.act(&state, false).unwrap(), Bandit::best_arm(c), "context {c}");
+    }
+}
