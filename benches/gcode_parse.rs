@@ -15,29 +15,14 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use shape2gcode::gcode::{Motion, MotionSink, ParseOptions, parse_reader, parse_str};
+use shape2gcode::geom::SplitMix64;
 
 const TARGET_BYTES: usize = 100 << 20;
-
-/// A small deterministic generator (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// A realistic milling program: header, then pockets of zigzag passes, arcs and drills.
 fn program() -> String {
     use std::fmt::Write;
-    let mut rng = Rng(0x5EED);
+    let mut rng = SplitMix64(0x5EED);
     let mut s = String::with_capacity(TARGET_BYTES + 4096);
     s.push_str(
         "%\n(generated pocketing program)\nG21 G17 G90 G94 G40 G49 G80\nT1 M6\nS12000 M3\nM8\nG0 Z5.000\n",

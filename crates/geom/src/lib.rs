@@ -40,7 +40,7 @@ pub use crate::marching_cubes::{
     McOptions, marching_cubes, marching_cubes_opt, marching_cubes_samples, marching_cubes_samples_opt,
     marching_cubes_voxels, marching_cubes_voxels_opt,
 };
-pub use crate::math::{Isometry3, Point3, Real, Rotation3, Similarity3, UnitVector3, Vector3};
+pub use crate::math::{Isometry3, Point3, Real, Rotation3, Similarity3, SplitMix64, UnitVector3, Vector3};
 pub use crate::mesh::Mesh;
 pub use crate::metrics::{MetricOptions, ShapeMetrics, chamfer_and_normals, compare, occupancy_iou};
 pub use crate::normalize::{Normalization, normalize_unit_cube, unit_cube_normalization};

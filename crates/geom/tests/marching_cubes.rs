@@ -5,25 +5,10 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use s2g_geom::{
-    Aabb, BoxShape, GridSpec, McOptions, Mesh, Point3, Rotation3, SignedDistance, Sphere, Vector3, VoxelGrid,
-    marching_cubes, marching_cubes_opt, marching_cubes_samples, marching_cubes_samples_opt,
-    marching_cubes_voxels, marching_cubes_voxels_opt,
+    Aabb, BoxShape, GridSpec, McOptions, Mesh, Point3, Rotation3, SignedDistance, Sphere, SplitMix64,
+    Vector3, VoxelGrid, marching_cubes, marching_cubes_opt, marching_cubes_samples,
+    marching_cubes_samples_opt, marching_cubes_voxels, marching_cubes_voxels_opt,
 };
-
-/// SplitMix64: a tiny seeded generator so the tests need nothing else.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// Checks that `mesh` is a closed, consistently oriented 2-manifold without degenerate
 /// triangles or duplicate vertices: every directed edge appears exactly once and its
@@ -76,7 +61,7 @@ fn lattice_mesh(dims: [usize; 3], values: &[f64], iso: f64) -> Mesh {
 
 #[test]
 fn all_256_cube_configurations_are_closed_oriented_manifolds() {
-    let mut rng = Rng(1);
+    let mut rng = SplitMix64(1);
     for case in 0..256usize {
         // The cube's corners sit at lattice (1..=2)^3 of a 4^3 lattice whose other samples are
         // outside, so the surface of each configuration is closed.
@@ -103,7 +88,7 @@ fn all_256_cube_configurations_are_closed_oriented_manifolds() {
 
 #[test]
 fn random_lattices_are_closed_oriented_manifolds() {
-    let mut rng = Rng(7);
+    let mut rng = SplitMix64(7);
     for trial in 0..1500 {
         // A random 3x3x3 core (so cells meet across every face) inside an outside border.
         let n = 5;
@@ -135,7 +120,7 @@ fn random_lattices_are_closed_oriented_manifolds() {
 
 #[test]
 fn random_voxel_grids_are_closed_and_match_the_midpoint_volume() {
-    let mut rng = Rng(11);
+    let mut rng = SplitMix64(11);
     for trial in 0..200 {
         let dims = [1 + trial % 5, 1 + (trial / 5) % 4, 1 + trial % 7];
         let spec =
@@ -166,7 +151,7 @@ fn random_voxel_grids_are_closed_and_match_the_midpoint_volume() {
 fn voxel_rows_across_word_boundaries_match_the_samples_path() {
     // Widths around multiples of 64 exercise the bit packing of padded rows; the samples
     // path on an explicit padded 0/1 lattice is the independent reference.
-    let mut rng = Rng(5);
+    let mut rng = SplitMix64(5);
     for nx in [1, 7, 8, 55, 56, 57, 61, 62, 63, 64, 65, 70, 126, 127, 128, 130] {
         let dims = [nx, 3, 2];
         let spec =

@@ -18,36 +18,16 @@
 //! axis is within 1e-6 of X, a deterministic choice (the sampled square section then has a
 //! fixed orientation about the axis).
 
-use s2g_geom::{Point3, Vector3};
+use s2g_geom::{Point3, SplitMix64, Vector3};
 
 use crate::engine::{Stats, Store};
 
 /// State of the Monte-Carlo carver.
 #[derive(Debug, Clone)]
 pub(crate) struct Paper {
+    /// Its own generator rather than rand's `StdRng`, so that the simulator can be cloned.
     rng: SplitMix64,
     samples_per_unit: f64,
-}
-
-/// SplitMix64 (Steele, Lea and Flood 2014): a small seeded generator that, unlike rand's
-/// `StdRng`, can be cloned with the simulator, so a copy goes on drawing the same stream.
-#[derive(Debug, Clone)]
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        let u = (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
-        lo + (hi - lo) * u
-    }
 }
 
 impl Paper {
