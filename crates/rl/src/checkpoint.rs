@@ -74,7 +74,7 @@ impl Dqn {
 
     fn decode(bytes: &[u8], config: DqnConfig, path: &Path) -> Result<Self, RlError> {
         let bad = |reason: String| RlError::Checkpoint { path: path.to_path_buf(), reason };
-        let mut reader = Reader { bytes, pos: 0 };
+        let mut reader = Reader::new(bytes);
         if reader.take(8) != Some(MAGIC.as_slice()) {
             return Err(bad("not an s2g-rl checkpoint (bad magic)".into()));
         }
@@ -116,21 +116,30 @@ impl Dqn {
     }
 }
 
-/// A cursor over the checkpoint bytes.
-struct Reader<'a> {
+/// A cursor over the bytes of a checkpoint (the Q-network's, the DGCNN encoder's).
+pub(crate) struct Reader<'a> {
     bytes: &'a [u8],
     pos: usize,
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+    pub(crate) fn new(bytes: &'a [u8]) -> Self {
+        Self { bytes, pos: 0 }
+    }
+
+    pub(crate) fn take(&mut self, n: usize) -> Option<&'a [u8]> {
         let end = self.pos.checked_add(n)?;
         let out = self.bytes.get(self.pos..end)?;
         self.pos = end;
         Some(out)
     }
 
-    fn u64(&mut self) -> Option<u64> {
+    /// Bytes not read yet.
+    pub(crate) fn remaining(&self) -> usize {
+        self.bytes.len() - self.pos
+    }
+
+    pub(crate) fn u64(&mut self) -> Option<u64> {
         self.take(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
     }
 }

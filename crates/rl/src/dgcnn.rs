@@ -15,6 +15,7 @@ use burn::tensor::activation::relu;
 use burn::tensor::{Bytes, Device, Int, Tensor, TensorData};
 
 use crate::RlError;
+use crate::checkpoint::Reader;
 use crate::config::Backend;
 use crate::dqn::{backend_device, backend_err};
 use crate::env::Encoder;
@@ -719,7 +720,7 @@ impl DgcnnEncoder {
     /// Junk, truncated or inconsistent bytes give [`RlError::Checkpoint`] (path `<memory>`).
     pub fn from_bytes(bytes: &[u8], backend: Backend) -> Result<Self, RlError> {
         let bad = |reason: String| RlError::Checkpoint { path: Path::new("<memory>").to_path_buf(), reason };
-        let mut r = Cursor { bytes, pos: 0 };
+        let mut r = Reader::new(bytes);
         if r.take(8) != Some(MAGIC.as_slice()) {
             return Err(bad("not an s2g-rl DGCNN encoder (bad magic)".into()));
         }
@@ -754,7 +755,7 @@ impl DgcnnEncoder {
             .ok()
             .and_then(|n| r.take(n))
             .ok_or_else(|| bad("truncated payload".into()))?;
-        if r.pos != bytes.len() {
+        if r.remaining() != 0 {
             return Err(bad("trailing bytes after the payload".into()));
         }
         // Every parameter takes 4 bytes of the payload: a header asking for more than the
@@ -772,25 +773,6 @@ impl DgcnnEncoder {
         encoder.net = encoder.net.clone().try_load_record(record).map_err(|e| bad(e.to_string()))?;
         encoder.infer = encoder.net.valid();
         Ok(encoder)
-    }
-}
-
-/// A cursor over the bytes of [`DgcnnEncoder::from_bytes`] (the DQN checkpoint's reader is
-/// private to `checkpoint.rs`).
-struct Cursor<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> Cursor<'a> {
-    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
-        let out = self.bytes.get(self.pos..self.pos.checked_add(n)?)?;
-        self.pos += n;
-        Some(out)
-    }
-
-    fn u64(&mut self) -> Option<u64> {
-        self.take(8).and_then(|b| b.try_into().ok()).map(u64::from_le_bytes)
     }
 }
 
