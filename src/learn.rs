@@ -250,7 +250,8 @@ pub struct TrainOptions {
     pub encoder: EncoderKind,
     /// An outcome file ([`MachiningEnv::save_outcomes`]): read before training, so that
     /// what an earlier training (any encoder, seed or reward weights) simulated is not
-    /// simulated again, and written after it. Default `None`.
+    /// simulated again, written as training goes ([`MachiningEnv::autosave`]) and after it.
+    /// Default `None`.
     pub outcomes: Option<std::path::PathBuf>,
 }
 
@@ -303,6 +304,9 @@ pub struct MachiningEnv {
     /// `order` once there are more than [`SNAPSHOTS`](Self::SNAPSHOTS).
     snapshots: HashMap<(usize, Vec<usize>), MillRun>,
     order: VecDeque<(usize, Vec<usize>)>,
+    /// Where new outcomes are written as they come ([`autosave`](Self::autosave)), and how
+    /// many came since the last write.
+    autosave: Option<(std::path::PathBuf, usize)>,
 }
 
 impl MachiningEnv {
@@ -342,8 +346,19 @@ impl MachiningEnv {
             bases: HashMap::new(),
             snapshots: HashMap::new(),
             order: VecDeque::new(),
+            autosave: None,
         })
     }
+
+    /// Writes every outcome to `path` ([`save_outcomes`](Self::save_outcomes)) after each
+    /// [`AUTOSAVE_EVERY`](Self::AUTOSAVE_EVERY) new simulated steps, so that a training
+    /// stopped part way keeps what it simulated.
+    pub fn autosave(&mut self, path: &Path) {
+        self.autosave = Some((path.to_path_buf(), 0));
+    }
+
+    /// New simulated steps between two writes of [`autosave`](Self::autosave).
+    pub const AUTOSAVE_EVERY: usize = 4;
 
     /// Most runs kept at action prefixes besides each part's start.
     pub const SNAPSHOTS: usize = 256;
@@ -544,6 +559,14 @@ impl Environment for MachiningEnv {
         let outcome = Outcome::of(&run)?;
         let step = outcome.step(&self.weights, &self.encoder, &self.space);
         self.outcomes.insert(key, outcome);
+        if let Some((path, new)) = self.autosave.as_mut() {
+            *new += 1;
+            if *new >= Self::AUTOSAVE_EVERY {
+                *new = 0;
+                let path = path.clone();
+                self.save_outcomes(&path)?;
+            }
+        }
         Ok(step)
     }
 }
@@ -787,6 +810,7 @@ pub fn train_policy(
     let mut env = MachiningEnv::with_encoder(parts.to_vec(), opts.mill.clone(), opts.weights, &opts.encoder)?;
     if let Some(path) = &opts.outcomes {
         env.load_outcomes(path)?;
+        env.autosave(path);
     }
     let mut agent =
         Dqn::for_env(DqnConfig { seed: opts.seed, ..opts.dqn.clone() }, &env).map_err(rl_error)?;

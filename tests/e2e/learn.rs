@@ -244,6 +244,17 @@ fn outcome_files_replay_what_was_simulated() {
 
     let mut again = MachiningEnv::new(parts.clone(), opts.clone(), w).unwrap();
     assert_eq!(again.load_outcomes(&path).unwrap(), 1 + 5, "one first view, five distinct steps");
+    // Autosave writes after every AUTOSAVE_EVERY new steps, without a final save.
+    let auto = dir.path().join("auto.jsonl");
+    let mut saving = MachiningEnv::new(parts.clone(), opts.clone(), w).unwrap();
+    saving.autosave(&auto);
+    assert_eq!(MachiningEnv::AUTOSAVE_EVERY, 4);
+    for actions in &sequences[..2] {
+        saving.reset(0).unwrap();
+        actions.iter().for_each(|&a| drop(saving.step(a).unwrap()));
+    }
+    let mut reread = MachiningEnv::new(parts.clone(), opts.clone(), w).unwrap();
+    assert_eq!(reread.load_outcomes(&auto).unwrap(), 1 + 4, "written at the fourth new step");
     for (actions, (s0, expected)) in sequences.iter().zip(&steps) {
         assert_eq!(&again.reset(0).unwrap(), s0);
         for (&a, step) in actions.iter().zip(expected) {
