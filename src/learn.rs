@@ -464,21 +464,19 @@ impl MachiningEnv {
         self.part = part;
         self.taken.clear();
         if !self.first.contains_key(&part) {
-            let run = self.base(part)?;
-            let view = View::of(&run);
+            let view = View::of(self.base(part)?);
             self.first.insert(part, view);
         }
         Ok(self.first[&part].state(&self.encoder, &self.space))
     }
 
-    /// A copy of `part`'s run before any setup.
-    fn base(&mut self, part: usize) -> Result<MillRun, MillError> {
-        if let Some(run) = self.bases.get(&part) {
-            return Ok(run.clone());
+    /// `part`'s run before any setup (made the first time it is asked for).
+    fn base(&mut self, part: usize) -> Result<&MillRun, MillError> {
+        if !self.bases.contains_key(&part) {
+            let run = MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})?;
+            self.bases.insert(part, run);
         }
-        let run = MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})?;
-        self.bases.insert(part, run.clone());
-        Ok(run)
+        Ok(&self.bases[&part])
     }
 
     /// A run after the current episode's actions: a copy of the one kept at the longest
@@ -488,7 +486,7 @@ impl MachiningEnv {
         let mut done = self.taken.len();
         let mut run = loop {
             if done == 0 {
-                break self.base(part)?;
+                break self.base(part)?.clone();
             }
             if let Some(run) = self.snapshots.get(&(part, self.taken[..done].to_vec())) {
                 break run.clone();
@@ -500,13 +498,13 @@ impl MachiningEnv {
             let action = self.space.action(a).ok_or_else(|| bad_action(a, self.space.len()))?;
             run.machine(action, &mut |_| {})?;
             run.forget_programs();
-            self.keep(part, self.taken[..=k].to_vec(), &run);
+            self.keep(part, self.taken[..=k].to_vec(), run.clone());
         }
         Ok(run)
     }
 
-    /// Keeps a copy of `run`, the run after `prefix`, unless it is complete.
-    fn keep(&mut self, part: usize, prefix: Vec<usize>, run: &MillRun) {
+    /// Keeps `run`, the run after `prefix`, unless it is complete.
+    fn keep(&mut self, part: usize, prefix: Vec<usize>, run: MillRun) {
         if run.next_setup().is_none() || self.snapshots.contains_key(&(part, prefix.clone())) {
             return;
         }
@@ -516,7 +514,7 @@ impl MachiningEnv {
             self.snapshots.remove(&old);
         }
         self.order.push_back((part, prefix.clone()));
-        self.snapshots.insert((part, prefix), run.clone());
+        self.snapshots.insert((part, prefix), run);
     }
 }
 
@@ -555,8 +553,9 @@ impl Environment for MachiningEnv {
         run.machine(chosen, &mut |_| {})?;
         run.forget_programs();
         self.taken.push(action);
-        self.keep(self.part, self.taken.clone(), &run);
         let outcome = Outcome::of(&run)?;
+        // The run is kept, not copied: a later step continues a copy of it.
+        self.keep(self.part, self.taken.clone(), run);
         let step = outcome.step(&self.weights, &self.encoder, &self.space);
         self.outcomes.insert(key, outcome);
         if let Some((path, new)) = self.autosave.as_mut() {

@@ -5,9 +5,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use shape2gcode::geom::{Mesh, load_mesh};
-use shape2gcode::{EvalOptions, MillOptions, SeedGroup, SetupCount, TableSet, evaluate};
+use shape2gcode::{EvalOptions, MillOptions, SeedGroup, TableSet, evaluate};
 
-use crate::mill::DEFAULT_MESH;
+use crate::mill::{DEFAULT_MESH, parse_setups};
 
 /// Arguments of `s2g eval`.
 #[derive(Debug, clap::Args)]
@@ -116,10 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         seed_groups.push(SeedGroup { name: name.trim().to_owned(), members });
     }
-    let setups = match args.setups.as_str() {
-        "auto" => SetupCount::Auto,
-        n => SetupCount::Exactly(n.parse().with_context(|| format!("--setups auto|N, got {n:?}"))?),
-    };
+    let setups = parse_setups(&args.setups)?;
     let opts = MillOptions {
         resolution: args.res,
         orient_points: args.points,

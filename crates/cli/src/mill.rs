@@ -83,6 +83,14 @@ pub struct Args {
     reproducible: bool,
 }
 
+/// `--setups auto|N`.
+pub fn parse_setups(spec: &str) -> anyhow::Result<SetupCount> {
+    Ok(match spec {
+        "auto" => SetupCount::Auto,
+        n => SetupCount::Exactly(n.parse().with_context(|| format!("--setups auto|N, got {n:?}"))?),
+    })
+}
+
 fn parse_range(spec: &str) -> anyhow::Result<[f64; 2]> {
     let parts: Vec<&str> = spec.split(',').collect();
     let [lo, hi] = parts[..] else { bail!("--tilt-range MIN,MAX in degrees, got {spec:?}") };
@@ -108,10 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         "shop" => Preset::Shop,
         p => bail!("unknown preset {p:?} (paper or shop)"),
     };
-    let setups = match args.setups.as_str() {
-        "auto" => SetupCount::Auto,
-        n => SetupCount::Exactly(n.parse().with_context(|| format!("--setups auto|N, got {n:?}"))?),
-    };
+    let setups = parse_setups(&args.setups)?;
     let dialect = match args.dialect.as_str() {
         "linuxcnc" => Dialect::LinuxCnc,
         "grbl" => Dialect::Grbl,
