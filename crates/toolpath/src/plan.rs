@@ -104,6 +104,10 @@ pub struct PlanOptions {
     /// finished shape is the same; the clearing passes of all but one level per group are
     /// saved. A `d` below the layer height changes nothing.
     pub roughing_depth: Option<f64>,
+    /// Measure [`PlanSummary::air_cut_fraction`] in rest machining: one remaining-material
+    /// query per half tool radius of path, which for a small tool on fine layers costs more
+    /// than planning. Default false.
+    pub measure_air_cut: bool,
 }
 
 impl Default for PlanOptions {
@@ -132,6 +136,7 @@ impl Default for PlanOptions {
             rest_cell: None,
             layers_per_batch: 32,
             roughing_depth: None,
+            measure_air_cut: false,
         }
     }
 }
@@ -216,7 +221,8 @@ pub struct PlanSummary {
     pub estimated_time_s: f64,
     /// Fraction of the contour and clearing length along which the central half of the
     /// cutter (a square of half-side r/2 over the layer's slab) meets no remaining
-    /// material; `None` without rest information.
+    /// material; `None` without rest information or without
+    /// [`PlanOptions::measure_air_cut`].
     pub air_cut_fraction: Option<f64>,
     /// Retracts to the clearance plane.
     pub retracts: usize,
@@ -239,7 +245,10 @@ pub struct SetupSlices {
     pub part_bbox: Aabb,
     /// Layer levels (setup-frame z), top down.
     pub levels: Vec<f64>,
-    /// Per level: the exact keep-out region (XY projection of the part above the level).
+    /// Per level: the keep-out region, the XY projection of the part above the level,
+    /// exact except that holes of area below `π (r + allowance)²` are filled: no tool
+    /// centre fits in them, so the tool-centre keep-out (this grown by `r + allowance`)
+    /// is the exact one.
     pub keepouts: Vec<Region2>,
 }
 
@@ -281,7 +290,7 @@ pub fn slice_setup<E>(
 ) -> Result<SetupSlices, ToolpathError<E>> {
     let s = slice_levels(part, setup, tool, opts)?;
     let n = s.levels.len();
-    let keepouts = Keepouts::new(s.slabs).advance(n);
+    let keepouts = Keepouts::new(s.slabs, s.min_hole_area).advance(n);
     Ok(SetupSlices { stock: s.stock, part_bbox: s.part_bbox, levels: s.levels, keepouts })
 }
 
@@ -291,6 +300,9 @@ struct Sliced {
     part_bbox: Aabb,
     levels: Vec<f64>,
     slabs: Vec<Region2>,
+    /// Keep-out holes smaller than this are filled: `π d²` for the keep-out growth `d`
+    /// (tool radius + finishing allowance), which fills them anyway.
+    min_hole_area: f64,
 }
 
 fn slice_levels<E>(
@@ -320,8 +332,10 @@ fn slice_levels<E>(
         Vec::new()
     };
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
-    let slabs = slab_regions(&tris, &levels, opts.level_tolerance);
-    Ok(Sliced { stock, part_bbox, levels, slabs })
+    let grow = tool.radius + opts.finishing_allowance;
+    let min_hole_area = std::f64::consts::PI * grow * grow;
+    let slabs = slab_regions(&tris, &levels, opts.level_tolerance, min_hole_area);
+    Ok(Sliced { stock, part_bbox, levels, slabs, min_hole_area })
 }
 
 pub(crate) struct Ctx<'a> {
@@ -489,7 +503,7 @@ impl Ctx<'_> {
         let mut cut_air = (0.0, 0.0);
         for p in contour.iter().chain(&clearing) {
             cut_air.0 += p.length();
-            if let Some(rest) = self.rest {
+            if let Some(rest) = self.rest.filter(|_| self.opts.measure_air_cut) {
                 for (a, b) in p.segments() {
                     let len = (b - a).norm();
                     let n = ((len / (0.5 * r)).ceil() as usize).max(1);
@@ -680,7 +694,7 @@ pub fn plan_setup_rest<S: MotionSink>(
     let end_level = |b: &std::ops::Range<usize>| groups[b.end - 1].rough + 1;
     // The keep-outs' running union is sequential: the next batch's keep-outs are computed
     // while this batch's layers are planned.
-    let mut chain = Keepouts::new(sliced.slabs);
+    let mut chain = Keepouts::new(sliced.slabs, sliced.min_hole_area);
     let mut window = batches.first().map(|b| chain.advance(end_level(b))).unwrap_or_default();
     for (i, b) in batches.iter().enumerate() {
         let levels = Levels { z: &sliced.levels, top: stock.max.z, keepouts: &window, base: first_level(b) };
@@ -711,6 +725,6 @@ pub fn plan_setup_rest<S: MotionSink>(
     summary.helix_entries = st.helix;
     summary.ramp_entries = st.ramp;
     summary.plunge_entries = st.plunge;
-    summary.air_cut_fraction = rest.map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });
+    summary.air_cut_fraction = rest.filter(|_| opts.measure_air_cut).map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });
     Ok(summary)
 }

@@ -323,6 +323,21 @@ impl Region2 {
         self
     }
 
+    /// The region with its holes of area below `min_area` filled.
+    ///
+    /// A hole of area below `π r²` holds no disc of radius `r`, so every point of it lies
+    /// within `r` of the region: growing by `r` or more gives the same region with or
+    /// without it. The union of a mesh's projected triangles is full of such holes (slivers
+    /// between neighbours that the integer snapping of the boolean engine does not close),
+    /// and they cost every later boolean on the region.
+    pub fn with_small_holes_filled(mut self, min_area: f64) -> Region2 {
+        for shape in &mut self.shapes {
+            let mut outer = true;
+            shape.retain(|c| std::mem::take(&mut outer) || -signed_area(c.iter().copied()) >= min_area);
+        }
+        self
+    }
+
     /// Re-runs the region through a union so that its boundaries are valid again.
     fn cleaned(self) -> Region2 {
         if self.is_empty() {

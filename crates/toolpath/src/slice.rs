@@ -75,15 +75,21 @@ pub(crate) fn layer_levels(top: f64, bottom: f64, h: f64, flats: &[f64], tol: f6
 /// level) as a running union of slab regions from the top down, computed a range
 /// of levels at a time so that a caller can plan the levels it has while the next ones
 /// are computed (the union is the one sequential step of slicing).
+///
+/// Holes of area below `min_hole_area` are filled after every union
+/// ([`Region2::with_small_holes_filled`]): with `π d²` for a keep-out grown by `d`, the
+/// grown regions are the same, and the running union of a finely sliced mesh no longer
+/// carries thousands of sliver holes from level to level.
 pub(crate) struct Keepouts {
     slabs: Vec<Region2>,
     acc: Region2,
     done: usize,
+    min_hole_area: f64,
 }
 
 impl Keepouts {
-    pub(crate) fn new(slabs: Vec<Region2>) -> Self {
-        Self { slabs, acc: Region2::empty(), done: 0 }
+    pub(crate) fn new(slabs: Vec<Region2>, min_hole_area: f64) -> Self {
+        Self { slabs, acc: Region2::empty(), done: 0, min_hole_area }
     }
 
     /// The keep-outs of the levels after those already returned, up to `end` (exclusive,
@@ -92,7 +98,9 @@ impl Keepouts {
         let end = end.min(self.slabs.len());
         let mut out = Vec::with_capacity(end.saturating_sub(self.done));
         for s in &mut self.slabs[self.done.min(end)..end] {
-            self.acc = self.acc.union(&std::mem::take(s));
+            if !s.is_empty() {
+                self.acc = self.acc.union(&std::mem::take(s)).with_small_holes_filled(self.min_hole_area);
+            }
             out.push(self.acc.clone());
         }
         self.done = self.done.max(end);
@@ -101,8 +109,9 @@ impl Keepouts {
 }
 
 /// The XY projection of the part's material in each level's slab (from the level + `tol`
-/// up to the level above + `tol`, the first one unbounded above), one per level.
-pub(crate) fn slab_regions(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Vec<Region2> {
+/// up to the level above + `tol`, the first one unbounded above), one per level, with its
+/// holes of area below `min_hole_area` filled.
+pub(crate) fn slab_regions(tris: &[[Point3; 3]], levels: &[f64], tol: f64, min_hole_area: f64) -> Vec<Region2> {
     let n = levels.len();
     if n == 0 {
         return Vec::new();
@@ -140,7 +149,7 @@ pub(crate) fn slab_regions(tris: &[[Point3; 3]], levels: &[f64], tol: f64) -> Ve
                     ccw_contour(poly)
                 })
                 .collect();
-            Region2::union_contours(contours)
+            Region2::union_contours(contours).with_small_holes_filled(min_hole_area)
         })
         .collect()
 }

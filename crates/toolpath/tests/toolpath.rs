@@ -397,7 +397,7 @@ fn rest_machining_skips_material_already_removed() {
         );
     let part = hf.mesh();
     let tool = Tool::flat(0.04);
-    let opts = opts_for(Strategy::Zigzag { angle_deg: 0.0 }, 0.1);
+    let opts = PlanOptions { measure_air_cut: true, ..opts_for(Strategy::Zigzag { angle_deg: 0.0 }, 0.1) };
     let mut full = MotionRecorder::default();
     let s_full = plan_setup(&part, &Setup::top(), &tool, &opts, &mut full).expect("plan");
     // An earlier setup removed everything above z = 0.35 and everything outside the part's
