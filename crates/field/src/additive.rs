@@ -47,7 +47,7 @@ use crate::layer::{LayerGeometry, layer_normal};
 use crate::milling::{
     Batcher, LossConstants, Tool, fit_planar, layer_collision, place_tool, ramp, regularisers, tool_points,
 };
-use crate::siren::{Siren, SirenConfig, SirenF64};
+use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 
 /// The overhang angle in degrees (see the module docs) of a surface with outward normal
 /// `surface_normal` under the build direction `build_direction` (neither needs to be unit):
@@ -398,7 +398,11 @@ impl<'a> PrintProblem<'a> {
         self.normalization
     }
 
-    fn unit_tensor(&self, pts: impl Iterator<Item = Point3>, device: &burn::tensor::Device) -> Tensor<2> {
+    pub(crate) fn unit_tensor(
+        &self,
+        pts: impl Iterator<Item = Point3>,
+        device: &burn::tensor::Device,
+    ) -> Tensor<2> {
         let v: Vec<f32> = pts
             .flat_map(|p| {
                 let u = self.normalization.to_unit(&p);
@@ -409,7 +413,7 @@ impl<'a> PrintProblem<'a> {
         Tensor::<2>::from_data(TensorData::new(v, [n, 3]), device)
     }
 
-    fn build_direction(&self, g: &SirenF64, p: &Point3) -> (f64, Vector3) {
+    pub(crate) fn build_direction(&self, g: &SirenF64, p: &Point3) -> (f64, Vector3) {
         let u = self.normalization.to_unit(p);
         let (v, grad) = g.value_gradient([u.x, u.y, u.z]);
         (v, Vector3::new(grad[0], grad[1], grad[2]))
@@ -490,19 +494,9 @@ pub fn print_losses(
     constants: &PrintConstants,
 ) -> Result<PrintLosses> {
     constants.validate()?;
-    for (what, idx, len) in
-        [("pose", poses, problem.poses.len()), ("surface sample", surface, problem.surface.len())]
-    {
-        if idx.is_empty() {
-            return Err(FieldError::InvalidArgument(format!("no {what} selected")));
-        }
-        if let Some(&i) = idx.iter().find(|&&i| i >= len) {
-            return Err(FieldError::InvalidArgument(format!("{what} index {i} out of range")));
-        }
-    }
+    check_indices("pose", poses, problem.poses.len())?;
+    check_indices("surface sample", surface, problem.surface.len())?;
     let device = g.devices().first().cloned().unwrap_or_else(|| Backend::default().device());
-    let scale = problem.normalization.scale;
-    let lc = &constants.layer;
 
     // Functional losses (Eq. 30, 31): gradients only.
     let s_unit = problem.unit_tensor(surface.iter().map(|&i| problem.surface[i]), &device);
@@ -520,6 +514,64 @@ pub fn print_losses(
         let b_unit = problem.unit_tensor(problem.base.iter().copied(), &device);
         base_loss(g.forward_gradient(b_unit).gradient, [0.0, 0.0, 1.0], constants.base_factor)
     };
+    let terms = nozzle_terms(g, problem, poses, phase, constants)?;
+    Ok(PrintLosses {
+        support_free,
+        base,
+        collision: terms.collision,
+        platform: terms.platform,
+        spacing: terms.spacing,
+        zero_gradient: terms.zero_gradient,
+        curvature: terms.curvature,
+        colliding_poses: terms.colliding_poses,
+    })
+}
+
+/// Refuses an empty index list or an index `>= len` into the problem's `what`s.
+pub(crate) fn check_indices(what: &str, idx: &[usize], len: usize) -> Result<()> {
+    if idx.is_empty() {
+        return Err(FieldError::InvalidArgument(format!("no {what} selected")));
+    }
+    if let Some(&i) = idx.iter().find(|&&i| i >= len) {
+        return Err(FieldError::InvalidArgument(format!("{what} index {i} out of range")));
+    }
+    Ok(())
+}
+
+/// The losses of a printing layer field that live at the deposition poses, shared by the
+/// support-free (Eq. 37) and the direction-aligned (Eq. 38, [`crate::dac_losses`]) totals.
+pub(crate) struct NozzleTerms {
+    /// `G`, `∇G` and `∇²G` at the poses (unit-cube coordinates).
+    pub(crate) field: FieldHessian,
+    /// Nozzle-part collision (Eq. 13).
+    pub(crate) collision: Tensor<1>,
+    /// Nozzle-platform collision (Eq. 36).
+    pub(crate) platform: Tensor<1>,
+    /// Layer spacing (Eq. 26).
+    pub(crate) spacing: Tensor<1>,
+    /// Zero gradient (Eq. 27).
+    pub(crate) zero_gradient: Tensor<1>,
+    /// Curvature (Eq. 24) with the singularity mask.
+    pub(crate) curvature: Tensor<1>,
+    /// The poses (indices into the problem's) with a positive collision term (either).
+    pub(crate) colliding_poses: Vec<usize>,
+}
+
+/// The layer regularisers (Eq. 26, 27, 24) of `g` at the poses `poses` (indices into the
+/// problem's, checked) and the collision of the nozzle along the build direction with
+/// printed material (Eq. 8, 13) and with the platform (Eq. 35-36), the nozzle's rings
+/// rotated by `phase` (see [`print_losses`]). `constants` are not validated here.
+pub(crate) fn nozzle_terms(
+    g: &Siren,
+    problem: &PrintProblem<'_>,
+    poses: &[usize],
+    phase: f64,
+    constants: &PrintConstants,
+) -> Result<NozzleTerms> {
+    check_indices("pose", poses, problem.poses.len())?;
+    let device = g.devices().first().cloned().unwrap_or_else(|| Backend::default().device());
+    let scale = problem.normalization.scale;
+    let lc = &constants.layer;
 
     // Regularisers at the poses (Eq. 26, 27, 24).
     let n = poses.len();
@@ -581,16 +633,7 @@ pub fn print_losses(
             .div_scalar(m as f64)
     };
     let colliding_poses = poses.iter().zip(&hit).filter(|(_, h)| **h).map(|(&i, _)| i).collect();
-    Ok(PrintLosses {
-        support_free,
-        base,
-        collision,
-        platform,
-        spacing,
-        zero_gradient,
-        curvature,
-        colliding_poses,
-    })
+    Ok(NozzleTerms { field: out, collision, platform, spacing, zero_gradient, curvature, colliding_poses })
 }
 
 /// How [`pretrain_planar_print`] and [`optimize_print_layers`] run.

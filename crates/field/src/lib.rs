@@ -35,6 +35,15 @@
 //!   overhang within the self-supporting angle ([`optimize_print_layers`],
 //!   [`overhang_stats`], [`print_collisions`]); [`bent_arm_mesh`] is a part planar layers
 //!   cannot print without support.
+//! - Direction alignment (§5.2-5.3, §7.2-7.3): a printing problem with a prescribed
+//!   direction field ([`AlignProblem`], e.g. [`bent_arm_axis`], the stress direction of a
+//!   bent cantilever). DAC (Eq. 38): layers that contain the directions (Eq. 21), with the
+//!   layer regularisers and the nozzle's collisions with printed layers and the platform,
+//!   Table 1's DAC weights ([`optimize_dac_layers`], [`DacWeights`], [`alignment_stats`]).
+//!   TGC (Eq. 39): the layer field and a path field optimised together by one Adam
+//!   ([`LayerPathFields`], [`optimize_tgc`]) so that the layers contain the directions
+//!   and the toolpaths follow them, evenly spaced, their geodesic curvature weighted up
+//!   from 0.001 to 1 (Table 1's TGC row, [`TgcWeights`]).
 //! - Reproducible: seeds drive this crate's own generator for weights, samples and batches,
 //!   and the CPU backends run single-threaded, so the same options give the same field.
 //! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a
@@ -62,6 +71,7 @@
 compile_error!("s2g-field needs a Burn backend: enable the `flex` (default) or `ndarray` feature");
 
 mod additive;
+mod aligned;
 mod backend;
 mod checkpoint;
 mod error;
@@ -79,6 +89,11 @@ pub use additive::{
     PrintSamples, PrintWeights, base_loss, bent_arm_mesh, optimize_print_layers, overhang_angle,
     overhang_angles, overhang_stats, pretrain_planar_print, print_collisions, print_losses,
     support_free_loss,
+};
+pub use aligned::{
+    AlignProblem, AlignmentStats, DacLosses, DacOptions, DacReport, DacWeights, LayerPathFields,
+    TgcConstants, TgcLosses, TgcOptions, TgcReport, TgcWeights, alignment_stats, bent_arm_axis, dac_losses,
+    init_tgc_fields, layer_alignment, optimize_dac_layers, optimize_tgc, pretrain_planar_dac, tgc_losses,
 };
 pub use backend::Backend;
 pub use error::{FieldError, Result};

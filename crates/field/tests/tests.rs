@@ -1,6 +1,7 @@
 //! Integration tests of s2g-field: one binary, one module per topic.
 
 mod additive;
+mod aligned;
 mod derivatives;
 mod errors;
 mod layer;
