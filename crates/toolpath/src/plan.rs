@@ -1,6 +1,10 @@
 //! Planning a setup: slicing, per-layer regions, contour and clearing paths, and the
 //! streaming of motions into a [`MotionSink`] (seed 000 §3.3).
 
+use std::borrow::Cow;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+
 use rayon::prelude::*;
 use s2g_gcode::MotionSink;
 use s2g_geom::{Aabb, Mesh, Point3, Setup};
@@ -344,6 +348,58 @@ pub(crate) struct Ctx<'a> {
     pub stock: Aabb,
     pub start: Point3,
     pub rest: Option<&'a dyn RemainingMaterial>,
+    /// Material reaches of recent layers, by their cell maps.
+    reaches: ReachCache,
+}
+
+/// Where the tool centre may go on a level: the keep-out grown by the tool radius and the
+/// finishing allowance, and the stock outline less it. A pure function of the keep-out, so
+/// levels with equal keep-outs share one.
+pub(crate) struct Clearance {
+    /// The keep-out grown by the tool radius and the finishing allowance.
+    off: Region2,
+    /// The stock outline grown by the tool radius, less `off`.
+    free: Region2,
+}
+
+/// The tool-centre region near remaining material on a level, and the part of it within
+/// the stock outline grown by the tool radius (where contours are kept).
+struct Reach {
+    region: Region2,
+    clip: Region2,
+}
+
+/// The material reaches of the last few layers, keyed by their cell maps: neighbouring
+/// layers often find material in the same cells, and the reach (a union and an offset,
+/// the costliest step of a layer) is a pure function of the cells.
+#[derive(Default)]
+struct ReachCache {
+    entries: Mutex<VecDeque<(Vec<bool>, Arc<Reach>)>>,
+}
+
+impl ReachCache {
+    /// Cell maps remembered; enough for the layers planned at once to find their
+    /// neighbours'.
+    const CAPACITY: usize = 16;
+
+    /// The reach of `cells`, built by `build` unless a recent layer had the same cells.
+    fn get_or_build(&self, cells: Vec<bool>, build: impl FnOnce(&[bool]) -> Reach) -> Arc<Reach> {
+        let lock = || self.entries.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, reach)) = lock().iter().find(|(c, _)| *c == cells) {
+            return Arc::clone(reach);
+        }
+        // Built without the lock: another layer with the same cells may build it too, to
+        // the same result.
+        let reach = Arc::new(build(&cells));
+        let mut entries = lock();
+        if !entries.iter().any(|(c, _)| *c == cells) {
+            if entries.len() == Self::CAPACITY {
+                entries.pop_front();
+            }
+            entries.push_back((cells, Arc::clone(&reach)));
+        }
+        reach
+    }
 }
 
 impl Ctx<'_> {
@@ -364,46 +420,80 @@ impl Ctx<'_> {
         self.opts.rest_cell.unwrap_or_else(|| (0.5 * self.stepover()).max(e.x.max(e.y) / 256.0))
     }
 
-    /// Tool-centre region near remaining material in the slab `[z, z_above]`: cells of the
-    /// material map grown by the tool radius.
-    fn material_reach(&self, rest: &dyn RemainingMaterial, z: f64, z_above: f64) -> Region2 {
+    /// The material map's cell grid: cell size and number of cells along X and Y.
+    fn material_grid(&self) -> (f64, usize, usize) {
         let c = self.rest_cell();
         let (lo, hi) = (self.stock.min, self.stock.max);
         let nx = (((hi.x - lo.x) / c).ceil() as usize).max(1);
         let ny = (((hi.y - lo.y) / c).ceil() as usize).max(1);
-        // Which cells hold material: blocks of 8 x 8 cells are asked first, and only those
-        // with material cell by cell (a sub-box's query box lies in the block's, so an
+        (c, nx, ny)
+    }
+
+    /// Which cells of the material map (row by row) hold remaining material in the slab
+    /// `[z, z_above]`.
+    fn material_cells(&self, rest: &dyn RemainingMaterial, z: f64, z_above: f64) -> Vec<bool> {
+        let (c, nx, ny) = self.material_grid();
+        let (lo, hi) = (self.stock.min, self.stock.max);
+        // Blocks of 8 x 8 cells are asked first, and those with material are split in
+        // quarters down to single cells (a sub-box's query box lies in the block's, so an
         // empty block has no cell with material).
         const BLOCK: usize = 8;
         let query = |x0: f64, y0: f64, x1: f64, y1: f64| {
             rest.any_in_box(&Point3::new(x0, y0, z), &Point3::new(x1, y1, z_above))
         };
         let mut has = vec![false; nx * ny];
+        // Blocks of cells `i0..i1` by `j0..j1` still to look at.
+        let mut blocks: Vec<[usize; 4]> = Vec::new();
         for bj in (0..ny).step_by(BLOCK) {
             for bi in (0..nx).step_by(BLOCK) {
-                let (ei, ej) = ((bi + BLOCK).min(nx), (bj + BLOCK).min(ny));
-                // The block's box, grown by a hair so that rounding cannot leave a cell's
-                // box sticking out of it.
-                let pad = 1e-9 * c;
-                let block = query(
-                    lo.x + bi as f64 * c - pad,
-                    lo.y + bj as f64 * c - pad,
-                    (lo.x + ei as f64 * c).min(hi.x) + pad,
-                    (lo.y + ej as f64 * c).min(hi.y) + pad,
-                );
-                if !block {
-                    continue;
-                }
-                for j in bj..ej {
-                    let y0 = lo.y + j as f64 * c;
-                    let y1 = (y0 + c).min(hi.y);
-                    for i in bi..ei {
-                        let x0 = lo.x + i as f64 * c;
-                        has[j * nx + i] = query(x0, y0, (x0 + c).min(hi.x), y1);
+                blocks.push([bi, bj, (bi + BLOCK).min(nx), (bj + BLOCK).min(ny)]);
+            }
+        }
+        while let Some([i0, j0, i1, j1]) = blocks.pop() {
+            if i1 - i0 == 1 && j1 - j0 == 1 {
+                let (x0, y0) = (lo.x + i0 as f64 * c, lo.y + j0 as f64 * c);
+                has[j0 * nx + i0] = query(x0, y0, (x0 + c).min(hi.x), (y0 + c).min(hi.y));
+                continue;
+            }
+            // The block's box, grown by a hair so that rounding cannot leave a cell's box
+            // sticking out of it.
+            let pad = 1e-9 * c;
+            let any = query(
+                lo.x + i0 as f64 * c - pad,
+                lo.y + j0 as f64 * c - pad,
+                (lo.x + i1 as f64 * c).min(hi.x) + pad,
+                (lo.y + j1 as f64 * c).min(hi.y) + pad,
+            );
+            if any {
+                let (im, jm) = ((i0 + i1).div_ceil(2), (j0 + j1).div_ceil(2));
+                for [a0, b0, a1, b1] in
+                    [[i0, j0, im, jm], [im, j0, i1, jm], [i0, jm, im, j1], [im, jm, i1, j1]]
+                {
+                    if a0 < a1 && b0 < b1 {
+                        blocks.push([a0, b0, a1, b1]);
                     }
                 }
             }
         }
+        has
+    }
+
+    /// Tool-centre region near remaining material in the slab `[z, z_above]`: the cells of
+    /// the material map that hold material ([`Ctx::material_cells`]) grown by the tool
+    /// radius, and its part inside the stock outline grown by the radius. Shared with the
+    /// recent layers that found the same cells.
+    fn material_reach(&self, rest: &dyn RemainingMaterial, z: f64, z_above: f64) -> Arc<Reach> {
+        let cells = self.material_cells(rest, z, z_above);
+        self.reaches.get_or_build(cells, |has| {
+            let region = self.cells_reach(has);
+            Reach { clip: self.centre_rect().intersection(&region), region }
+        })
+    }
+
+    /// The cells set in `has` (row by row over the material map), grown by the tool radius.
+    fn cells_reach(&self, has: &[bool]) -> Region2 {
+        let (c, nx, ny) = self.material_grid();
+        let (lo, hi) = (self.stock.min, self.stock.max);
         let mut rects: Vec<Vec<[f64; 2]>> = Vec::new();
         for j in 0..ny {
             let y0 = lo.y + j as f64 * c;
@@ -433,35 +523,40 @@ impl Ctx<'_> {
         !rest.any_in_box(&Point3::new(p.x - r, p.y - r, z), &Point3::new(p.x + r, p.y + r, z_above))
     }
 
-    /// Plans one layer. `roughed` is the free region of the roughing level below, whose cut
-    /// (from below this layer up past its slab) already removed the material its tool
-    /// centres reach: only the rest of `free` needs clearing.
-    pub(crate) fn plan_layer(
-        &self,
-        index: usize,
-        z: f64,
-        z_above: f64,
-        keepout: &Region2,
-        roughed: Option<&Region2>,
-    ) -> LayerPlan {
+    /// The tool-centre keep-out and free region of a level with keep-out `keepout`.
+    fn clearance(&self, keepout: &Region2) -> Clearance {
         let r = self.tool.radius;
         let off = keepout.grown_safe(
             r + self.opts.finishing_allowance,
             self.opts.offset_eps * r,
             self.opts.arc_step,
         );
-        let rect = self.centre_rect();
-        let free = rect.difference(&off);
+        let free = self.centre_rect().difference(&off);
+        Clearance { off, free }
+    }
+
+    /// Plans one layer, whose keep-out gives `clearance` ([`Ctx::clearance`]). `roughed` is
+    /// the free region of the roughing level below, whose cut (from below this layer up
+    /// past its slab) already removed the material its tool centres reach: only the rest
+    /// of `free` needs clearing.
+    pub(crate) fn plan_layer(
+        &self,
+        index: usize,
+        z: f64,
+        z_above: f64,
+        clearance: &Clearance,
+        roughed: Option<&Region2>,
+    ) -> LayerPlan {
+        let r = self.tool.radius;
+        let Clearance { off, free } = clearance;
         let to_clear = match roughed {
-            Some(done) => free.difference(done),
-            None => free.clone(),
+            Some(done) => Cow::Owned(free.difference(done)),
+            None => Cow::Borrowed(free),
         };
-        let (clip, clearing_region) = match self.rest {
-            Some(rest) => {
-                let reach = self.material_reach(rest, z, z_above);
-                (rect.intersection(&reach), to_clear.intersection(&reach))
-            }
-            None => (rect, to_clear),
+        let reach = self.rest.map(|rest| self.material_reach(rest, z, z_above));
+        let (clip, clearing_region) = match &reach {
+            Some(reach) => (Cow::Borrowed(&reach.clip), to_clear.intersection(&reach.region)),
+            None => (Cow::Owned(self.centre_rect()), to_clear.into_owned()),
         };
         let start = Point2::new(self.start.x, self.start.y);
         // Contour: the offset keep-out's boundary inside the stock outline; part on the
@@ -516,7 +611,7 @@ impl Ctx<'_> {
                 }
             }
         }
-        LayerPlan { index, z, z_above, free, clearing_region, contour, clearing, cut_air }
+        LayerPlan { index, z, z_above, free: free.clone(), clearing_region, contour, clearing, cut_air }
     }
 }
 
@@ -592,16 +687,26 @@ impl Levels<'_> {
 /// previous roughing level), then the finer levels, limited to what their roughing level
 /// left. Returns each group's roughing plan and its finer plans, top down.
 fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(LayerPlan, Vec<LayerPlan>)> {
+    // The groups' levels are consecutive. Runs of levels with equal keep-outs (the part
+    // adds nothing to the projection) share one clearance.
+    let (first, end) = match (groups.first(), groups.last()) {
+        (Some(a), Some(b)) => (a.fine.start, b.rough + 1),
+        _ => return Vec::new(),
+    };
+    let mut distinct: Vec<usize> = Vec::new();
+    let mut slot: Vec<usize> = Vec::with_capacity(end - first);
+    for l in first..end {
+        if distinct.last().is_none_or(|&d| levels.keepout(d) != levels.keepout(l)) {
+            distinct.push(l);
+        }
+        slot.push(distinct.len() - 1);
+    }
+    let clearances: Vec<Clearance> = distinct.par_iter().map(|&l| ctx.clearance(levels.keepout(l))).collect();
+    let clearance = |l: usize| &clearances[slot[l - first]];
     let rough: Vec<LayerPlan> = groups
         .par_iter()
         .map(|g| {
-            ctx.plan_layer(
-                g.rough,
-                levels.z[g.rough],
-                levels.above(g.fine.start),
-                levels.keepout(g.rough),
-                None,
-            )
+            ctx.plan_layer(g.rough, levels.z[g.rough], levels.above(g.fine.start), clearance(g.rough), None)
         })
         .collect();
     let fine: Vec<(usize, usize)> =
@@ -612,7 +717,7 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
         .par_iter()
         .map(|&(k, l)| {
             let roughed = Some(&rough[k].free);
-            (k, ctx.plan_layer(l, levels.z[l], levels.above(l), levels.keepout(l), roughed))
+            (k, ctx.plan_layer(l, levels.z[l], levels.above(l), clearance(l), roughed))
         })
         .collect();
     for (k, plan) in planned {
@@ -632,7 +737,7 @@ fn make_ctx<'a>(
     let start = opts
         .safe_start
         .unwrap_or_else(|| Point3::new(stock.min.x - tool.radius, stock.min.y - tool.radius, clear_z));
-    Ctx { tool, opts, stock, start, rest }
+    Ctx { tool, opts, stock, start, rest, reaches: ReachCache::default() }
 }
 
 /// Plans `part` (part frame) for `setup` and streams the program into `sink`:
@@ -725,6 +830,8 @@ pub fn plan_setup_rest<S: MotionSink>(
     summary.helix_entries = st.helix;
     summary.ramp_entries = st.ramp;
     summary.plunge_entries = st.plunge;
-    summary.air_cut_fraction = rest.filter(|_| opts.measure_air_cut).map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });
+    summary.air_cut_fraction = rest
+        .filter(|_| opts.measure_air_cut)
+        .map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });
     Ok(summary)
 }
