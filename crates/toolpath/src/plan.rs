@@ -3,7 +3,7 @@
 
 use std::borrow::Cow;
 use std::collections::VecDeque;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 use s2g_gcode::MotionSink;
@@ -362,11 +362,29 @@ pub(crate) struct Clearance {
     free: Region2,
 }
 
-/// The tool-centre region near remaining material on a level, and the part of it within
-/// the stock outline grown by the tool radius (where contours are kept).
+/// The tool-centre region near remaining material on a level.
 struct Reach {
     region: Region2,
-    clip: Region2,
+    /// The bounding boxes of `region`'s shapes.
+    boxes: Vec<(Point2, Point2)>,
+    /// `region` within the stock outline grown by the tool radius, where contours are
+    /// kept; built when a contour first needs it.
+    clip: OnceLock<Region2>,
+}
+
+impl Reach {
+    fn new(region: Region2) -> Self {
+        Self { boxes: region.shape_bboxes(), region, clip: OnceLock::new() }
+    }
+
+    /// Whether `line` may meet the region: its bounding box comes within `gap` of a
+    /// shape's. When not, clipping it to the region (or to a part of it) leaves nothing.
+    fn may_meet(&self, line: &Polyline2, gap: f64) -> bool {
+        let Some((lo, hi)) = line.bbox() else { return false };
+        self.boxes
+            .iter()
+            .any(|(a, b)| lo.x <= b.x + gap && a.x <= hi.x + gap && lo.y <= b.y + gap && a.y <= hi.y + gap)
+    }
 }
 
 /// The material reaches of the last few layers, keyed by their cell maps: neighbouring
@@ -484,10 +502,7 @@ impl Ctx<'_> {
     /// recent layers that found the same cells.
     fn material_reach(&self, rest: &dyn RemainingMaterial, z: f64, z_above: f64) -> Arc<Reach> {
         let cells = self.material_cells(rest, z, z_above);
-        self.reaches.get_or_build(cells, |has| {
-            let region = self.cells_reach(has);
-            Reach { clip: self.centre_rect().intersection(&region), region }
-        })
+        self.reaches.get_or_build(cells, |has| Reach::new(self.cells_reach(has)))
     }
 
     /// The cells set in `has` (row by row over the material map), grown by the tool radius.
@@ -554,10 +569,13 @@ impl Ctx<'_> {
             None => Cow::Borrowed(free),
         };
         let reach = self.rest.map(|rest| self.material_reach(rest, z, z_above));
-        let (clip, clearing_region) = match &reach {
-            Some(reach) => (Cow::Borrowed(&reach.clip), to_clear.intersection(&reach.region)),
-            None => (Cow::Owned(self.centre_rect()), to_clear.into_owned()),
+        let clearing_region = match &reach {
+            Some(reach) => to_clear.intersection(&reach.region),
+            None => to_clear.into_owned(),
         };
+        let rect = self.centre_rect();
+        // Far beyond the rounding of the boolean engine's integer grid.
+        let gap = 1e-6 * (self.stock.extent().x.max(self.stock.extent().y) + 2.0 * r);
         let start = Point2::new(self.start.x, self.start.y);
         // Contour: the offset keep-out's boundary inside the stock outline; part on the
         // right of travel for climb milling (its loops come part-on-the-left).
@@ -566,7 +584,16 @@ impl Ctx<'_> {
             if self.opts.climb {
                 lp.reverse();
             }
-            pieces.extend(clip.clip_polyline(&lp));
+            // The stock outline grown by the radius, limited to the material reach; loops
+            // far from it are left out without clipping.
+            match &reach {
+                Some(reach) if reach.may_meet(&lp, gap) => {
+                    let clip = reach.clip.get_or_init(|| rect.intersection(&reach.region));
+                    pieces.extend(clip.clip_polyline(&lp));
+                }
+                Some(_) => {}
+                None => pieces.extend(rect.clip_polyline(&lp)),
+            }
         }
         let mut contour = Vec::with_capacity(pieces.len());
         let mut cur = start;

@@ -80,6 +80,14 @@ impl Polyline2 {
         self.points.rotate_left(i);
     }
 
+    /// Bounding box `(min, max)` of the vertices; `None` when there are none.
+    pub fn bbox(&self) -> Option<(Point2, Point2)> {
+        let first = *self.points.first()?;
+        Some(self.points.iter().fold((first, first), |(lo, hi), p| {
+            (Point2::new(lo.x.min(p.x), lo.y.min(p.y)), Point2::new(hi.x.max(p.x), hi.y.max(p.y)))
+        }))
+    }
+
     /// Reverses the direction of travel (a loop keeps its start point).
     pub fn reverse(&mut self) {
         if self.closed && self.points.len() > 1 {
@@ -212,6 +220,20 @@ impl Region2 {
             }
         }
         (lo[0] <= hi[0]).then(|| (Point2::new(lo[0], lo[1]), Point2::new(hi[0], hi[1])))
+    }
+
+    /// The bounding box of each shape (that of its outer boundary, which holds its holes).
+    pub(crate) fn shape_bboxes(&self) -> Vec<(Point2, Point2)> {
+        self.shapes
+            .iter()
+            .filter_map(|s| {
+                let outer = s.first()?;
+                let first = Point2::new(outer.first()?[0], outer.first()?[1]);
+                Some(outer.iter().fold((first, first), |(lo, hi), p| {
+                    (Point2::new(lo.x.min(p[0]), lo.y.min(p[1])), Point2::new(hi.x.max(p[0]), hi.y.max(p[1])))
+                }))
+            })
+            .collect()
     }
 
     fn boolean(&self, other: &Region2, rule: OverlayRule) -> Region2 {
