@@ -52,6 +52,11 @@ pub struct Args {
     /// each costly simulated setup.
     #[arg(long, default_value_t = 1)]
     updates_per_step: u32,
+    /// Steps over which exploration decays from 1 to 0.01 (default: the first two thirds
+    /// of the steps asked for). Fixing it lets a shorter run of the same seed take exactly
+    /// the first episodes of a longer one, replayed from its outcome file.
+    #[arg(long)]
+    epsilon_decay_steps: Option<u64>,
     /// Outcome file: read first (steps an earlier training simulated are not simulated
     /// again, whatever its encoder, seed or reward weights) and written after training.
     #[arg(long)]
@@ -92,7 +97,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         },
         // Explore over the first two thirds of the steps, as the defaults do for 300 episodes.
         dqn: shape2gcode::rl::DqnConfig {
-            epsilon_decay_steps: (2 * args.episodes as u64 * args.setups.max(1) as u64 / 3).max(1),
+            epsilon_decay_steps: args
+                .epsilon_decay_steps
+                .unwrap_or(2 * args.episodes as u64 * args.setups.max(1) as u64 / 3)
+                .max(1),
             updates_per_train: args.updates_per_step,
             ..defaults.dqn
         },
