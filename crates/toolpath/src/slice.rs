@@ -111,7 +111,12 @@ impl Keepouts {
 /// The XY projection of the part's material in each level's slab (from the level + `tol`
 /// up to the level above + `tol`, the first one unbounded above), one per level, with its
 /// holes of area below `min_hole_area` filled.
-pub(crate) fn slab_regions(tris: &[[Point3; 3]], levels: &[f64], tol: f64, min_hole_area: f64) -> Vec<Region2> {
+pub(crate) fn slab_regions(
+    tris: &[[Point3; 3]],
+    levels: &[f64],
+    tol: f64,
+    min_hole_area: f64,
+) -> Vec<Region2> {
     let n = levels.len();
     if n == 0 {
         return Vec::new();

@@ -199,8 +199,12 @@ fn strategy_comparison_table() {
         let tool = Tool::flat(0.02 * e);
         let top = Setup::top();
         let bottom = Setup::six_axes()[1];
-        let base =
-            PlanOptions { layer_height: e / 16.0, stock: Some(stock), measure_air_cut: true, ..Default::default() };
+        let base = PlanOptions {
+            layer_height: e / 16.0,
+            stock: Some(stock),
+            measure_air_cut: true,
+            ..Default::default()
+        };
         let r = tool.radius;
         let (mut lengths, mut removed) = (Vec::new(), Vec::new());
         for strategy in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Periphery, Strategy::Spiral] {
