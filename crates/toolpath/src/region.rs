@@ -82,10 +82,7 @@ impl Polyline2 {
 
     /// Bounding box `(min, max)` of the vertices; `None` when there are none.
     pub fn bbox(&self) -> Option<(Point2, Point2)> {
-        let first = *self.points.first()?;
-        Some(self.points.iter().fold((first, first), |(lo, hi), p| {
-            (Point2::new(lo.x.min(p.x), lo.y.min(p.y)), Point2::new(hi.x.max(p.x), hi.y.max(p.y)))
-        }))
+        bbox_of(self.points.iter().map(|p| [p.x, p.y]))
     }
 
     /// Reverses the direction of travel (a loop keeps its start point).
@@ -96,6 +93,16 @@ impl Polyline2 {
             self.points.reverse();
         }
     }
+}
+
+/// Bounding box `(min, max)` of `points`; `None` when there are none.
+fn bbox_of(points: impl IntoIterator<Item = Raw>) -> Option<(Point2, Point2)> {
+    let mut points = points.into_iter();
+    let first = points.next()?;
+    let (lo, hi) = points.fold((first, first), |(lo, hi), p| {
+        ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
+    });
+    Some((Point2::new(lo[0], lo[1]), Point2::new(hi[0], hi[1])))
 }
 
 pub(crate) fn nearest_index(points: &[Point2], p: &Point2) -> usize {
@@ -211,29 +218,12 @@ impl Region2 {
 
     /// Bounding box `(min, max)`; `None` when empty.
     pub fn bbox(&self) -> Option<(Point2, Point2)> {
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for p in self.shapes.iter().flatten().flatten() {
-            for a in 0..2 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        (lo[0] <= hi[0]).then(|| (Point2::new(lo[0], lo[1]), Point2::new(hi[0], hi[1])))
+        bbox_of(self.shapes.iter().flatten().flatten().copied())
     }
 
     /// The bounding box of each shape (that of its outer boundary, which holds its holes).
     pub(crate) fn shape_bboxes(&self) -> Vec<(Point2, Point2)> {
-        self.shapes
-            .iter()
-            .filter_map(|s| {
-                let outer = s.first()?;
-                let first = Point2::new(outer.first()?[0], outer.first()?[1]);
-                Some(outer.iter().fold((first, first), |(lo, hi), p| {
-                    (Point2::new(lo.x.min(p[0]), lo.y.min(p[1])), Point2::new(hi.x.max(p[0]), hi.y.max(p[1])))
-                }))
-            })
-            .collect()
+        self.shapes.iter().filter_map(|s| bbox_of(s.first()?.iter().copied())).collect()
     }
 
     fn boolean(&self, other: &Region2, rule: OverlayRule) -> Region2 {
@@ -691,6 +681,50 @@ mod tests {
         assert!((idx.boundary_distance(&Point2::new(0.5, 2.0), 10.0) - 0.5).abs() < 1e-9);
         assert!(idx.segment_inside(&Point2::new(0.5, 0.5), &Point2::new(3.5, 0.5), 1e-9));
         assert!(!idx.segment_inside(&Point2::new(0.5, 0.5), &Point2::new(3.5, 3.5), 1e-9));
+    }
+
+    /// Holes below the area are filled, larger ones kept; and a hole of area below `π r²`
+    /// is covered by growing the region by `r` anyway, so the grown regions agree.
+    #[test]
+    fn small_holes_are_filled_and_growth_covers_them() {
+        let outer = Region2::rect(Point2::new(0.0, 0.0), Point2::new(10.0, 10.0));
+        // A 0.2 x 0.2 hole (area 0.04) and a 3 x 3 one (area 9).
+        let small = Region2::rect(Point2::new(1.0, 1.0), Point2::new(1.2, 1.2));
+        let large = Region2::rect(Point2::new(5.0, 5.0), Point2::new(8.0, 8.0));
+        let holed = outer.difference(&small).difference(&large);
+        let r: f64 = 0.15;
+        let min_area = std::f64::consts::PI * r * r;
+        assert!(0.04 < min_area && min_area < 9.0);
+        let filled = holed.clone().with_small_holes_filled(min_area);
+        assert_eq!(holed.loops().len(), 3);
+        assert_eq!(filled.loops().len(), 2, "the small hole is filled, the large kept");
+        assert!((filled.area() - (100.0 - 9.0)).abs() < 1e-6, "area {}", filled.area());
+        let (a, b) = (holed.offset(r, 0.05), filled.offset(r, 0.05));
+        assert!((a.area() - b.area()).abs() < 1e-6, "grown {} vs {}", a.area(), b.area());
+        assert_eq!(a.loops().len(), b.loops().len());
+        // Nothing is filled below the smallest hole's area.
+        assert_eq!(holed.clone().with_small_holes_filled(0.01).loops().len(), 3);
+    }
+
+    #[test]
+    fn bounding_boxes_of_regions_shapes_and_polylines() {
+        let two = Region2::rect(Point2::new(0.0, 0.0), Point2::new(1.0, 2.0))
+            .union(&Region2::rect(Point2::new(3.0, -1.0), Point2::new(4.0, 0.5)));
+        assert_eq!(two.bbox(), Some((Point2::new(0.0, -1.0), Point2::new(4.0, 2.0))));
+        let mut boxes = two.shape_bboxes();
+        boxes.sort_by(|a, b| a.0.x.total_cmp(&b.0.x));
+        assert_eq!(
+            boxes,
+            vec![
+                (Point2::new(0.0, 0.0), Point2::new(1.0, 2.0)),
+                (Point2::new(3.0, -1.0), Point2::new(4.0, 0.5))
+            ]
+        );
+        assert_eq!(Region2::empty().bbox(), None);
+        let line =
+            Polyline2::open(vec![Point2::new(2.0, 1.0), Point2::new(-1.0, 3.0), Point2::new(0.0, -2.0)]);
+        assert_eq!(line.bbox(), Some((Point2::new(-1.0, -2.0), Point2::new(2.0, 3.0))));
+        assert_eq!(Polyline2::open(Vec::new()).bbox(), None);
     }
 
     #[test]
