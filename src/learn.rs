@@ -473,7 +473,9 @@ impl MachiningEnv {
     /// `part`'s run before any setup (made the first time it is asked for).
     fn base(&mut self, part: usize) -> Result<&MillRun, MillError> {
         if !self.bases.contains_key(&part) {
-            let run = MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})?;
+            let mut run = MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})?;
+            // Only the outcomes are wanted: programs stream from planner to simulator.
+            run.keep_programs(false);
             self.bases.insert(part, run);
         }
         Ok(&self.bases[&part])

@@ -29,7 +29,7 @@ use std::time::Instant;
 
 use crate::gcode::{
     Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Plane, RotaryAxes, WriterOptions, linearize_arc,
-    parse_reader, parse_str, rotary_angles, rotary_frame,
+    parse_reader, rotary_angles, rotary_frame,
 };
 use crate::geom::{
     Aabb, GridSpec, Isometry3, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Rotation3, Setup,
@@ -255,7 +255,10 @@ pub struct StageSeconds {
     pub orientation: f64,
     /// Action selection (features + policy).
     pub action_selection: f64,
-    /// Toolpath planning and G-code writing.
+    /// Toolpath planning and G-code writing. In the per-setup layout the planner writes
+    /// each program while the simulator reads it, so this and `simulation` overlap: each
+    /// counts the time its side was busy (not waiting for the other), and the stages may
+    /// add up to more than the wall time.
     pub gcode_translation: f64,
     /// Parsing back and simulating.
     pub simulation: f64,
@@ -283,6 +286,8 @@ pub struct SetupProgram {
     /// Rotary layout: the angles `[A, B, C]` in degrees this setup's rotary words state
     /// (the unused tilt letter is 0). `None` in the per-setup layout.
     pub rotary_deg: Option<[f64; 3]>,
+    /// Lines of this setup's program (or section), whether or not its text is kept.
+    pub lines: u64,
     /// Target voxels this setup's program (or section) removed.
     pub gouge_voxels: u64,
     /// Lines of this setup's program where a rapid move removed material (in the rotary
@@ -411,6 +416,9 @@ pub struct MillRun {
     trace: PathTrace,
     times: StageSeconds,
     wopts: WriterOptions,
+    /// Whether [`SetupProgram::text`] keeps each per-setup program (see
+    /// [`keep_programs`](Self::keep_programs)).
+    keep_programs: bool,
     diag: f64,
     feed: f64,
     rapid: f64,
@@ -565,6 +573,7 @@ impl MillRun {
             trace: PathTrace::default(),
             times,
             wopts: WriterOptions { decimals, ..WriterOptions::default() },
+            keep_programs: true,
             diag,
             feed,
             rapid,
@@ -583,7 +592,20 @@ impl MillRun {
             setups: self.orientation.setups.len(),
             dialect: self.opts.dialect,
             wopts: &self.wopts,
+            keep_programs: self.keep_programs,
         }
+    }
+
+    /// Whether the per-setup programs are kept (the default): their text in
+    /// [`SetupProgram::text`] and [`Milled::programs`], the first setup's toolpath in
+    /// [`Milled::trace`] for the rendering. A caller that only wants the simulated outcome
+    /// (the learning environment) turns it off: each program is then streamed from the
+    /// planner to the parser and simulator and never held whole, which matters for the
+    /// finest actions (a 0.1 mm tool clearing rings on 1/512 layers writes over a gigabyte
+    /// and tens of millions of moves for one setup). The rotary layout always keeps its
+    /// program.
+    pub fn keep_programs(&mut self, keep: bool) {
+        self.keep_programs = keep;
     }
 
     /// The action space, in planning units.
@@ -680,7 +702,7 @@ impl MillRun {
             &self.ctx(),
             i,
             &self.remaining,
-            (i == 0).then_some(&mut trace),
+            (i == 0 && self.keep_programs).then_some(&mut trace),
             &mut times,
             progress,
         );
@@ -850,6 +872,8 @@ struct Ctx<'a> {
     setups: usize,
     dialect: Dialect,
     wopts: &'a WriterOptions,
+    /// Keep the per-setup programs' text ([`MillRun::keep_programs`]).
+    keep_programs: bool,
 }
 
 impl Ctx<'_> {
@@ -881,17 +905,6 @@ fn machine_setup(
     let setups = ctx.setups;
     progress(Stage::GcodeTranslation { setup: i + 1, setups });
     let t = Instant::now();
-    let rest = VoxelMaterial::new(remaining, job.setup);
-    let mut writer = GcodeWriter::new(Vec::new(), ctx.dialect, ctx.wopts.clone());
-    let plan = plan_setup_rest(ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
-        .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
-    writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
-    let text = String::from_utf8(writer.into_inner())
-        .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
-    times.gcode_translation += t.elapsed().as_secs_f64();
-
-    progress(Stage::Simulation { setup: i + 1, setups });
-    let t = Instant::now();
     // The simulator was flushed at the end of the previous setup: its counts so far
     // belong to earlier programs.
     let (gouges_before, rapids_before) = {
@@ -903,7 +916,53 @@ fn machine_setup(
     // A 3-axis program per setup: the fixture rotation is in its header comment,
     // so the simulator is told the frame here.
     tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
-    let summary = parse_str(&text, &ParseOptions::default(), &mut tee)
+    // The planner writes the program on its own thread while this one parses it back
+    // and simulates it, chunk by chunk: planning and simulation overlap, and the text is
+    // held whole only when it is kept.
+    let (part, dialect, wopts, keep) = (ctx.part, ctx.dialect, ctx.wopts.clone(), ctx.keep_programs);
+    let (planned, parsed, waited) = std::thread::scope(|scope| {
+        let (out, mut reader) = chunk_channel(keep);
+        let planner = scope.spawn(move || {
+            let t = Instant::now();
+            let rest = VoxelMaterial::new(remaining, job.setup);
+            let mut writer = GcodeWriter::new(out, dialect, wopts);
+            let plan = plan_setup_rest(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
+                .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() });
+            let finished = plan.and_then(|plan| {
+                writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+                let (text, blocked) = writer
+                    .into_inner()
+                    .finish()
+                    .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+                Ok((plan, text, t.elapsed().saturating_sub(blocked)))
+            });
+            finished
+        });
+        let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
+        if parsed.is_ok() {
+            // The parser stops at the program end; the writer may still send what follows.
+            while reader.rx.recv().is_ok() {}
+        }
+        let waited = reader.waited;
+        // Hanging up stops a planner whose program is no longer read.
+        drop(reader);
+        let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (planned, parsed, waited)
+    });
+    let (plan, text, planning) = match (planned, &parsed) {
+        (Ok(done), _) => done,
+        // A parser that stopped hung up on the planner: its error is the cause.
+        (Err(_), Err(e)) => {
+            return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") });
+        }
+        (Err(e), Ok(_)) => return Err(e),
+    };
+    let text =
+        String::from_utf8(text).map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+    // Planning ran beside the simulation: each stage counts the time its side was busy.
+    times.gcode_translation += planning.as_secs_f64();
+    progress(Stage::Simulation { setup: i + 1, setups });
+    let summary = parsed
         .map_err(|e| MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") })?;
     if let Some(err) = summary.errors.first() {
         return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {err}") });
@@ -917,18 +976,123 @@ fn machine_setup(
     // ones (a line number that already collided in an earlier program is not repeated).
     let rapid_collision_lines =
         report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
-    times.simulation += t.elapsed().as_secs_f64();
+    times.simulation += t.elapsed().saturating_sub(waited).as_secs_f64();
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
         plan,
         text,
         rotary_deg: None,
+        lines: summary.lines,
         gouge_voxels,
         rapid_collision_lines,
         preservation: 1.0,
     };
     Ok((program, remaining))
+}
+
+/// Bytes per chunk of [`chunk_channel`], and chunks in flight.
+const CHUNK_BYTES: usize = 1 << 18;
+const CHUNKS_IN_FLIGHT: usize = 8;
+
+/// A bounded byte stream from a writer on one thread to a [`BufRead`] on another, in
+/// chunks of [`CHUNK_BYTES`], at most [`CHUNKS_IN_FLIGHT`] of them waiting: memory stays
+/// bounded whatever the program's size. With `keep`, the writer also keeps every byte
+/// and [`ChunkWriter::finish`] returns them.
+fn chunk_channel(keep: bool) -> (ChunkWriter, ChunkReader) {
+    let (tx, rx) = std::sync::mpsc::sync_channel(CHUNKS_IN_FLIGHT);
+    let writer = ChunkWriter {
+        buf: Vec::with_capacity(CHUNK_BYTES),
+        tx,
+        kept: keep.then(Vec::new),
+        blocked: std::time::Duration::ZERO,
+    };
+    (writer, ChunkReader { rx, chunk: Vec::new(), pos: 0, waited: std::time::Duration::ZERO })
+}
+
+/// The writing end of [`chunk_channel`]. A write fails once the reader has hung up.
+struct ChunkWriter {
+    buf: Vec<u8>,
+    tx: std::sync::mpsc::SyncSender<Vec<u8>>,
+    kept: Option<Vec<u8>>,
+    /// Time spent waiting for the reader.
+    blocked: std::time::Duration,
+}
+
+impl ChunkWriter {
+    fn send(&mut self) -> std::io::Result<()> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        let chunk = std::mem::replace(&mut self.buf, Vec::with_capacity(CHUNK_BYTES));
+        if let Some(kept) = &mut self.kept {
+            kept.extend_from_slice(&chunk);
+        }
+        let t = Instant::now();
+        let sent = self.tx.send(chunk);
+        self.blocked += t.elapsed();
+        sent.map_err(|_| std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the program's reader stopped"))
+    }
+
+    /// Sends what is buffered and closes the stream; returns the kept bytes (empty
+    /// without `keep`) and the time spent waiting for the reader.
+    fn finish(mut self) -> std::io::Result<(Vec<u8>, std::time::Duration)> {
+        self.send()?;
+        Ok((self.kept.take().unwrap_or_default(), self.blocked))
+    }
+}
+
+impl std::io::Write for ChunkWriter {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(bytes);
+        if self.buf.len() >= CHUNK_BYTES {
+            self.send()?;
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.send()
+    }
+}
+
+/// The reading end of [`chunk_channel`]: ends when the writer is dropped.
+struct ChunkReader {
+    rx: std::sync::mpsc::Receiver<Vec<u8>>,
+    chunk: Vec<u8>,
+    pos: usize,
+    /// Time spent waiting for the writer.
+    waited: std::time::Duration,
+}
+
+impl Read for ChunkReader {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let avail = self.fill_buf()?;
+        let n = avail.len().min(buf.len());
+        buf[..n].copy_from_slice(&avail[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl BufRead for ChunkReader {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        while self.pos == self.chunk.len() {
+            let t = Instant::now();
+            let next = self.rx.recv();
+            self.waited += t.elapsed();
+            match next {
+                Ok(chunk) => (self.chunk, self.pos) = (chunk, 0),
+                // The writer is gone: the end of the program.
+                Err(_) => return Ok(&[]),
+            }
+        }
+        Ok(&self.chunk[self.pos..])
+    }
+
+    fn consume(&mut self, n: usize) {
+        self.pos = (self.pos + n).min(self.chunk.len());
+    }
 }
 
 /// How a setup is put under the spindle of a table-table machine.
@@ -1176,6 +1340,7 @@ fn mill_rotary(
             plan: sec.plan.clone(),
             text: source.text[sec.bytes.clone()].to_owned(),
             rotary_deg: Some(placements[i].angles),
+            lines: next.map_or(source.lines + 1, |n| n.first_line) - sec.first_line,
             gouge_voxels: gouges_after - sec.gouges_before,
             rapid_collision_lines: report
                 .rapid_collision_lines
@@ -1390,5 +1555,60 @@ impl MotionSink for Tee<'_> {
     }
     fn finish(&mut self) -> Result<(), Self::Error> {
         self.sim.borrow_mut().finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::io::{BufRead, Read, Write};
+
+    use super::{CHUNK_BYTES, CHUNKS_IN_FLIGHT, chunk_channel};
+
+    /// Bytes written on one thread arrive in order on the other, across many chunks, and
+    /// the kept copy is the same bytes.
+    #[test]
+    fn a_chunk_channel_delivers_every_byte_in_order() {
+        let data: Vec<u8> = (0..3 * CHUNK_BYTES + 12_345).map(|i| (i * 7 % 251) as u8).collect();
+        let (mut w, mut r) = chunk_channel(true);
+        let (kept, read) = std::thread::scope(|s| {
+            let writer = s.spawn(|| {
+                for piece in data.chunks(1000) {
+                    w.write_all(piece).unwrap();
+                }
+                w.finish().unwrap().0
+            });
+            let mut read = Vec::new();
+            r.read_to_end(&mut read).unwrap();
+            (writer.join().unwrap(), read)
+        });
+        assert_eq!(read.len(), data.len());
+        assert!(read == data, "bytes differ");
+        assert!(kept == data, "kept bytes differ");
+        assert!(r.fill_buf().unwrap().is_empty(), "the stream ended");
+    }
+
+    /// Without `keep` nothing is kept; a writer dropped part way ends the stream there.
+    #[test]
+    fn a_dropped_writer_ends_the_stream() {
+        let (mut w, mut r) = chunk_channel(false);
+        w.write_all(b"G0 X1\n").unwrap();
+        w.flush().unwrap();
+        drop(w);
+        let mut text = String::new();
+        r.read_to_string(&mut text).unwrap();
+        assert_eq!(text, "G0 X1\n");
+        let (w, _r) = chunk_channel(false);
+        assert!(w.finish().unwrap().0.is_empty());
+    }
+
+    /// A reader that hangs up makes the writer fail instead of blocking for ever.
+    #[test]
+    fn a_writer_fails_once_the_reader_hangs_up() {
+        let (mut w, r) = chunk_channel(false);
+        drop(r);
+        let piece = vec![b'x'; CHUNK_BYTES];
+        let failed = (0..=CHUNKS_IN_FLIGHT).find_map(|_| w.write_all(&piece).err());
+        let e = failed.expect("writing into a closed stream failed");
+        assert_eq!(e.kind(), std::io::ErrorKind::BrokenPipe);
     }
 }

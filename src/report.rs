@@ -34,7 +34,7 @@ impl Milled {
                     "layers": s.plan.layers,
                     "cutting_length": round(s.plan.cutting_length, 6),
                     "rapid_length": round(s.plan.rapid_length, 6),
-                    "program_lines": s.text.lines().count(),
+                    "program_lines": s.lines,
                     "gouge_voxels": s.gouge_voxels,
                     "rapid_collision_lines": s.rapid_collision_lines,
                 })

@@ -184,6 +184,48 @@ fn two_runs_give_identical_programs_and_reports() {
     assert_eq!(ja, jb, "reports differ between two runs");
 }
 
+/// A run told not to keep its programs ([`MillRun::keep_programs`], what the learning
+/// environment does) streams each program from the planner to the simulator and ends
+/// exactly where a run that keeps them does: same report, same line counts, no text.
+#[test]
+fn a_run_that_keeps_no_program_text_ends_where_one_that_keeps_it_does() {
+    use shape2gcode::{MillRun, Policy};
+    let path = data("meshes/openscad/openscad_Basics_LetterBlock.stl");
+    let mesh = load_mesh(&path).unwrap();
+    let opts = MillOptions {
+        orient_points: 1024,
+        resolution: 48,
+        setups: SetupCount::Exactly(2),
+        ..MillOptions::default()
+    };
+    let run = |keep: bool| {
+        let mut run = MillRun::new(&mesh, &opts, &mut |_| {}).unwrap();
+        run.keep_programs(keep);
+        let mut policy = HeuristicPolicy::default();
+        while run.next_setup().is_some() {
+            let features = run.features();
+            let action = policy.choose(&run.context(&features));
+            run.machine(action, &mut |_| {}).unwrap();
+        }
+        run.finish("heuristic", &mut |_| {}).unwrap()
+    };
+    let (kept, streamed) = (run(true), run(false));
+    assert_eq!(kept.setups.len(), 2);
+    for (k, s) in kept.setups.iter().zip(&streamed.setups) {
+        assert!(k.lines > 100, "a program of {} lines", k.lines);
+        assert_eq!(k.lines, k.text.lines().count() as u64, "lines counted by the parser");
+        assert_eq!(k.lines, s.lines);
+        assert!(s.text.is_empty(), "the streamed run kept {} bytes", s.text.len());
+    }
+    assert!(streamed.programs.iter().all(String::is_empty));
+    assert!(
+        !kept.trace.segments.is_empty() && streamed.trace.segments.is_empty(),
+        "the trace is a program's"
+    );
+    let (a, b) = (kept.report_json(false), streamed.report_json(false));
+    assert_eq!(serde_json::to_string(&a).unwrap(), serde_json::to_string(&b).unwrap());
+}
+
 /// `evaluate` builds the paper's tables: a policy row is the mean of what `mill` gives for
 /// that policy on each part, and Table 4 has one row per removed strategy plus the
 /// contour ablation, each a complete, safe run.
@@ -263,6 +305,9 @@ fn rotary_layout_is_one_safe_program_scoring_like_the_per_setup_programs() {
         let text = &rot.programs[0];
         let joined: String = rot.setups.iter().map(|s| s.text.as_str()).collect();
         assert_eq!(&joined, text, "{name}: the sections joined are the program");
+        for s in &rot.setups {
+            assert_eq!(s.lines, s.text.lines().count() as u64, "{name}: section lines");
+        }
         // One rotary block per setup, after that setup's comment, with the stated angles.
         let blocks: Vec<&str> = text.lines().filter(|l| l.starts_with(&format!("G0 {letter}"))).collect();
         assert_eq!(blocks.len(), n, "{name}: rotary blocks {blocks:?}");
