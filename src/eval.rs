@@ -12,7 +12,7 @@ use serde_json::{Value, json};
 
 use crate::geom::Mesh;
 use crate::learn::{LearnedPolicy, TrainOptions};
-use crate::pipeline::{MillError, MillOptions, Milled, mill};
+use crate::pipeline::{MillError, MillOptions, MillRun, Milled};
 use crate::policy::{Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, StrategyKind};
 use crate::voxsim::RewardWeights;
 
@@ -247,7 +247,7 @@ pub fn evaluate(
                 policy_by_name(name, &space, opts.seed)
                     .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {name:?}")))?
             };
-            runs.push(mill(mesh, policy.as_mut(), opts, &mut |_| {})?);
+            runs.push(scored(mesh, policy.as_mut(), opts)?);
         }
         Ok::<_, MillError>((mean_row(&label, &runs), runs))
     };
@@ -281,7 +281,7 @@ pub fn evaluate(
     if heuristic_runs.is_empty() {
         for (part, mesh) in parts {
             on_run(part, "heuristic");
-            heuristic_runs.push(mill(mesh, &mut HeuristicPolicy::default(), opts, &mut |_| {})?);
+            heuristic_runs.push(scored(mesh, &mut HeuristicPolicy::default(), opts)?);
         }
     }
     let n = heuristic_runs.len().max(1) as f64;
@@ -304,7 +304,7 @@ pub fn evaluate(
         let mut runs = Vec::with_capacity(parts.len());
         for (part, mesh) in parts {
             on_run(part, &format!("heuristic without {}", removed.name()));
-            runs.push(mill(mesh, &mut HeuristicPolicy::default(), &o, &mut |_| {})?);
+            runs.push(scored(mesh, &mut HeuristicPolicy::default(), &o)?);
         }
         tables.ablation.push(mean_row(&format!("without {}", removed.name()), &runs));
     }
@@ -312,10 +312,18 @@ pub fn evaluate(
     let mut runs = Vec::with_capacity(parts.len());
     for (part, mesh) in parts {
         on_run(part, "heuristic without contour");
-        runs.push(mill(mesh, &mut HeuristicPolicy::default(), &o, &mut |_| {})?);
+        runs.push(scored(mesh, &mut HeuristicPolicy::default(), &o)?);
     }
     tables.ablation.push(mean_row("without contour", &runs));
     Ok(tables)
+}
+
+/// What [`mill`](crate::mill) gives, without keeping the programs: the tables need only
+/// the scores, and the finest actions write gigabytes.
+fn scored(mesh: &Mesh, policy: &mut dyn Policy, opts: &MillOptions) -> Result<Milled, MillError> {
+    let mut run = MillRun::new(mesh, opts, &mut |_| {})?;
+    run.keep_programs(false);
+    run.complete(policy, &mut |_| {})
 }
 
 fn row_json(r: &Row) -> Value {

@@ -365,16 +365,7 @@ pub fn mill(
     opts: &MillOptions,
     progress: &mut dyn FnMut(Stage),
 ) -> Result<Milled, MillError> {
-    let mut run = MillRun::new(mesh, opts, progress)?;
-    while run.next_setup().is_some() {
-        let t = Instant::now();
-        let features = run.features();
-        let ctx = run.context(&features);
-        let action = policy.choose(&ctx);
-        run.times.action_selection += t.elapsed().as_secs_f64();
-        run.machine(action, progress)?;
-    }
-    run.finish(&policy.name(), progress)
+    MillRun::new(mesh, opts, progress)?.complete(policy, progress)
 }
 
 /// A milling run one setup at a time: what [`mill`] does, opened up so that a caller (the
@@ -711,6 +702,23 @@ impl MillRun {
         self.setups.push(program);
         self.remaining = remaining;
         Ok(())
+    }
+
+    /// Machines every setup still without an action with `policy`'s choice, then
+    /// [`finish`](Self::finish)es: the rest of what [`mill`] does.
+    pub fn complete(
+        mut self,
+        policy: &mut dyn Policy,
+        progress: &mut dyn FnMut(Stage),
+    ) -> Result<Milled, MillError> {
+        while self.next_setup().is_some() {
+            let t = Instant::now();
+            let features = self.features();
+            let action = policy.choose(&self.context(&features));
+            self.times.action_selection += t.elapsed().as_secs_f64();
+            self.machine(action, progress)?;
+        }
+        self.finish(&policy.name(), progress)
     }
 
     /// Finishes the run: the rotary layout's program is written and simulated now, then
