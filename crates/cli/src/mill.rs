@@ -46,9 +46,14 @@ pub struct Args {
     policy: String,
     /// Fine-tune the learned policy (`learned` or a policy file given by --policy) on this
     /// mesh for this many episodes first (the paper uses five), each episode milled as this
-    /// run mills the part.
+    /// run mills the part, on the grid of --finetune-res.
     #[arg(long, default_value_t = 0)]
     finetune: usize,
+    /// Simulation resolution of the fine-tuning episodes. Default: the one the policy was
+    /// trained at (its states and rewards are what it learned on, at a fraction of the
+    /// cost of this run's grid).
+    #[arg(long)]
+    finetune_res: Option<usize>,
     /// Controller dialect: linuxcnc, grbl or fanuc.
     #[arg(long, default_value = "linuxcnc")]
     dialect: String,
@@ -147,8 +152,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         let mut learned = LearnedPolicy::named(&args.policy).with_context(|| {
             format!("--finetune needs `learned` or a policy file as --policy, got {:?}", args.policy)
         })?;
-        // Fine-tuning episodes mill the part as this run will.
-        let train = TrainOptions { seed: args.seed, mill: opts.clone(), ..TrainOptions::default() };
+        // Fine-tuning episodes mill the part as this run will, on the training grid.
+        let resolution = args.finetune_res.unwrap_or(learned.info().resolution);
+        let train = TrainOptions {
+            seed: args.seed,
+            mill: MillOptions { resolution, ..opts.clone() },
+            ..TrainOptions::default()
+        };
         let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let returns = learned.finetune(&mesh, &stem, args.finetune, &train, &mut |e| {
             eprintln!(
