@@ -1075,11 +1075,7 @@ struct ChunkReader {
 
 impl Read for ChunkReader {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let avail = self.fill_buf()?;
-        let n = avail.len().min(buf.len());
-        buf[..n].copy_from_slice(&avail[..n]);
-        self.consume(n);
-        Ok(n)
+        read_from_buffer(self, buf)
     }
 }
 
@@ -1172,6 +1168,15 @@ impl Placement {
     }
 }
 
+/// [`Read::read`] of a source that is a [`BufRead`] at heart.
+fn read_from_buffer(source: &mut impl BufRead, buf: &mut [u8]) -> std::io::Result<usize> {
+    let avail = source.fill_buf()?;
+    let n = avail.len().min(buf.len());
+    buf[..n].copy_from_slice(&avail[..n]);
+    source.consume(n);
+    Ok(n)
+}
+
 /// One section of the rotary program, as written.
 struct Section {
     /// Its first line in the program (1-based).
@@ -1257,11 +1262,7 @@ impl RotarySource<'_, '_> {
 
 impl Read for RotarySource<'_, '_> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let avail = self.fill_buf()?;
-        let n = avail.len().min(buf.len());
-        buf[..n].copy_from_slice(&avail[..n]);
-        self.consume(n);
-        Ok(n)
+        read_from_buffer(self, buf)
     }
 }
 
