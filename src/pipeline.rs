@@ -230,14 +230,16 @@ pub enum Stage {
     Orientation,
     /// Features and the policy's choice.
     ActionSelection,
-    /// Planning and writing G-code of one setup.
+    /// Planning and writing G-code of one setup (in the per-setup layout, parsed back and
+    /// simulated as it is written).
     GcodeTranslation {
         /// The setup, 1-based.
         setup: usize,
         /// Number of setups.
         setups: usize,
     },
-    /// Parsing one setup's program back and simulating it.
+    /// Parsing one setup's program back and simulating it (in the per-setup layout, what
+    /// is left of it once the planner is done).
     Simulation {
         /// The setup, 1-based.
         setup: usize,
@@ -407,7 +409,7 @@ pub struct MillRun {
     trace: PathTrace,
     times: StageSeconds,
     wopts: WriterOptions,
-    /// Whether [`SetupProgram::text`] keeps each per-setup program (see
+    /// Whether the per-setup programs' text and trace are kept (see
     /// [`keep_programs`](Self::keep_programs)).
     keep_programs: bool,
     diag: f64,
@@ -936,15 +938,14 @@ fn machine_setup(
             let mut writer = GcodeWriter::new(out, dialect, wopts);
             let plan = plan_setup_rest(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
                 .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() });
-            let finished = plan.and_then(|plan| {
+            plan.and_then(|plan| {
                 writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
                 let (text, blocked) = writer
                     .into_inner()
                     .finish()
                     .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
                 Ok((plan, text, t.elapsed().saturating_sub(blocked)))
-            });
-            finished
+            })
         });
         let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
         if parsed.is_ok() {

@@ -196,12 +196,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             Stage::ActionSelection => (1, "choosing tool, layer height and strategy".to_string()),
             Stage::GcodeTranslation { setup, setups } => {
                 bar.set_length(3 + 2 * setups as u64);
-                (2 * setup as u64, format!("setup {setup}/{setups}: planning toolpaths and writing G-code"))
+                (
+                    2 * setup as u64,
+                    format!("setup {setup}/{setups}: planning toolpaths, writing and simulating G-code"),
+                )
             }
-            Stage::Simulation { setup, setups } => (
-                1 + 2 * setup as u64,
-                format!("setup {setup}/{setups}: re-reading the G-code and simulating it"),
-            ),
+            Stage::Simulation { setup, setups } => {
+                (1 + 2 * setup as u64, format!("setup {setup}/{setups}: simulating the G-code"))
+            }
             Stage::Scoring => (bar.length().unwrap_or(3) - 1, "scoring the residual stock".to_string()),
         };
         bar.set_position(pos);
