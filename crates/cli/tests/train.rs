@@ -53,7 +53,8 @@ fn train_writes_a_policy_that_mill_uses_and_finetunes() {
 
 /// With the exploration schedule fixed by `--epsilon-decay-steps`, a shorter run of the
 /// same seed takes exactly the first episodes of a longer one, and replays them from the
-/// longer run's outcome file without simulating anything new.
+/// longer run's outcome file without simulating anything new; the long run replayed writes
+/// the same policy file.
 #[test]
 fn a_shorter_run_with_the_same_schedule_replays_the_first_episodes() {
     let dir = tempfile::tempdir().unwrap();
@@ -100,6 +101,11 @@ fn a_shorter_run_with_the_same_schedule_replays_the_first_episodes() {
         simulated.len(),
         after.iter().zip(&simulated).filter(|(a, b)| a != b).count()
     );
+    // The long run again, replayed whole: the same returns and the same policy file, byte
+    // for byte.
+    let first = std::fs::read(dir.path().join("p6.s2gp")).unwrap();
+    assert_eq!(train("6"), long);
+    assert!(std::fs::read(dir.path().join("p6.s2gp")).unwrap() == first, "the policy files differ");
 }
 
 #[test]

@@ -9,9 +9,10 @@
 
 use std::path::Path;
 
-use burn::module::Module;
+use burn::module::{Module, ModuleMapper, Param, ParamId};
 use burn::store::ModuleRecord;
 use burn::tensor::Bytes;
+use burn::tensor::Tensor;
 use s2g_geom::{Normalization, Vector3, write_bytes_atomic};
 
 use crate::backend::Backend;
@@ -22,13 +23,28 @@ use crate::siren::{Siren, SirenConfig};
 const MAGIC: &[u8; 8] = b"S2GFLSDF";
 const VERSION: u32 = 1;
 
+/// `module`'s parameters as burnpack bytes, the same bytes for the same weights: Burn's
+/// random parameter ids are replaced by 1, 2, ... in visiting order, as
+/// `s2g_rl::record_bytes` does for the Q-networks (this crate does not depend on s2g-rl).
+fn record_bytes<M: Module>(module: M) -> Result<Bytes> {
+    struct Renumber(u64);
+    impl ModuleMapper for Renumber {
+        fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+            let (_, value, mapper) = param.consume();
+            self.0 += 1;
+            Param::from_mapped_value(ParamId::from(self.0), value, mapper)
+        }
+    }
+    module.map(&mut Renumber(0)).into_record().into_bytes().map_err(FieldError::backend)
+}
+
 impl NeuralSdf {
     /// The field as bytes (see the module docs for the layout).
     pub fn to_bytes(&self) -> Result<Vec<u8>> {
         let device = Backend::default().device();
         let net = self.net.to_siren(&device);
         let (layers, width) = (net.sine_layers(), net.width());
-        let payload = net.into_record().into_bytes().map_err(FieldError::backend)?;
+        let payload = record_bytes(net)?;
         let mut buf = Vec::with_capacity(payload.len() + 96);
         buf.extend_from_slice(MAGIC);
         buf.extend_from_slice(&VERSION.to_le_bytes());

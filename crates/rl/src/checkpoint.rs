@@ -12,9 +12,10 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use burn::module::Module;
+use burn::module::{Module, ModuleMapper, Param, ParamId};
 use burn::store::ModuleRecord;
 use burn::tensor::Bytes;
+use burn::tensor::Tensor;
 
 use crate::{Dqn, DqnConfig, RlError};
 
@@ -23,6 +24,24 @@ const VERSION: u32 = 1;
 /// Far more hidden layers than any real network; refusing more keeps a corrupt header from
 /// asking for a huge allocation.
 const MAX_LAYERS: u64 = 1024;
+
+/// `module`'s parameters as the bytes of a Burn `ModuleRecord` (burnpack format), the same
+/// bytes for the same weights. Burn gives every parameter a random id, and the record
+/// stores it; here the parameters are numbered 1, 2, ... in the order the module visits
+/// them instead. (A module loaded from these bytes gets those ids: two such modules must
+/// not share one optimiser.)
+pub fn record_bytes<M: Module>(module: M) -> Result<Vec<u8>, RlError> {
+    struct Renumber(u64);
+    impl ModuleMapper for Renumber {
+        fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+            let (_, value, mapper) = param.consume();
+            self.0 += 1;
+            Param::from_mapped_value(ParamId::from(self.0), value, mapper)
+        }
+    }
+    let bytes = module.map(&mut Renumber(0)).into_record().into_bytes();
+    bytes.map(|b| b.to_vec()).map_err(|e| RlError::Backend(e.to_string()))
+}
 
 impl Dqn {
     /// Write the online Q-network and its shape to `path`, atomically: the bytes go to a
@@ -37,8 +56,7 @@ impl Dqn {
 
     /// The checkpoint [`save`](Self::save) writes, as bytes (to embed in a larger file).
     pub fn to_bytes(&self) -> Result<Vec<u8>, RlError> {
-        let payload =
-            self.online().clone().into_record().into_bytes().map_err(|e| RlError::Backend(e.to_string()))?;
+        let payload = record_bytes(self.online().clone())?;
         let hidden = &self.config().hidden;
         let mut buf = Vec::with_capacity(payload.len() + 8 * (hidden.len() + 6));
         buf.extend_from_slice(MAGIC);

@@ -697,8 +697,7 @@ impl DgcnnEncoder {
     /// layer width, a `u64` payload length and the payload, the weights as a Burn
     /// `ModuleRecord` in burnpack format (all little-endian, as in the DQN checkpoints).
     pub fn to_bytes(&self) -> Result<Vec<u8>, RlError> {
-        let payload =
-            self.net.clone().into_record().into_bytes().map_err(|e| RlError::Backend(e.to_string()))?;
+        let payload = crate::record_bytes(self.net.clone())?;
         let c = &self.config;
         let mut buf = Vec::with_capacity(payload.len() + 8 * (c.edge_widths.len() + 6));
         buf.extend_from_slice(MAGIC);

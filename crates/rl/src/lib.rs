@@ -60,6 +60,7 @@ mod network;
 mod replay;
 mod rng;
 
+pub use checkpoint::record_bytes;
 pub use config::{Backend, DqnConfig, EpsilonDecay};
 #[doc(hidden)]
 pub use dgcnn::knn_graph;

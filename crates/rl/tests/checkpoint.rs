@@ -17,6 +17,17 @@ fn all_q(agent: &Dqn) -> Vec<Vec<f32>> {
     (0..6).map(|s| agent.q_values(&one_hot(s, 6)).unwrap()).collect()
 }
 
+/// The same training gives the same checkpoint bytes (Burn's random parameter ids are not
+/// written), and another seed other bytes.
+#[test]
+fn the_same_training_gives_the_same_checkpoint_bytes() {
+    let (a, _) = trained_agent();
+    let (b, env) = trained_agent();
+    assert_eq!(a.to_bytes().unwrap(), b.to_bytes().unwrap());
+    let other = Dqn::for_env(corridor_config(10), &env).unwrap();
+    assert_ne!(a.to_bytes().unwrap(), other.to_bytes().unwrap());
+}
+
 #[test]
 fn round_trip_gives_bit_identical_q_values_and_keeps_training() {
     let (agent, mut env) = trained_agent();

@@ -109,6 +109,7 @@ fn same_seed_same_features_other_seed_other_features() {
     assert_ne!(a, c, "seeds 7 and 8");
     // Different clouds give different features.
     assert_ne!(a, encoder(7).encode(&random_cloud(128, 12)));
+    assert_eq!(encoder(3).to_bytes().unwrap(), encoder(3).to_bytes().unwrap(), "same seed, same bytes");
 }
 
 #[test]
