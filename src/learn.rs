@@ -474,7 +474,9 @@ impl MachiningEnv {
     fn base(&mut self, part: usize) -> Result<&MillRun, MillError> {
         if !self.bases.contains_key(&part) {
             let mut run = MillRun::new(&self.parts[part].1, &self.opts, &mut |_| {})?;
-            // Only the outcomes are wanted: programs stream from planner to simulator.
+            // Only the outcomes are wanted: programs stream from planner to simulator, and
+            // the copies kept to continue from (every run here descends from this one) hold
+            // no text or trace.
             run.keep_programs(false);
             self.bases.insert(part, run);
         }
@@ -499,7 +501,6 @@ impl MachiningEnv {
             let a = self.taken[k];
             let action = self.space.action(a).ok_or_else(|| bad_action(a, self.space.len()))?;
             run.machine(action, &mut |_| {})?;
-            run.forget_programs();
             self.keep(part, self.taken[..=k].to_vec(), run.clone());
         }
         Ok(run)
@@ -553,7 +554,6 @@ impl Environment for MachiningEnv {
         let mut run = self.run_at_taken()?;
         let chosen = self.space.action(action).ok_or_else(|| bad_action(action, self.space.len()))?;
         run.machine(chosen, &mut |_| {})?;
-        run.forget_programs();
         self.taken.push(action);
         let outcome = Outcome::of(&run)?;
         // The run is kept, not copied: a later step continues a copy of it.

@@ -652,14 +652,6 @@ impl MillRun {
         self.sim.borrow().report().clone()
     }
 
-    /// Drops what only [`finish`](Self::finish) needs of the setups machined so far (their
-    /// program texts, the first setup's trace), so that a copy of the run kept to continue
-    /// from costs only its geometry.
-    pub(crate) fn forget_programs(&mut self) {
-        self.setups.iter_mut().for_each(|s| s.text = String::new());
-        self.trace = PathTrace::default();
-    }
-
     /// The setups machined so far (per-setup layout; empty for the rotary layout until
     /// [`finish`](Self::finish)).
     pub fn machined(&self) -> &[SetupProgram] {
