@@ -222,10 +222,10 @@ fn is_learned(name: &str) -> bool {
 /// Evaluates `policies` (see [`policy_by_name`]) on `parts`, for what `eval` asks;
 /// `on_run(part, row)` is told before each run. Table 4 is computed with the heuristic
 /// policy.
-pub fn evaluate(
+pub fn evaluate<'a>(
     parts: &[(String, Mesh)],
-    policies: &[String],
-    eval: &EvalOptions,
+    policies: &'a [String],
+    eval: &'a EvalOptions,
     opts: &MillOptions,
     on_run: &mut dyn FnMut(&str, &str),
 ) -> Result<Tables, MillError> {
@@ -251,23 +251,33 @@ pub fn evaluate(
         }
         Ok::<_, MillError>((mean_row(&label, &runs), runs))
     };
-    for name in policies.iter().filter(|_| which.policies) {
-        let (row, runs) = milled(name, 0, on_run)?;
-        tables.policies.push(row);
-        if name == "heuristic" {
+    // Rows already milled, by policy and fine-tuning episodes: a policy that is both a
+    // row of its own and a member of a seed group is milled once.
+    let mut done: Vec<((&str, usize), Row)> = Vec::new();
+    let mut row_of = |name: &'a str, finetune: usize, on_run: &mut dyn FnMut(&str, &str)| {
+        if let Some((_, row)) = done.iter().find(|(key, _)| *key == (name, finetune)) {
+            return Ok::<_, MillError>(row.clone());
+        }
+        let (row, runs) = milled(name, finetune, on_run)?;
+        if name == "heuristic" && finetune == 0 {
             heuristic_runs = runs;
         }
+        done.push(((name, finetune), row.clone()));
+        Ok(row)
+    };
+    for name in policies.iter().filter(|_| which.policies) {
+        tables.policies.push(row_of(name, 0, on_run)?);
         if eval.finetune_episodes > 0 && is_learned(name) {
-            tables.policies.push(milled(name, eval.finetune_episodes, on_run)?.0);
+            tables.policies.push(row_of(name, eval.finetune_episodes, on_run)?);
         }
     }
     for group in eval.seed_groups.iter().filter(|_| which.policies) {
         let mut rows = Vec::with_capacity(group.members.len());
         let mut tuned = Vec::new();
         for member in &group.members {
-            rows.push(milled(member, 0, on_run)?.0);
+            rows.push(row_of(member, 0, on_run)?);
             if eval.finetune_episodes > 0 && is_learned(member) {
-                tuned.push(milled(member, eval.finetune_episodes, on_run)?.0);
+                tuned.push(row_of(member, eval.finetune_episodes, on_run)?);
             }
         }
         tables.policies.push(group_row(&group.name, &rows));

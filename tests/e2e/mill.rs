@@ -238,13 +238,22 @@ fn evaluation_tables_are_means_of_single_runs() {
     let opts =
         MillOptions { orient_points: 512, resolution: 24, metric_samples: 2000, ..MillOptions::default() };
     let policies = ["heuristic".to_string(), "coarse".to_string()];
+    // A seed group of the two rows' policies: its members are not milled again.
+    let group = shape2gcode::SeedGroup { name: "both".into(), members: policies.to_vec() };
+    let eval = shape2gcode::EvalOptions { seed_groups: vec![group], ..Default::default() };
     let mut runs = 0;
-    let tables =
-        evaluate(&parts, &policies, &shape2gcode::EvalOptions::default(), &opts, &mut |_, _| runs += 1)
-            .unwrap();
-    assert_eq!(tables.policies.len(), 2);
+    let tables = evaluate(&parts, &policies, &eval, &opts, &mut |_, _| runs += 1).unwrap();
+    assert_eq!(tables.policies.len(), 3);
     assert_eq!(tables.ablation.len(), 1 + 3 + 1, "none removed, three strategies, contour");
     assert_eq!(runs, parts.len() * (2 + 3 + 1), "runs announced");
+    let both = &tables.policies[2];
+    assert_eq!(both.name, "both");
+    let mean = 0.5 * (tables.policies[0].iou + tables.policies[1].iou);
+    assert!((both.iou - mean).abs() < 1e-12, "group {} vs rows' mean {mean}", both.iou);
+    let ci = both.ci95.expect("two members give an interval");
+    let spread = (tables.policies[0].iou - tables.policies[1].iou).abs();
+    // Two members: the half-width is t(1) * |a - b| / 2 with t(1) = 12.706.
+    assert!((ci.iou - 12.706 * spread / 2.0).abs() < 1e-9, "{ci:?}, spread {spread}");
     let mean_iou: f64 = parts
         .iter()
         .map(|(_, m)| mill(m, &mut HeuristicPolicy::default(), &opts, &mut |_| {}).unwrap().metrics.iou)
