@@ -222,10 +222,10 @@ fn is_learned(name: &str) -> bool {
 /// Evaluates `policies` (see [`policy_by_name`]) on `parts`, for what `eval` asks;
 /// `on_run(part, row)` is told before each run. Table 4 is computed with the heuristic
 /// policy.
-pub fn evaluate<'a>(
+pub fn evaluate(
     parts: &[(String, Mesh)],
-    policies: &'a [String],
-    eval: &'a EvalOptions,
+    policies: &[String],
+    eval: &EvalOptions,
     opts: &MillOptions,
     on_run: &mut dyn FnMut(&str, &str),
 ) -> Result<Tables, MillError> {
@@ -253,16 +253,16 @@ pub fn evaluate<'a>(
     };
     // Rows already milled, by policy and fine-tuning episodes: a policy that is both a
     // row of its own and a member of a seed group is milled once.
-    let mut done: Vec<((&str, usize), Row)> = Vec::new();
-    let mut row_of = |name: &'a str, finetune: usize, on_run: &mut dyn FnMut(&str, &str)| {
-        if let Some((_, row)) = done.iter().find(|(key, _)| *key == (name, finetune)) {
+    let mut done: Vec<(String, usize, Row)> = Vec::new();
+    let mut row_of = |name: &str, finetune: usize, on_run: &mut dyn FnMut(&str, &str)| {
+        if let Some((_, _, row)) = done.iter().find(|(n, f, _)| n == name && *f == finetune) {
             return Ok::<_, MillError>(row.clone());
         }
         let (row, runs) = milled(name, finetune, on_run)?;
         if name == "heuristic" && finetune == 0 {
             heuristic_runs = runs;
         }
-        done.push(((name, finetune), row.clone()));
+        done.push((name.to_owned(), finetune, row.clone()));
         Ok(row)
     };
     for name in policies.iter().filter(|_| which.policies) {
