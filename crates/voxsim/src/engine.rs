@@ -236,20 +236,45 @@ impl SweepBox {
         Self { o: s.p0, axes, lo, hi, inv_step }
     }
 
-    /// Bit mask of the eight voxels `q0 + k (voxel_x, 0, 0)`, `k = 0..8`, whose centres
-    /// lie in the box.
+    /// Whether no face normal of this box separates it from the axis-aligned box
+    /// `[c - h, c + h]`. False means the two are disjoint, so a block of voxel centres it
+    /// misses has none in the box (true may still be a miss along a grid or edge axis).
     #[inline]
-    pub fn row_mask(&self, q0: &Point3) -> u64 {
-        let w = q0 - self.o;
+    pub fn meets(&self, c: &Point3, h: &Vector3) -> bool {
+        let w = c - self.o;
+        (0..3).all(|j| {
+            let e = &self.axes[j];
+            let m = w.dot(e);
+            let r = h.x * e.x.abs() + h.y * e.y.abs() + h.z * e.z.abs();
+            m + r >= self.lo[j] && m - r <= self.hi[j]
+        })
+    }
+
+    /// `(q - o) . axes[j]` split by grid axis: `[x, y, z][i][j]` is `(q_i - o_i) axes[j]_i`
+    /// for `q_i = v` (the caller sums the three parts of a voxel centre).
+    #[inline]
+    pub fn part(&self, i: usize, v: f64) -> [f64; 3] {
+        let d = v - self.o[i];
+        [d * self.axes[0][i], d * self.axes[1][i], d * self.axes[2][i]]
+    }
+
+    /// Bit mask of the eight voxels `q0 + k (voxel_x, 0, 0)`, `k = 0..8`, whose centres
+    /// lie in the box, given `c[j] = (q0 - o) . axes[j]` (summed from [`part`](Self::part)s).
+    #[inline]
+    pub fn row_mask(&self, c: [f64; 3]) -> u64 {
         let (mut klo, mut khi) = (0.0f64, (BRICK - 1) as f64);
-        for j in 0..3 {
-            let c = w.dot(&self.axes[j]);
+        for (j, c) in c.into_iter().enumerate() {
             let inv = self.inv_step[j];
             if inv.is_finite() {
                 let (a, b) = ((self.lo[j] - c) * inv, (self.hi[j] - c) * inv);
                 let (a, b) = if a < b { (a, b) } else { (b, a) };
-                klo = klo.max(a);
-                khi = khi.min(b);
+                // Plain comparisons (no NaN can occur): `f64::max` costs more here.
+                if a > klo {
+                    klo = a;
+                }
+                if b < khi {
+                    khi = b;
+                }
             } else if c < self.lo[j] || c > self.hi[j] {
                 return 0;
             }
@@ -300,17 +325,42 @@ pub(crate) struct Store {
     pub spec: GridSpec,
     pub bdims: [usize; 3],
     pub bricks: Vec<Brick>,
+    /// One bit per brick, by brick index: clear means the brick is empty (set may still be
+    /// empty, until the next pass that touches the brick). Binning reads these 4 KiB
+    /// (at 256^3) instead of the bricks' 2 MiB: most bricks a long flute sweeps through
+    /// are already empty.
+    occ: Vec<u64>,
 }
 
 impl Store {
     pub fn from_grid(g: &VoxelGrid) -> Self {
         let bdims = g.brick_dims();
-        let mut s = Self { spec: *g.spec(), bdims, bricks: vec![[0; BRICK]; bdims.iter().product()] };
+        let n = bdims.iter().product();
+        let mut s =
+            Self { spec: *g.spec(), bdims, bricks: vec![[0; BRICK]; n], occ: vec![0; n.div_ceil(64)] };
         for (base, b) in g.bricks() {
             let i = s.brick_index(base[0] / BRICK, base[1] / BRICK, base[2] / BRICK);
             s.bricks[i] = *b;
+            s.note(i);
         }
         s
+    }
+
+    /// Whether brick `b` may hold voxels (false: it is empty).
+    #[inline]
+    pub fn may_hold(&self, b: usize) -> bool {
+        self.occ[b / 64] >> (b % 64) & 1 != 0
+    }
+
+    /// Records whether brick `b` holds voxels now.
+    #[inline]
+    fn note(&mut self, b: usize) {
+        let m = 1u64 << (b % 64);
+        if self.bricks[b].iter().any(|&w| w != 0) {
+            self.occ[b / 64] |= m;
+        } else {
+            self.occ[b / 64] &= !m;
+        }
     }
 
     pub fn to_grid(&self) -> VoxelGrid {
@@ -338,6 +388,7 @@ impl Store {
         let m = 1u64 << ((i % BRICK) + BRICK * (j % BRICK));
         if v {
             self.bricks[b][k % BRICK] |= m;
+            self.occ[b / 64] |= 1 << (b % 64);
         } else {
             self.bricks[b][k % BRICK] &= !m;
         }
@@ -413,18 +464,22 @@ pub(crate) fn run_batch(
     flags.extend((0..sweeps.len()).map(|_| AtomicU8::new(0)));
     let st: &Store = store;
     let spec = st.spec;
+    // Half extent of a brick's block of voxel centres.
+    let half = spec.voxel * (0.5 * (BRICK - 1) as f64);
     for (si, sw) in sweeps.iter().enumerate() {
         let guard = check_guard && sw.op == Op::Cut && sw.prims.nguard > 0;
         let (lo, hi) = sw.aabb(guard);
         let Some(r) = brick_range(&spec, &lo, &hi) else { continue };
         let bin = |b: [usize; 3]| -> Option<u64> {
             let bi = st.brick_index(b[0], b[1], b[2]);
-            if sw.op == Op::Cut && st.bricks[bi].iter().all(|&w| w == 0) {
+            if sw.op == Op::Cut && !st.may_hold(bi) {
                 return None;
             }
             let (c, d) = st.brick_ball([b[0] * BRICK, b[1] * BRICK, b[2] * BRICK]);
-            (sw.cut_contains(&c, d + eps) || (guard && sw.guard_contains(&c, d + eps)))
-                .then_some(((bi as u64) << 24) | si as u64)
+            // The cutting part reaches the brick only if its box meets the brick's voxel
+            // centres (a much tighter test than the brick's ball for a thin tool).
+            let cuts = boxes[si].meets(&c, &half) && sw.cut_contains(&c, d + eps);
+            (cuts || (guard && sw.guard_contains(&c, d + eps))).then_some(((bi as u64) << 24) | si as u64)
         };
         // Layers of bricks across the grid axis closest to the tool axis; in each, only the
         // bricks within the slab bounds of the sweep are candidates.
@@ -487,7 +542,7 @@ pub(crate) fn run_batch(
     let mut refs: Vec<&mut Brick> = Vec::with_capacity(groups.len());
     let bdims = store.bdims;
     let spec = store.spec;
-    let view = Store { spec, bdims, bricks: Vec::new() };
+    let view = Store { spec, bdims, bricks: Vec::new(), occ: Vec::new() };
     let mut rest: &mut [Brick] = &mut store.bricks;
     let mut offset = 0;
     for &(b, _, _) in groups.iter() {
@@ -509,11 +564,15 @@ pub(crate) fn run_batch(
         let tgt = target.map(|t| &t.bricks[b]);
         process_brick(&view, brick, base, tgt, sweeps, boxes, &pairs[s..e], check_guard, eps, flags)
     };
-    if pairs.len() < parallel_threshold {
+    let stats = if pairs.len() < parallel_threshold {
         refs.into_iter().zip(groups.iter()).map(work).fold(Stats::default(), Stats::add)
     } else {
         refs.into_par_iter().zip(groups.par_iter()).map(work).reduce(Stats::default, Stats::add)
+    };
+    for &(b, _, _) in groups.iter() {
+        store.note(b);
     }
+    stats
 }
 
 #[inline]
@@ -537,20 +596,30 @@ fn select(
     let s = &view.spec;
     let half = 3.5 * s.voxel.x;
     let x0 = s.origin.x + (base[0] as f64 + 0.5) * s.voxel.x;
+    let qy = |y: usize| s.origin.y + ((base[1] + y) as f64 + 0.5) * s.voxel.y;
+    // The box coordinates of the rows' first voxels, by parts: a row then costs two
+    // additions per box axis rather than a dot product. (Rounding differs from the dot
+    // product's by far less than the box's padding, and the box only narrows the voxels
+    // that `inside` decides.)
+    let (px, py) = match bounds {
+        Some(b) => (b.part(0, x0), std::array::from_fn(|y| b.part(1, qy(y)))),
+        None => ([0.0; 3], [[0.0; 3]; BRICK]),
+    };
     let mut out = [0u64; BRICK];
     for (z, &word) in bits.iter().enumerate() {
         if word == 0 {
             continue;
         }
         let qz = s.origin.z + ((base[2] + z) as f64 + 0.5) * s.voxel.z;
-        for y in 0..BRICK {
+        let pz = bounds.map_or([0.0; 3], |b| b.part(2, qz));
+        for (y, py) in py.iter().enumerate() {
             let row = (word >> (BRICK * y)) & 0xff;
             if row == 0 {
                 continue;
             }
-            let qy = s.origin.y + ((base[1] + y) as f64 + 0.5) * s.voxel.y;
+            let qy = qy(y);
             let row = match bounds {
-                Some(b) => row & b.row_mask(&Point3::new(x0, qy, qz)),
+                Some(b) => row & b.row_mask(std::array::from_fn(|j| px[j] + py[j] + pz[j])),
                 None if inside(&Point3::new(x0 + half, qy, qz), half) => row,
                 None => 0,
             };
@@ -788,5 +857,65 @@ mod tests {
             checked += usize::from(want > 0);
         }
         assert!(checked >= 40, "most sweeps cut something: {checked}");
+    }
+
+    /// Over many batches on one store, bricks emptied by earlier batches are skipped by the
+    /// occupancy bits, and a deposit refills them: the result is still exactly the per-voxel
+    /// union (cuts) and the bits say "empty" only for empty bricks.
+    #[test]
+    fn occupancy_culling_across_batches_is_exact() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let bbox = Aabb::new(Point3::new(-10.0, -8.0, -6.0), Point3::new(10.0, 8.0, 6.0));
+        let spec = GridSpec::cubic(&bbox, 40).unwrap();
+        let eps = 1e-6 * spec.voxel.min();
+        let mut store = Store::from_grid(&VoxelGrid::full(spec));
+        let mut want = vec![true; spec.dims.iter().product()];
+        let mut scratch = Scratch::default();
+        let bead = ToolPrims::bead(&BeadProfile::Stadium { width: 3.0, height: 2.0 });
+        for batch in 0..30 {
+            let deposit = batch % 7 == 6;
+            let a = if batch % 2 == 0 { Vector3::z() } else { unit(&mut rng) };
+            let p0 = Point3::new(
+                rng.random_range(-9.0..9.0),
+                rng.random_range(-7.0..7.0),
+                rng.random_range(-5.0..5.0),
+            );
+            let d = unit(&mut rng) * rng.random_range(2.0..14.0);
+            let sw = Sweep {
+                seg: Seg::new(p0, p0 + d, a),
+                prims: if deposit { bead } else { ToolPrims::cutter(&Cutter::flat(2.5, 30.0)) },
+                op: if deposit { Op::Deposit } else { Op::Cut },
+                rapid: false,
+                seq: batch,
+                line: batch,
+            };
+            run_batch(&mut store, None, &[sw], true, 1 << 30, eps, &mut scratch);
+            let mut n = 0;
+            for k in 0..spec.dims[2] {
+                for j in 0..spec.dims[1] {
+                    for i in 0..spec.dims[0] {
+                        let q = Point3::new(
+                            spec.origin.x + (i as f64 + 0.5) * spec.voxel.x,
+                            spec.origin.y + (j as f64 + 0.5) * spec.voxel.y,
+                            spec.origin.z + (k as f64 + 0.5) * spec.voxel.z,
+                        );
+                        let v = &mut want[i + spec.dims[0] * (j + spec.dims[1] * k)];
+                        if sw.cut_contains(&q, eps) {
+                            *v = deposit;
+                        }
+                        assert_eq!(store.get(i, j, k), *v, "batch {batch}: voxel ({i}, {j}, {k})");
+                        n += usize::from(*v);
+                    }
+                }
+            }
+            assert!(n > 0, "batch {batch}: material is left");
+            for (b, brick) in store.bricks.iter().enumerate() {
+                if brick.iter().any(|&w| w != 0) {
+                    assert!(store.may_hold(b), "batch {batch}: brick {b} holds voxels but is marked empty");
+                }
+            }
+        }
+        let empty = (0..store.bricks.len()).filter(|&b| !store.may_hold(b)).count();
+        assert!(empty > 10, "the cuts emptied bricks that later batches skip: {empty}");
     }
 }
