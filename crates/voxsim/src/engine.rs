@@ -788,6 +788,14 @@ mod tests {
         }
     }
 
+    /// Every voxel's index and centre, x fastest.
+    fn centres(spec: &GridSpec) -> impl Iterator<Item = ([usize; 3], Point3)> + '_ {
+        let [nx, ny, nz] = spec.dims;
+        (0..nz).flat_map(move |k| {
+            (0..ny).flat_map(move |j| (0..nx).map(move |i| ([i, j, k], spec.center(i, j, k))))
+        })
+    }
+
     /// The culled engine (slab-bounded binning, boxed row selection) removes exactly the
     /// voxels whose centres a per-voxel test puts in the sweep, for tilted, axis-aligned,
     /// sideways and plunging moves of every cutter shape, with and without a guard.
@@ -837,20 +845,11 @@ mod tests {
             let st = run_batch(&mut store, None, &[sw], true, 1 << 30, eps, &mut scratch);
             let mut want = 0u64;
             let mut holder = 0u64;
-            for k in 0..spec.dims[2] {
-                for j in 0..spec.dims[1] {
-                    for i in 0..spec.dims[0] {
-                        let q = Point3::new(
-                            spec.origin.x + (i as f64 + 0.5) * spec.voxel.x,
-                            spec.origin.y + (j as f64 + 0.5) * spec.voxel.y,
-                            spec.origin.z + (k as f64 + 0.5) * spec.voxel.z,
-                        );
-                        let cut = sw.cut_contains(&q, eps);
-                        want += u64::from(cut);
-                        holder += u64::from(!cut && sw.guard_contains(&q, eps));
-                        assert_eq!(store.get(i, j, k), !cut, "case {case}: voxel ({i}, {j}, {k})");
-                    }
-                }
+            for ([i, j, k], q) in centres(&spec) {
+                let cut = sw.cut_contains(&q, eps);
+                want += u64::from(cut);
+                holder += u64::from(!cut && sw.guard_contains(&q, eps));
+                assert_eq!(store.get(i, j, k), !cut, "case {case}: voxel ({i}, {j}, {k})");
             }
             assert_eq!(st.removed, want, "case {case}");
             assert_eq!(st.holder_voxels, holder, "case {case}: guard");
@@ -891,22 +890,13 @@ mod tests {
             };
             run_batch(&mut store, None, &[sw], true, 1 << 30, eps, &mut scratch);
             let mut n = 0;
-            for k in 0..spec.dims[2] {
-                for j in 0..spec.dims[1] {
-                    for i in 0..spec.dims[0] {
-                        let q = Point3::new(
-                            spec.origin.x + (i as f64 + 0.5) * spec.voxel.x,
-                            spec.origin.y + (j as f64 + 0.5) * spec.voxel.y,
-                            spec.origin.z + (k as f64 + 0.5) * spec.voxel.z,
-                        );
-                        let v = &mut want[i + spec.dims[0] * (j + spec.dims[1] * k)];
-                        if sw.cut_contains(&q, eps) {
-                            *v = deposit;
-                        }
-                        assert_eq!(store.get(i, j, k), *v, "batch {batch}: voxel ({i}, {j}, {k})");
-                        n += usize::from(*v);
-                    }
+            for ([i, j, k], q) in centres(&spec) {
+                let v = &mut want[i + spec.dims[0] * (j + spec.dims[1] * k)];
+                if sw.cut_contains(&q, eps) {
+                    *v = deposit;
                 }
+                assert_eq!(store.get(i, j, k), *v, "batch {batch}: voxel ({i}, {j}, {k})");
+                n += usize::from(*v);
             }
             assert!(n > 0, "batch {batch}: material is left");
             for (b, brick) in store.bricks.iter().enumerate() {
