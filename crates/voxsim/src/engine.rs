@@ -463,64 +463,28 @@ pub(crate) fn run_batch(
     flags.clear();
     flags.extend((0..sweeps.len()).map(|_| AtomicU8::new(0)));
     let st: &Store = store;
-    let spec = st.spec;
-    // Half extent of a brick's block of voxel centres.
-    let half = spec.voxel * (0.5 * (BRICK - 1) as f64);
-    for (si, sw) in sweeps.iter().enumerate() {
-        let guard = check_guard && sw.op == Op::Cut && sw.prims.nguard > 0;
-        let (lo, hi) = sw.aabb(guard);
-        let Some(r) = brick_range(&spec, &lo, &hi) else { continue };
-        let bin = |b: [usize; 3]| -> Option<u64> {
-            let bi = st.brick_index(b[0], b[1], b[2]);
-            if sw.op == Op::Cut && !st.may_hold(bi) {
-                return None;
-            }
-            let (c, d) = st.brick_ball([b[0] * BRICK, b[1] * BRICK, b[2] * BRICK]);
-            // The cutting part reaches the brick only if its box meets the brick's voxel
-            // centres (a much tighter test than the brick's ball for a thin tool).
-            let cuts = boxes[si].meets(&c, &half) && sw.cut_contains(&c, d + eps);
-            (cuts || (guard && sw.guard_contains(&c, d + eps))).then_some(((bi as u64) << 24) | si as u64)
-        };
-        // Layers of bricks across the grid axis closest to the tool axis; in each, only the
-        // bricks within the slab bounds of the sweep are candidates.
-        let k = sw.seg.a.iamax();
-        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        rows.clear();
-        for bk in r[k].0..=r[k].1 {
-            let first = bk * BRICK;
-            let last = (first + BRICK - 1).min(spec.dims[k] - 1);
-            let centre = |v: usize| spec.origin[k] + (v as f64 + 0.5) * spec.voxel[k];
-            let Some([ri, rj]) = sw.slab_bounds(k, centre(first) - eps, centre(last) + eps, guard) else {
-                continue;
-            };
-            let (Some(ci), Some(cj)) =
-                (spec.center_range(ri.0 - eps, ri.1 + eps, i), spec.center_range(rj.0 - eps, rj.1 + eps, j))
-            else {
-                continue;
-            };
-            let (i0, i1) = ((ci.0 / BRICK).max(r[i].0), (ci.1 / BRICK).min(r[i].1));
-            for bj in (cj.0 / BRICK).max(r[j].0)..=(cj.1 / BRICK).min(r[j].1) {
-                if i0 <= i1 {
-                    rows.push((bk, bj, i0, i1));
-                }
-            }
-        }
-        let brick = move |bk: usize, bj: usize, bi: usize| {
-            let mut b = [0; 3];
-            (b[k], b[j], b[i]) = (bk, bj, bi);
-            b
-        };
-        let n: usize = rows.iter().map(|&(_, _, i0, i1)| i1 - i0 + 1).sum();
-        if n >= 4096 {
-            pairs.par_extend(
-                rows.par_iter().flat_map_iter(|&(bk, bj, i0, i1)| {
-                    (i0..=i1).filter_map(move |bi| bin(brick(bk, bj, bi)))
-                }),
-            );
-        } else {
-            for &(bk, bj, i0, i1) in rows.iter() {
-                pairs.extend((i0..=i1).filter_map(|bi| bin(brick(bk, bj, bi))));
-            }
+    let bin = |si: usize, rows: &mut Vec<_>, out: &mut Vec<u64>| {
+        bin_sweep(st, si, &sweeps[si], &boxes[si], check_guard, eps, rows, out);
+    };
+    if sweeps.len() >= PARALLEL_BINNING {
+        // Sweeps are binned independently (the pairs are sorted next), so a batch spreads
+        // over the threads: on two cores the planner leaves one idle at times.
+        let parts: Vec<Vec<u64>> = (0..sweeps.len())
+            .into_par_iter()
+            .with_min_len(PARALLEL_BINNING / 4)
+            .fold(
+                || (Vec::new(), Vec::new()),
+                |(mut out, mut rows), si| {
+                    bin(si, &mut rows, &mut out);
+                    (out, rows)
+                },
+            )
+            .map(|(out, _)| out)
+            .collect();
+        pairs.extend(parts.into_iter().flatten());
+    } else {
+        for si in 0..sweeps.len() {
+            bin(si, rows, pairs);
         }
     }
     if pairs.is_empty() {
@@ -573,6 +537,82 @@ pub(crate) fn run_batch(
         store.note(b);
     }
     stats
+}
+
+/// Sweeps per batch from which binning runs on the thread pool.
+const PARALLEL_BINNING: usize = 64;
+
+/// Appends to `out` the `(brick << 24 | si)` pairs of sweep `si`: the bricks that may hold
+/// material (every candidate brick for a deposit) and that its cutting part's box and
+/// inflated volume, or its guard's, reach. `rows` is scratch.
+#[allow(clippy::too_many_arguments)] // One sweep's whole context, as `process_brick`'s.
+fn bin_sweep(
+    st: &Store,
+    si: usize,
+    sw: &Sweep,
+    bx: &SweepBox,
+    check_guard: bool,
+    eps: f64,
+    rows: &mut Vec<(usize, usize, usize, usize)>,
+    out: &mut Vec<u64>,
+) {
+    let spec = st.spec;
+    // Half extent of a brick's block of voxel centres.
+    let half = spec.voxel * (0.5 * (BRICK - 1) as f64);
+    let guard = check_guard && sw.op == Op::Cut && sw.prims.nguard > 0;
+    let (lo, hi) = sw.aabb(guard);
+    let Some(r) = brick_range(&spec, &lo, &hi) else { return };
+    let bin = |b: [usize; 3]| -> Option<u64> {
+        let bi = st.brick_index(b[0], b[1], b[2]);
+        if sw.op == Op::Cut && !st.may_hold(bi) {
+            return None;
+        }
+        let (c, d) = st.brick_ball([b[0] * BRICK, b[1] * BRICK, b[2] * BRICK]);
+        // The cutting part reaches the brick only if its box meets the brick's voxel
+        // centres (a much tighter test than the brick's ball for a thin tool).
+        let cuts = bx.meets(&c, &half) && sw.cut_contains(&c, d + eps);
+        (cuts || (guard && sw.guard_contains(&c, d + eps))).then_some(((bi as u64) << 24) | si as u64)
+    };
+    // Layers of bricks across the grid axis closest to the tool axis; in each, only the
+    // bricks within the slab bounds of the sweep are candidates.
+    let k = sw.seg.a.iamax();
+    let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+    rows.clear();
+    for bk in r[k].0..=r[k].1 {
+        let first = bk * BRICK;
+        let last = (first + BRICK - 1).min(spec.dims[k] - 1);
+        let centre = |v: usize| spec.origin[k] + (v as f64 + 0.5) * spec.voxel[k];
+        let Some([ri, rj]) = sw.slab_bounds(k, centre(first) - eps, centre(last) + eps, guard) else {
+            continue;
+        };
+        let (Some(ci), Some(cj)) =
+            (spec.center_range(ri.0 - eps, ri.1 + eps, i), spec.center_range(rj.0 - eps, rj.1 + eps, j))
+        else {
+            continue;
+        };
+        let (i0, i1) = ((ci.0 / BRICK).max(r[i].0), (ci.1 / BRICK).min(r[i].1));
+        for bj in (cj.0 / BRICK).max(r[j].0)..=(cj.1 / BRICK).min(r[j].1) {
+            if i0 <= i1 {
+                rows.push((bk, bj, i0, i1));
+            }
+        }
+    }
+    let brick = move |bk: usize, bj: usize, bi: usize| {
+        let mut b = [0; 3];
+        (b[k], b[j], b[i]) = (bk, bj, bi);
+        b
+    };
+    let n: usize = rows.iter().map(|&(_, _, i0, i1)| i1 - i0 + 1).sum();
+    if n >= 4096 {
+        out.par_extend(
+            rows.par_iter()
+                .flat_map_iter(|&(bk, bj, i0, i1)| (i0..=i1).filter_map(move |bi| bin(brick(bk, bj, bi)))),
+        );
+    } else {
+        for &(bk, bj, i0, i1) in rows.iter() {
+            out.extend((i0..=i1).filter_map(|bi| bin(brick(bk, bj, bi))));
+        }
+    }
 }
 
 #[inline]

@@ -322,6 +322,28 @@ mod agreement {
         }
     }
 
+    /// Batches of thousands of moves (binned on the thread pool, carved brick by brick in
+    /// program order) leave exactly the stock that one move per batch leaves.
+    #[test]
+    fn batch_size_does_not_change_the_result() {
+        let stock = full_box(p(0., 0., 0.), p(40., 40., 10.), 96);
+        let tools = ToolTable::single(Cutter::flat(1.5, 12.0));
+        let mut ms = zigzag(5.0, 35.0, 5.0, 35.0, 2.1, 6.3);
+        ms.extend(zigzag(3.0, 37.0, 4.0, 36.0, 1.3, 4.1));
+        let ms = numbered(ms);
+        let go = |batch_moves| {
+            let opts = SimOptions { batch_moves, ..Default::default() };
+            run(Simulator::new(stock.clone(), tools.clone(), opts).unwrap(), &ms)
+        };
+        let (one, many) = (go(1), go(4096));
+        assert!(ms.len() > 64, "enough moves for a pooled batch: {}", ms.len());
+        assert!(one.report().removed_voxels > 10_000, "{}", one.report().removed_voxels);
+        assert_eq!(one.report().removed_voxels, many.report().removed_voxels);
+        let mut x = one.residual().clone();
+        x.xor(many.residual()).unwrap();
+        assert_eq!(x.count(), 0, "residuals differ");
+    }
+
     /// The 3-axis, single-tool programs of tests/data: a stock box from a bit below the
     /// lowest cutting move up to the top of the cutting moves. Every program is either
     /// compared or skipped for a stated reason, and the compared ones are named, so a
