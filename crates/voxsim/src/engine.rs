@@ -1,7 +1,8 @@
 //! The voxel stock and the exact brick-parallel carving engine.
 //!
-//! Moves are queued as [`Sweep`]s and processed in batches: every sweep is binned to the
-//! 8x8x8 bricks its (inflated) swept volume can touch, the `(brick, sweep)` pairs are
+//! Moves are queued as [`Sweep`]s and processed in batches: every sweep is binned (sweeps
+//! in parallel) to the 8x8x8 bricks its (inflated) swept volume can touch, leaving out the
+//! bricks a one-bit-per-brick occupancy map marks empty, the `(brick, sweep)` pairs are
 //! sorted, and bricks are processed in parallel, each applying its sweeps in program order.
 //! So a long move is spread over many threads, and a finishing program of millions of tiny
 //! moves is processed many moves per pass. Per brick and sweep the brick is first classified
