@@ -251,8 +251,9 @@ impl SweepBox {
         })
     }
 
-    /// `(q - o) . axes[j]` split by grid axis: `[x, y, z][i][j]` is `(q_i - o_i) axes[j]_i`
-    /// for `q_i = v` (the caller sums the three parts of a voxel centre).
+    /// Grid axis `i`'s share of a point's box coordinates: `(v - o_i) axes[j]_i` for
+    /// `j = 0..3`, where `v` is the point's coordinate `i`. The shares of a point's three
+    /// coordinates sum to its `(q - o) . axes[j]`.
     #[inline]
     pub fn part(&self, i: usize, v: f64) -> [f64; 3] {
         let d = v - self.o[i];
