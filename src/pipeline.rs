@@ -731,7 +731,7 @@ impl MillRun {
             // Above this height (program +Z, rotary centre at the origin) the tool clears
             // every point of the stock in every orientation of the table.
             let turn_z =
-                (0..8).map(|i| corner(&self.stock, i).coords.norm()).fold(0.0, f64::max) + self.clearance;
+                self.stock.corners().iter().map(|c| c.coords.norm()).fold(0.0, f64::max) + self.clearance;
             let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
             let setups = mill_rotary(&self.ctx(), axes, placements, turn_z, &mut trace, &mut times, progress);
             (self.trace, self.times) = (trace, times);
@@ -795,20 +795,11 @@ impl MillRun {
     }
 }
 
-/// Corner `i` (bits: x, y, z at max) of a box.
-fn corner(b: &Aabb, i: usize) -> Point3 {
-    Point3::new(
-        if i & 1 == 0 { b.min.x } else { b.max.x },
-        if i & 2 == 0 { b.min.y } else { b.max.y },
-        if i & 4 == 0 { b.min.z } else { b.max.z },
-    )
-}
-
 /// The stock box as seen in a setup's frame (the box around its rotated corners).
 fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
     let mut b = Aabb::empty();
-    for i in 0..8 {
-        b.grow(&setup.to_setup(&corner(stock, i)));
+    for c in stock.corners() {
+        b.grow(&setup.to_setup(&c));
     }
     b
 }
@@ -1487,7 +1478,7 @@ fn setup_features(
         })
         .collect();
     // The stock's extent along the tool axis: its top and bottom.
-    let zs: Vec<f64> = (0..8).map(|i| corner(stock, i).coords.dot(&axis)).collect();
+    let zs: Vec<f64> = stock.corners().iter().map(|c| c.coords.dot(&axis)).collect();
     let top = zs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let depth = top - zs.iter().copied().fold(f64::INFINITY, f64::min);
     let bins = SetupFeatures::DEPTH_BINS;

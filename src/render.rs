@@ -235,30 +235,7 @@ mod tests {
     use super::*;
 
     fn cube(min: f64, max: f64) -> Mesh {
-        let v: Vec<Point3> = (0..8)
-            .map(|i| {
-                Point3::new(
-                    if i & 1 == 0 { min } else { max },
-                    if i & 2 == 0 { min } else { max },
-                    if i & 4 == 0 { min } else { max },
-                )
-            })
-            .collect();
-        let t = vec![
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ];
-        Mesh::new(v, t).unwrap()
+        Mesh::cuboid(&Aabb::new(Point3::new(min, min, min), Point3::new(max, max, max))).unwrap()
     }
 
     #[test]

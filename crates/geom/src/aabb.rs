@@ -78,6 +78,22 @@ impl Aabb {
         (0..3).all(|i| self.min[i] <= other.max[i] && other.min[i] <= self.max[i])
     }
 
+    /// Corner `i` of the box, `i` in `0..8`: bit 0 of `i` picks `max.x` over `min.x`, bit
+    /// 1 the y, bit 2 the z (so corner 0 is `min` and corner 7 is `max`).
+    ///
+    /// # Panics
+    /// If `i >= 8`.
+    pub fn corner(&self, i: usize) -> Point3 {
+        assert!(i < 8, "a box has corners 0..8, not {i}");
+        let pick = |bit: usize, axis: usize| if i & bit == 0 { self.min[axis] } else { self.max[axis] };
+        Point3::new(pick(1, 0), pick(2, 1), pick(4, 2))
+    }
+
+    /// The eight corners, in the order of [`Aabb::corner`].
+    pub fn corners(&self) -> [Point3; 8] {
+        std::array::from_fn(|i| self.corner(i))
+    }
+
     /// The volume (0 for an invalid box).
     pub fn volume(&self) -> Real {
         if self.is_valid() { self.extent().product() } else { 0.0 }

@@ -36,6 +36,33 @@ impl Mesh {
         Self::new(vertices, tris)
     }
 
+    /// The closed box `b` as a mesh: its eight [corners](Aabb::corners) and two triangles a
+    /// face, wound outward. [`GeomError::InvalidArgument`] for a box that is not
+    /// [valid](Aabb::is_valid) (a non-finite corner, or `min > max` on an axis, which would
+    /// turn the box inside out); a box flat on an axis is valid and gives a mesh of zero
+    /// volume.
+    ///
+    /// ```
+    /// use s2g_geom::{Aabb, Mesh, Point3};
+    /// let m = Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 2.0, 3.0))).unwrap();
+    /// assert_eq!((m.vertices().len(), m.triangles().len()), (8, 12));
+    /// assert!((m.signed_volume() - 6.0).abs() < 1e-12);
+    /// assert!(Mesh::cuboid(&Aabb::new(Point3::new(1.0, 0.0, 0.0), Point3::origin())).is_err());
+    /// ```
+    pub fn cuboid(b: &Aabb) -> Result<Self> {
+        if !b.is_valid() {
+            return Err(GeomError::InvalidArgument(format!(
+                "a cuboid needs finite corners with min <= max, got {:?} .. {:?}",
+                b.min, b.max
+            )));
+        }
+        // Each face's corners counter-clockwise seen from outside: -z, +z, -y, +y, -x, +x.
+        const FACES: [[u32; 4]; 6] =
+            [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles = FACES.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
+        Self::new(b.corners().to_vec(), triangles)
+    }
+
     /// The vertices.
     pub fn vertices(&self) -> &[Point3] {
         &self.vertices

@@ -5,8 +5,9 @@
 use std::path::{Path, PathBuf};
 
 use s2g_geom::{
-    GeomError, LoadOptions, Mesh, MeshFormat, Point3, Real, Similarity3, Vector3, drop_degenerate, load_mesh,
-    load_mesh_with, merge_vertices, read_mesh, read_stl, remove_unused_vertices, report, save_mesh,
+    Aabb, GeomError, LoadOptions, Mesh, MeshFormat, Point3, Real, Similarity3, Vector3, drop_degenerate,
+    load_mesh, load_mesh_with, merge_vertices, read_mesh, read_stl, remove_unused_vertices, report,
+    save_mesh,
 };
 
 fn data_dir() -> PathBuf {
@@ -17,32 +18,9 @@ fn edge_dir() -> PathBuf {
     data_dir().join("meshes/stl_edge_cases/stl-models")
 }
 
-/// An axis-aligned box as 12 outward triangles on 8 shared vertices.
+/// The closed, outward box `[min, max]`.
 fn box_mesh(min: Point3, max: Point3) -> Mesh {
-    let v = (0..8)
-        .map(|i| {
-            Point3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        })
-        .collect();
-    let t = vec![
-        [0, 2, 1],
-        [1, 2, 3], // z-
-        [4, 5, 6],
-        [5, 7, 6], // z+
-        [0, 1, 4],
-        [1, 5, 4], // y-
-        [2, 6, 3],
-        [3, 6, 7], // y+
-        [0, 4, 2],
-        [2, 4, 6], // x-
-        [1, 3, 5],
-        [3, 7, 5], // x+
-    ];
-    Mesh::new(v, t).unwrap()
+    Mesh::cuboid(&Aabb::new(min, max)).unwrap()
 }
 
 fn soup(mesh: &Mesh) -> Mesh {
@@ -993,6 +971,31 @@ mod checks {
         let d = drop_degenerate(&m, 1e-12);
         assert_eq!(d.triangles().len(), 13);
         assert_eq!(remove_unused_vertices(&d).vertices().len(), 9);
+    }
+
+    #[test]
+    fn cuboids_are_closed_outward_boxes_and_bad_boxes_are_errors() {
+        let b = Aabb::new(Point3::new(-1.0, 2.0, 0.5), Point3::new(3.0, 2.5, 4.0));
+        assert_eq!((b.corner(0), b.corner(7)), (b.min, b.max));
+        assert_eq!(b.corner(6), Point3::new(-1.0, 2.5, 4.0));
+        let m = Mesh::cuboid(&b).unwrap();
+        assert_eq!(m.vertices(), &b.corners()[..]);
+        let r = report(&m);
+        assert!(r.closed && r.manifold && r.consistently_oriented, "{r:?}");
+        assert!(rel_close(r.volume, 4.0 * 0.5 * 3.5, 1e-12), "{}", r.volume);
+        // Every face points away from the centre.
+        for t in 0..m.triangles().len() {
+            let [p, q, s] = m.triangle(t);
+            let centroid = Point3::from((p.coords + q.coords + s.coords) / 3.0);
+            assert!(m.face_normal(t).unwrap().dot(&(centroid - b.center())) > 0.0, "face {t}");
+        }
+        // Flat on an axis: valid, no volume; inside out or not finite: an error.
+        let flat = Mesh::cuboid(&Aabb::new(b.min, Point3::new(3.0, 2.5, 0.5))).unwrap();
+        assert_eq!(flat.signed_volume(), 0.0);
+        for bad in [Aabb::new(b.max, b.min), Aabb::new(b.min, Point3::new(f64::NAN, 0.0, 0.0)), Aabb::empty()]
+        {
+            assert!(matches!(Mesh::cuboid(&bad), Err(GeomError::InvalidArgument(_))), "{bad:?}");
+        }
     }
 
     #[test]

@@ -6,20 +6,9 @@ use s2g_geom::{
     VoxelGrid, chamfer_and_normals, compare, occupancy_iou, sample_surface,
 };
 
-/// An axis-aligned box, wound counter-clockwise seen from outside.
+/// The closed, outward box `[min, max]`.
 fn box_mesh(min: Point3, max: Point3) -> Mesh {
-    let c = |i: usize| {
-        Point3::new(
-            if i & 1 == 0 { min.x } else { max.x },
-            if i & 2 == 0 { min.y } else { max.y },
-            if i & 4 == 0 { min.z } else { max.z },
-        )
-    };
-    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-    let tris = quads.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
-    let m = Mesh::new((0..8).map(c).collect(), tris).unwrap();
-    assert!(m.signed_volume() > 0.0, "test box must be outward");
-    m
+    Mesh::cuboid(&Aabb::new(min, max)).unwrap()
 }
 
 fn cube(half: f64, shift_x: f64) -> Mesh {

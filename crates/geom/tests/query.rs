@@ -3,36 +3,13 @@
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use s2g_geom::{
-    BoxShape, GeomError, Isometry3, Mesh, MeshIndex, OccluderCache, Point3, Rotation3, SignedDistance,
+    Aabb, BoxShape, GeomError, Isometry3, Mesh, MeshIndex, OccluderCache, Point3, Rotation3, SignedDistance,
     Similarity3, Vector3,
 };
 
-/// An outward-wound axis-aligned box mesh (12 triangles).
+/// The closed, outward box `[min, max]`.
 fn box_mesh(min: Point3, max: Point3) -> Mesh {
-    let v: Vec<Point3> = (0..8)
-        .map(|i| {
-            Point3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        })
-        .collect();
-    let t = vec![
-        [0, 2, 1],
-        [1, 2, 3], // -z
-        [4, 5, 6],
-        [5, 7, 6], // +z
-        [0, 1, 4],
-        [1, 5, 4], // -y
-        [2, 6, 3],
-        [3, 6, 7], // +y
-        [0, 4, 2],
-        [2, 4, 6], // -x
-        [1, 3, 5],
-        [3, 7, 5], // +x
-    ];
-    Mesh::new(v, t).unwrap()
+    Mesh::cuboid(&Aabb::new(min, max)).unwrap()
 }
 
 /// A regular tetrahedron-ish mesh, outward wound.

@@ -3,36 +3,13 @@
 use std::path::Path;
 
 use s2g_geom::{
-    GeomError, Mesh, Point3, Real, Rotation3, Similarity3, Vector3, load_mesh, normalize_unit_cube,
+    Aabb, GeomError, Mesh, Point3, Real, Rotation3, Similarity3, Vector3, load_mesh, normalize_unit_cube,
     sample_surface,
 };
 
-/// An axis-aligned box as 12 outward triangles.
+/// The closed, outward box `[min, max]`.
 fn box_mesh(min: Point3, max: Point3) -> Mesh {
-    let v = (0..8)
-        .map(|i| {
-            Point3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        })
-        .collect();
-    let t = vec![
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
-    Mesh::new(v, t).unwrap()
+    Mesh::cuboid(&Aabb::new(min, max)).unwrap()
 }
 
 /// A latitude/longitude sphere, outward wound.

@@ -6,32 +6,9 @@ use s2g_geom::{
     VoxelGrid, VoxelizeOptions, voxelize, voxelize_opt,
 };
 
-/// An outward-wound axis-aligned box mesh (12 triangles).
+/// The closed, outward box `[min, max]`.
 fn box_mesh(min: Point3, max: Point3) -> Mesh {
-    let v: Vec<Point3> = (0..8)
-        .map(|i| {
-            Point3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        })
-        .collect();
-    let t = vec![
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
-    Mesh::new(v, t).unwrap()
+    Mesh::cuboid(&Aabb::new(min, max)).unwrap()
 }
 
 /// An icosphere: the icosahedron subdivided `levels` times, vertices pushed onto the sphere.

@@ -392,31 +392,8 @@ mod tests {
     use s2g_geom::Aabb;
 
     /// A closed axis-aligned box mesh, outward winding.
-    pub(crate) fn box_mesh(min: Point3, max: Point3) -> Mesh {
-        let v: Vec<Point3> = (0..8)
-            .map(|k| {
-                Point3::new(
-                    if k & 1 == 0 { min.x } else { max.x },
-                    if k & 2 == 0 { min.y } else { max.y },
-                    if k & 4 == 0 { min.z } else { max.z },
-                )
-            })
-            .collect();
-        let t = vec![
-            [0, 2, 1],
-            [1, 2, 3], // -Z
-            [4, 5, 6],
-            [5, 7, 6], // +Z
-            [0, 1, 4],
-            [1, 5, 4], // -Y
-            [2, 6, 3],
-            [3, 6, 7], // +Y
-            [0, 4, 2],
-            [2, 4, 6], // -X
-            [1, 3, 5],
-            [3, 7, 5], // +X
-        ];
-        Mesh::new(v, t).unwrap()
+    fn box_mesh(min: Point3, max: Point3) -> Mesh {
+        Mesh::cuboid(&Aabb::new(min, max)).unwrap()
     }
 
     #[test]

@@ -86,13 +86,7 @@ fn height_field(h: &[Vec<f64>], s: f64) -> Mesh {
 }
 
 fn box_mesh(min: Point3, max: Point3) -> Mesh {
-    let s = max - min;
-    let h = vec![vec![s.z; 1]; 1];
-    let m = height_field(&h, 1.0);
-    // Scale the unit cell to the box (non-uniform scale, applied per vertex).
-    let (v, t) = m.into_parts();
-    let v = v.into_iter().map(|p| Point3::new(min.x + p.x * s.x, min.y + p.y * s.y, min.z + p.z)).collect();
-    Mesh::new(v, t).unwrap()
+    Mesh::cuboid(&s2g_geom::Aabb::new(min, max)).unwrap()
 }
 
 fn iou(a: &s2g_geom::VoxelGrid, b: &s2g_geom::VoxelGrid) -> f64 {
