@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 use s2g_geom::Point3;
 
-use crate::engine::{Op, Stats, Store, Sweep};
+use crate::engine::{Op, Stats, Store, Sweep, Tolerance};
 use crate::sweep::Prim;
 
 /// One column's state.
@@ -57,8 +57,9 @@ impl Dexel {
         sw: &Sweep,
         check_guard: bool,
         parallel_threshold: usize,
-        eps: f64,
+        tol: Tolerance,
     ) -> Stats {
+        let eps = tol.tie;
         debug_assert!(sw.op == Op::Cut);
         let guard = check_guard && sw.prims.nguard > 0;
         let (lo, hi) = sw.aabb(guard);
@@ -97,15 +98,20 @@ impl Dexel {
                     }
                 }
                 if let Some((a, b)) = cut {
+                    if sw.rapid {
+                        // Only voxels deeper inside the tool than the graze tolerance collide.
+                        st.rapid_voxels += deep_in(&col.runs, a, b, |k| {
+                            let mut q = base;
+                            q[ax] = spec.origin[ax] + (k as f64 + 0.5) * spec.voxel[ax];
+                            sw.cut_contains(&q, -tol.graze)
+                        });
+                    }
                     let mut gouge = 0u64;
                     let target_runs = &col.target;
                     let removed = subtract(&mut col.runs, a, b, |x, y| gouge += overlap(target_runs, x, y));
                     if removed > 0 {
                         col.dirty = (col.dirty.0.min(a), col.dirty.1.max(b));
                         st.removed += removed;
-                        if sw.rapid {
-                            st.rapid_voxels += removed;
-                        }
                         if gouge > 0 {
                             st.gouge += gouge;
                             st.first_gouge = Some((sw.seq, sw.line));
@@ -115,7 +121,11 @@ impl Dexel {
                 if guard {
                     for p in &sw.prims.guard[..sw.prims.nguard] {
                         if let Some((a, b)) = range(&[*p]) {
-                            st.holder_voxels += overlap(&col.runs, a, b);
+                            st.holder_voxels += deep_in(&col.runs, a, b, |k| {
+                                let mut q = base;
+                                q[ax] = spec.origin[ax] + (k as f64 + 0.5) * spec.voxel[ax];
+                                p.contains(&sw.seg, &q, -tol.graze)
+                            });
                         }
                     }
                 }
@@ -234,6 +244,11 @@ fn runs_of(n: usize, get: impl Fn(usize) -> bool) -> Vec<[u32; 2]> {
 }
 
 /// Number of indices of `[a, b)` covered by `runs`.
+/// How many voxels of `runs` in `[a, b)` pass `deep` (only the overlap is tested).
+fn deep_in(runs: &[[u32; 2]], a: u32, b: u32, deep: impl Fn(u32) -> bool) -> u64 {
+    runs.iter().flat_map(|&[x, y]| x.max(a)..y.min(b)).filter(|&k| deep(k)).count() as u64
+}
+
 fn overlap(runs: &[[u32; 2]], a: u32, b: u32) -> u64 {
     runs.iter().map(|&[x, y]| (y.min(b) as i64 - x.max(a) as i64).max(0) as u64).sum()
 }

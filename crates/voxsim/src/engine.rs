@@ -23,6 +23,18 @@ pub(crate) const FLAG_RAPID: u8 = 1;
 /// Flag bit: the shank or holder met stock.
 pub(crate) const FLAG_HOLDER: u8 = 2;
 
+/// The carvers' tolerances, in part units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Tolerance {
+    /// Voxel centres this close outside a swept volume count as inside it, so that ties
+    /// resolve the same way in every carver ([`SimOptions::tie_tolerance`](crate::SimOptions)).
+    pub tie: f64,
+    /// A rapid move, shank or holder collides with a stock voxel only if the voxel's centre
+    /// lies deeper than this inside it; shallower, it grazes the voxel (a rapid still
+    /// removes it) ([`SimOptions::collision_tolerance`](crate::SimOptions)).
+    pub graze: f64,
+}
+
 /// What a sweep does to the voxels it covers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Op {
@@ -451,9 +463,10 @@ pub(crate) fn run_batch(
     sweeps: &[Sweep],
     check_guard: bool,
     parallel_threshold: usize,
-    eps: f64,
+    tol: Tolerance,
     scratch: &mut Scratch,
 ) -> Stats {
+    let eps = tol.tie;
     let Scratch { pairs, boxes, rows, groups, flags } = scratch;
     pairs.clear();
     boxes.clear();
@@ -528,7 +541,7 @@ pub(crate) fn run_batch(
             (b / (bdims[0] * bdims[1])) * BRICK,
         ];
         let tgt = target.map(|t| &t.bricks[b]);
-        process_brick(&view, brick, base, tgt, sweeps, boxes, &pairs[s..e], check_guard, eps, flags)
+        process_brick(&view, brick, base, tgt, sweeps, boxes, &pairs[s..e], check_guard, tol, flags)
     };
     let stats = if pairs.len() < parallel_threshold {
         refs.into_iter().zip(groups.iter()).map(work).fold(Stats::default(), Stats::add)
@@ -729,9 +742,10 @@ fn process_brick(
     boxes: &[SweepBox],
     pairs: &[u64],
     check_guard: bool,
-    eps: f64,
+    tol: Tolerance,
     flags: &[AtomicU8],
 ) -> Stats {
+    let (eps, graze) = (tol.tie, tol.graze);
     let mut st = Stats::default();
     let (c, d) = view.brick_ball(base);
     for &p in pairs {
@@ -772,8 +786,18 @@ fn process_brick(
                         brick[z] &= !cut[z];
                     }
                     if sw.rapid {
-                        st.rapid_voxels += n;
-                        flags[si].fetch_or(FLAG_RAPID, Ordering::Relaxed);
+                        // Only voxels deeper inside the tool than the graze tolerance collide.
+                        let deep = if sw.cut_contains(&c, -graze - d) {
+                            n
+                        } else {
+                            popcount(&select(view, base, &cut, Some(&boxes[si]), |q, d| {
+                                sw.cut_contains(q, d - graze)
+                            }))
+                        };
+                        if deep > 0 {
+                            st.rapid_voxels += deep;
+                            flags[si].fetch_or(FLAG_RAPID, Ordering::Relaxed);
+                        }
                     }
                     if let Some(t) = target {
                         let g: u64 = (0..BRICK).map(|z| (cut[z] & t[z]).count_ones() as u64).sum();
@@ -785,15 +809,15 @@ fn process_brick(
                         }
                     }
                 }
-                if check_guard && sw.prims.nguard > 0 && sw.guard_contains(&c, d + eps) {
-                    let hits = if sw.guard_contains(&c, eps - d) {
+                if check_guard && sw.prims.nguard > 0 && sw.guard_contains(&c, d - graze) {
+                    let hits = if sw.guard_contains(&c, -graze - d) {
                         popcount(brick)
                     } else {
                         // Shank and holder together are not convex: select per primitive.
                         let mut m = [0u64; BRICK];
                         for g in &sw.prims.guard[..sw.prims.nguard] {
                             let part =
-                                select(view, base, brick, None, |q, d| g.contains(&sw.seg, q, d + eps));
+                                select(view, base, brick, None, |q, d| g.contains(&sw.seg, q, d - graze));
                             for z in 0..BRICK {
                                 m[z] |= part[z];
                             }
@@ -840,13 +864,16 @@ mod tests {
 
     /// The culled engine (slab-bounded binning, boxed row selection) removes exactly the
     /// voxels whose centres a per-voxel test puts in the sweep, for tilted, axis-aligned,
-    /// sideways and plunging moves of every cutter shape, with and without a guard.
+    /// sideways and plunging moves of every cutter shape, with and without a guard; rapids
+    /// and guards collide with exactly the voxels deeper inside than the graze tolerance.
     #[test]
     fn culling_matches_a_per_voxel_brute_force() {
         let mut rng = StdRng::seed_from_u64(11);
         let bbox = Aabb::new(Point3::new(-10.0, -8.0, -6.0), Point3::new(10.0, 8.0, 6.0));
         let spec = GridSpec::cubic(&bbox, 40).unwrap();
         let eps = 1e-6 * spec.voxel.min();
+        let tol = Tolerance { tie: eps, graze: 0.2 * spec.voxel.min() };
+        let mut grazed = 0;
         let cutters = [
             Cutter::flat(0.6, 30.0),
             Cutter::ball(1.7, 5.0),
@@ -879,25 +906,28 @@ mod tests {
                 seg: Seg::new(p0, p0 + d, a),
                 prims: ToolPrims::cutter(c),
                 op: Op::Cut,
-                rapid: false,
+                rapid: case % 2 == 1,
                 seq: 0,
                 line: 0,
             };
             let mut store = Store::from_grid(&VoxelGrid::full(spec));
-            let st = run_batch(&mut store, None, &[sw], true, 1 << 30, eps, &mut scratch);
-            let mut want = 0u64;
-            let mut holder = 0u64;
+            let st = run_batch(&mut store, None, &[sw], true, 1 << 30, tol, &mut scratch);
+            let (mut want, mut deep, mut holder) = (0u64, 0u64, 0u64);
             for ([i, j, k], q) in centres(&spec) {
                 let cut = sw.cut_contains(&q, eps);
                 want += u64::from(cut);
-                holder += u64::from(!cut && sw.guard_contains(&q, eps));
+                deep += u64::from(cut && sw.cut_contains(&q, -tol.graze));
+                holder += u64::from(!cut && sw.guard_contains(&q, -tol.graze));
                 assert_eq!(store.get(i, j, k), !cut, "case {case}: voxel ({i}, {j}, {k})");
             }
             assert_eq!(st.removed, want, "case {case}");
+            assert_eq!(st.rapid_voxels, if sw.rapid { deep } else { 0 }, "case {case}: rapid");
             assert_eq!(st.holder_voxels, holder, "case {case}: guard");
             checked += usize::from(want > 0);
+            grazed += want - deep;
         }
         assert!(checked >= 40, "most sweeps cut something: {checked}");
+        assert!(grazed > 100, "the tolerance leaves out the voxels the tools only graze: {grazed}");
     }
 
     /// Over many batches on one store, bricks emptied by earlier batches are skipped by the
@@ -930,7 +960,15 @@ mod tests {
                 seq: batch,
                 line: batch,
             };
-            run_batch(&mut store, None, &[sw], true, 1 << 30, eps, &mut scratch);
+            run_batch(
+                &mut store,
+                None,
+                &[sw],
+                true,
+                1 << 30,
+                Tolerance { tie: eps, graze: eps },
+                &mut scratch,
+            );
             let mut n = 0;
             for ([i, j, k], q) in centres(&spec) {
                 let v = &mut want[i + spec.dims[0] * (j + spec.dims[1] * k)];

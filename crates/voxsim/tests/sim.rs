@@ -501,6 +501,35 @@ mod faults {
         let v = s.report().holder_collision_voxels as f64 * 0.125;
         assert!(v > 0.5 * 45.0, "holder collision volume {v}");
     }
+
+    /// A rapid descending beside the stock's wall with the tool reaching a micrometre past
+    /// a column of voxel centres (program rounding, chords of arcs) grazes them: they are
+    /// cut, but it is no collision. Reaching a tenth of a voxel past them is one. Both the
+    /// exact and the dexel carver.
+    #[test]
+    fn rapids_that_only_graze_the_stock_are_not_collisions() {
+        // Voxels of 0.5 mm: the first column of centres is at x = 0.25, one at y = 15.25.
+        let r = 1.5;
+        for carver in [Carver::Exact, Carver::Dexel] {
+            for (past, collides) in [(1e-3, false), (0.05, true)] {
+                let x = 0.25 - r + past;
+                let stock = full_box(p(0., 0., 0.), p(30., 30., 12.), 60);
+                let opts = SimOptions { carver, ..SimOptions::default() };
+                let sim = Simulator::new(stock, ToolTable::single(Cutter::flat(r, 30.0)), opts).unwrap();
+                let ms = [Motion::Rapid { to: p(x, 15.25, 20.0) }, Motion::Rapid { to: p(x, 15.25, 5.0) }];
+                let s = run(sim, &numbered(ms.to_vec()));
+                let rep = s.report();
+                // The centres at z = 5.25 ... 11.75 of the one column within reach.
+                assert_eq!(rep.removed_voxels, 14, "{carver:?}, {past} mm past: {rep:?}");
+                let want: (Vec<u64>, u64) = if collides { (vec![2], 14) } else { (vec![], 0) };
+                assert_eq!(
+                    (rep.rapid_collision_lines.clone(), rep.rapid_collision_voxels),
+                    want,
+                    "{carver:?}, {past} mm past"
+                );
+            }
+        }
+    }
 }
 
 /// The paper's A1 approaches the exact carver as the density grows.
