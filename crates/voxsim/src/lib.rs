@@ -22,10 +22,14 @@
 //!   cutter's fluted part along the move (exactly, for a fixed axis: see the `sweep` module
 //!   notes in the source). Arcs are split into chords whose sagitta is below a quarter of
 //!   a voxel ([`SimOptions::arc_tolerance`]); helices are fine.
-//! - **Rapids cut too** (physically they do); every voxel a rapid removes is a rapid
-//!   collision, reported with its source line.
+//! - **Rapids cut too** (physically they do); a voxel a rapid removes is a rapid collision,
+//!   reported with its source line, when its centre lies deeper inside the swept tool than
+//!   [`SimOptions::collision_tolerance`] (1 % of a voxel): shallower, the rapid only grazes
+//!   it, as the rounding of program coordinates and the chords of offset arcs make rapids
+//!   do along walls that passes above traced.
 //! - **Shank and holder.** After each move's cut, stock left inside the swept shank/holder
-//!   region is a holder collision (line reported; the stock is not removed).
+//!   region, past the same tolerance, is a holder collision (line reported; the stock is
+//!   not removed).
 //! - **Start.** The tool position before the first move is unknown by default: the first
 //!   move is a positioning move (only the tool at its end point cuts).
 //!
