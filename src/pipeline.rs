@@ -521,10 +521,7 @@ impl MillRun {
         let features = orientation
             .setups
             .iter()
-            .map(|setup| SetupFeatures {
-                voxel,
-                ..setup_features(&index, &samples, setup, &space, diag, &stock)
-            })
+            .map(|setup| setup_features(&index, &samples, setup, &space, diag, &stock, voxel))
             .collect();
         times.action_selection = t.elapsed().as_secs_f64();
 
@@ -1454,6 +1451,7 @@ fn setup_features(
     space: &ActionSpace,
     diag: f64,
     stock: &Aabb,
+    voxel: f64,
 ) -> SetupFeatures {
     use rayon::prelude::*;
     let axis = setup.tool_axis().into_inner();
@@ -1465,18 +1463,27 @@ fn setup_features(
         .filter(|(p, n)| n.dot(&axis) > 0.0 && !index.ray_hits_any(&(*p + *n * eps), &axis, diag))
         .map(|(p, n)| (*p, *n))
         .collect();
-    let reach_by_radius = space
+    // Per radius: at how many visible samples the ball touching there (centre one radius
+    // out along the normal) is clear of the part, all but 2 % of its radius; and all but
+    // half a voxel, if that is more.
+    let (reach_by_radius, reach_at_resolution) = space
         .radii
         .iter()
         .map(|&r| {
             if visible.is_empty() {
-                return 0.0;
+                return (0.0, 0.0);
             }
-            let ok =
-                visible.par_iter().filter(|(p, n)| index.signed_distance(&(*p + *n * r)) >= r * 0.98).count();
-            ok as f64 / visible.len() as f64
+            let (clear, within_voxel) = visible
+                .par_iter()
+                .map(|(p, n)| {
+                    let d = index.signed_distance(&(*p + *n * r));
+                    (usize::from(d >= r * 0.98), usize::from(d >= r - (0.02 * r).max(0.5 * voxel)))
+                })
+                .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+            let n = visible.len() as f64;
+            (clear as f64 / n, within_voxel as f64 / n)
         })
-        .collect();
+        .unzip();
     // The stock's extent along the tool axis: its top and bottom.
     let zs: Vec<f64> = stock.corners().iter().map(|c| c.coords.dot(&axis)).collect();
     let top = zs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -1502,9 +1509,10 @@ fn setup_features(
         .collect();
     SetupFeatures {
         reach_by_radius,
+        reach_at_resolution,
         depth,
         removal_fraction: 0.0,
-        voxel: 0.0,
+        voxel,
         visible_fraction: visible.len() as f64 / samples.points.len().max(1) as f64,
         depth_histogram,
         points,

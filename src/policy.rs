@@ -142,6 +142,14 @@ pub struct SetupFeatures {
     /// For each radius of the action space, the fraction of the setup's visible surface
     /// samples that a ball of that radius can touch (1 = the radius loses nothing).
     pub reach_by_radius: Vec<f64>,
+    /// For each radius of the action space, the fraction of the setup's visible surface
+    /// samples that a ball of that radius reaches to within half a voxel of the simulation
+    /// grid ([`voxel`](Self::voxel); or 2 % of the radius, as `reach_by_radius`, if that is
+    /// more): the material it leaves at the others is thinner than the simulated part can
+    /// show. Empty when not computed (features read from an older
+    /// outcome file).
+    #[serde(default)]
+    pub reach_at_resolution: Vec<f64>,
     /// Depth of the setup (extent along the tool axis), part units.
     pub depth: f64,
     /// Fraction of the stock volume this setup still has to remove.
@@ -219,7 +227,9 @@ impl Policy for RandomPolicy {
 }
 
 /// A geometric heuristic: the largest tool that still reaches (almost) every visible
-/// surface point of the setup, the finest layer height not below the simulation's voxel
+/// surface point of the setup to within half a voxel of the simulation grid
+/// ([`SetupFeatures::reach_at_resolution`]: material thinner than that is not seen by the
+/// score, and a larger tool cuts the same shape in less time), the finest layer height not below the simulation's voxel
 /// size (finer layers change nothing the score can see), and zigzag clearing (the
 /// shortest paths on open stock).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -238,7 +248,9 @@ impl Default for HeuristicPolicy {
 impl Policy for HeuristicPolicy {
     fn choose(&mut self, ctx: &SetupContext<'_>) -> Action {
         let space = ctx.space;
-        let reach = &ctx.features.reach_by_radius;
+        let f = ctx.features;
+        let reach =
+            if f.reach_at_resolution.is_empty() { &f.reach_by_radius } else { &f.reach_at_resolution };
         let best = reach.first().copied().unwrap_or(1.0);
         let radius_index = (0..space.radii.len())
             .rev()
@@ -289,6 +301,16 @@ mod tests {
         let a = HeuristicPolicy::default().choose(&ctx);
         assert_eq!(a.tool_radius, 0.0025, "0.95 / 0.99 is below the 0.985 ratio");
         assert_eq!(a.layer_height, 1.0 / 256.0);
+
+        // Reach to within half a voxel, where known, decides instead.
+        let radius = |reach_at_resolution: Vec<f64>| {
+            let f = SetupFeatures { reach_at_resolution, ..features.clone() };
+            HeuristicPolicy::default()
+                .choose(&SetupContext { index: 0, setups: 1, space: &space, features: &f })
+                .tool_radius
+        };
+        assert_eq!(radius(vec![0.995, 0.995, 0.99, 0.985]), 0.01, "0.985 / 0.995 keeps the ratio");
+        assert_eq!(radius(vec![0.995, 0.99, 0.97, 0.9]), 0.0025);
     }
 
     #[test]
