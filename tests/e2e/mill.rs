@@ -82,7 +82,10 @@ fn every_closed_mesh_mills_safely_and_meets_the_quality_targets() {
 /// disk, by other code than `geom::compare`: IoU and F1 counted voxel by voxel here;
 /// Chamfer distance and normal consistency from this test's own area-weighted sampler
 /// (another random stream) with brute-force nearest neighbours. The surface metrics are
-/// estimates from 8,000 samples a side, so they agree within sampling noise, not exactly.
+/// estimates from 8,000 samples a side, so they agree within sampling noise, not exactly:
+/// normal consistency within four standard errors of the difference of two such estimates
+/// (from this sample's spread; about 0.009 here, where five other seeds of this test's
+/// sampler spread over 0.936-0.943).
 #[test]
 fn report_metrics_agree_with_an_independent_recomputation_from_the_written_residual() {
     let path = data("meshes/openscad/openscad_Old_example002.stl");
@@ -110,18 +113,29 @@ fn report_metrics_agree_with_an_independent_recomputation_from_the_written_resid
     let n = opts.metric_samples;
     let sa = samples(&residual.transformed(&unit), n, 0xA11CE);
     let sb = samples(&mesh.transformed(&unit), n, 0xB0B);
-    let (ab, ab_nc) = nearest_one_way(&sa, &sb);
-    let (ba, ba_nc) = nearest_one_way(&sb, &sa);
+    let (ab, ab_nc, ab_var) = nearest_one_way(&sa, &sb);
+    let (ba, ba_nc, ba_var) = nearest_one_way(&sb, &sa);
+    // Standard error of one estimate of NC; the report's is another, independent one.
+    let se = 0.5 * (ab_var / sa.len() as f64 + ba_var / sb.len() as f64).sqrt();
+    let nc_tol = 4.0 * std::f64::consts::SQRT_2 * se;
     let chamfer = 1000.0 * (ab + ba);
     let nc = 0.5 * (ab_nc + ba_nc);
     let got = (m.metrics.chamfer_x1000, m.metrics.normal_consistency);
-    eprintln!("Chamfer x1000 {:.4} vs recomputed {chamfer:.4}; NC {:.4} vs {nc:.4}", got.0, got.1);
+    eprintln!(
+        "Chamfer x1000 {:.4} vs recomputed {chamfer:.4}; NC {:.4} vs {nc:.4} (+- {nc_tol:.4})",
+        got.0, got.1
+    );
     assert!(
         (chamfer - got.0).abs() <= 0.10 * chamfer.max(got.0) + 0.01,
         "Chamfer x1000: report {} vs recomputed {chamfer}",
         got.0
     );
-    assert!((nc - got.1).abs() <= 0.005, "normal consistency: report {} vs recomputed {nc}", got.1);
+    assert!(nc_tol < 0.03, "8,000 samples pin normal consistency down: standard error {se}");
+    assert!(
+        (nc - got.1).abs() <= nc_tol,
+        "normal consistency: report {} vs recomputed {nc} +- {nc_tol}",
+        got.1
+    );
 }
 
 /// `n` points on `mesh`, area-weighted, each with its triangle's unit normal (SplitMix64
@@ -157,18 +171,22 @@ fn samples(mesh: &Mesh, n: usize, seed: u64) -> Vec<(Point3, Vector3)> {
 }
 
 /// Mean squared distance from each sample of `from` to its nearest in `to`, and the mean
-/// |cos| between their normals, by brute force.
-fn nearest_one_way(from: &[(Point3, Vector3)], to: &[(Point3, Vector3)]) -> (f64, f64) {
-    let (mut d2, mut cos) = (0.0, 0.0);
+/// and variance of |cos| between their normals, by brute force.
+fn nearest_one_way(from: &[(Point3, Vector3)], to: &[(Point3, Vector3)]) -> (f64, f64, f64) {
+    let (mut d2, mut cos, mut cos2) = (0.0, 0.0, 0.0);
     for (p, n) in from {
         let (best, q) = to
             .iter()
             .map(|(q, m)| ((q - p).norm_squared(), m))
             .fold((f64::INFINITY, n), |acc, x| if x.0 < acc.0 { x } else { acc });
+        let c = n.dot(q).abs();
         d2 += best;
-        cos += n.dot(q).abs();
+        cos += c;
+        cos2 += c * c;
     }
-    (d2 / from.len() as f64, cos / from.len() as f64)
+    let k = from.len() as f64;
+    let mean = cos / k;
+    (d2 / k, mean, (cos2 / k - mean * mean).max(0.0))
 }
 
 /// The same input and seed give byte-identical programs and reports (timings left out).
