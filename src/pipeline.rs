@@ -133,6 +133,13 @@ pub struct MillOptions {
     /// layer. 0 clears every layer whole, as the paper does. Default 1 (a full-width
     /// slot one diameter deep, a usual roughing limit for end mills).
     pub roughing_depth_diameters: f64,
+    /// Count faces parallel to a tool axis as reachable from it (the tool's flank cuts
+    /// them), and faces overhanging by less than half a voxel over the stock's extent:
+    /// orientation selection then sees all four walls of a prismatic part from above, and
+    /// chooses axis-aligned setups where the paper's front-facing test (`n . v > 0`)
+    /// prefers oblique ones that see three faces each and terrace all of them. Default
+    /// false (the paper's test, which the learning environment and the shipped policy use).
+    pub flank_walls: bool,
 }
 
 impl MillOptions {
@@ -169,6 +176,7 @@ impl Default for MillOptions {
             carver: Carver::Exact,
             contour: true,
             roughing_depth_diameters: 1.0,
+            flank_walls: false,
         }
     }
 }
@@ -490,6 +498,9 @@ impl MillRun {
             points: opts.orient_points,
             candidates: opts.orient_candidates,
             seed: opts.seed,
+            // A wall overhanging by less than half a voxel over the stock hides nothing the
+            // grid can show.
+            min_cos: if opts.flank_walls { -0.5 / opts.resolution as f64 } else { 0.0 },
             ..OrientOptions::default()
         };
         if let SetupCount::Exactly(n) = opts.setups {

@@ -413,3 +413,41 @@ fn rotary_layout_is_one_safe_program_scoring_like_the_per_setup_programs() {
         other => panic!("expected an unreachable setup, got {:?}", other.map(|m| m.setups.len())),
     }
 }
+
+/// With `flank_walls` a box's walls are reachable from the axis above them: every setup
+/// is axis-aligned, no face is terraced, and the box scores better (at 48^3: NC 0.974
+/// against 0.947, IoU 0.937 against 0.925); the paper's front-facing test prefers oblique
+/// corner directions that see three faces each.
+#[test]
+fn flank_walls_give_a_box_axis_aligned_setups() {
+    let part = Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(50.0, 30.0, 20.0))).unwrap();
+    let base = MillOptions { orient_points: 2048, resolution: 48, ..MillOptions::default() };
+    let run = |flank_walls| {
+        mill(
+            &part,
+            &mut HeuristicPolicy::default(),
+            &MillOptions { flank_walls, ..base.clone() },
+            &mut |_| {},
+        )
+        .unwrap()
+    };
+    let aligned =
+        |m: &Milled| m.setups.iter().all(|s| s.setup.tool_axis().iter().any(|c| c.abs() > 1.0 - 1e-9));
+    let flank = run(true);
+    assert!(
+        aligned(&flank),
+        "axes {:?}",
+        flank.setups.iter().map(|s| s.setup.tool_axis()).collect::<Vec<_>>()
+    );
+    flank.setups.iter().enumerate().for_each(|(i, s)| assert_setup_safe("flank box", i, s));
+    let front = run(false);
+    assert!(!aligned(&front), "the front-facing test chose axis-aligned setups for a box");
+    let (f, b) = (&flank.metrics, &front.metrics);
+    assert!(
+        f.normal_consistency > b.normal_consistency + 0.01,
+        "NC {} vs {}",
+        f.normal_consistency,
+        b.normal_consistency
+    );
+    assert!(f.iou > b.iou, "IoU {} vs {}", f.iou, b.iou);
+}

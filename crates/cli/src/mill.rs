@@ -62,6 +62,11 @@ pub struct Args {
     /// the walls. 0 clears every layer whole, as the paper does.
     #[arg(long, default_value_t = 1.0)]
     roughing_depth: f64,
+    /// Count walls parallel to a tool axis as reachable from it (the tool's flank cuts
+    /// them): prismatic parts get axis-aligned setups instead of oblique ones. Off by
+    /// default: the paper's front-facing visibility, which the shipped policy learned on.
+    #[arg(long)]
+    flank_walls: bool,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -145,6 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,
+        flank_walls: args.flank_walls,
         ..MillOptions::default()
     };
 
