@@ -97,14 +97,16 @@ impl Dexel {
                         col.target = runs_of(nk, |k| t.get_idx(this.idx(u, v, k)));
                     }
                 }
+                // The centre of the column's voxel `k`.
+                let at = |k: u32| {
+                    let mut q = base;
+                    q[ax] = spec.origin[ax] + (k as f64 + 0.5) * spec.voxel[ax];
+                    q
+                };
                 if let Some((a, b)) = cut {
                     if sw.rapid {
                         // Only voxels deeper inside the tool than the graze tolerance collide.
-                        st.rapid_voxels += deep_in(&col.runs, a, b, |k| {
-                            let mut q = base;
-                            q[ax] = spec.origin[ax] + (k as f64 + 0.5) * spec.voxel[ax];
-                            sw.cut_contains(&q, -tol.graze)
-                        });
+                        st.rapid_voxels += deep_in(&col.runs, a, b, |k| sw.cut_contains(&at(k), -tol.graze));
                     }
                     let mut gouge = 0u64;
                     let target_runs = &col.target;
@@ -121,11 +123,8 @@ impl Dexel {
                 if guard {
                     for p in &sw.prims.guard[..sw.prims.nguard] {
                         if let Some((a, b)) = range(&[*p]) {
-                            st.holder_voxels += deep_in(&col.runs, a, b, |k| {
-                                let mut q = base;
-                                q[ax] = spec.origin[ax] + (k as f64 + 0.5) * spec.voxel[ax];
-                                p.contains(&sw.seg, &q, -tol.graze)
-                            });
+                            st.holder_voxels +=
+                                deep_in(&col.runs, a, b, |k| p.contains(&sw.seg, &at(k), -tol.graze));
                         }
                     }
                 }
@@ -243,12 +242,12 @@ fn runs_of(n: usize, get: impl Fn(usize) -> bool) -> Vec<[u32; 2]> {
     out
 }
 
-/// Number of indices of `[a, b)` covered by `runs`.
 /// How many voxels of `runs` in `[a, b)` pass `deep` (only the overlap is tested).
 fn deep_in(runs: &[[u32; 2]], a: u32, b: u32, deep: impl Fn(u32) -> bool) -> u64 {
     runs.iter().flat_map(|&[x, y]| x.max(a)..y.min(b)).filter(|&k| deep(k)).count() as u64
 }
 
+/// Number of indices of `[a, b)` covered by `runs`.
 fn overlap(runs: &[[u32; 2]], a: u32, b: u32) -> u64 {
     runs.iter().map(|&[x, y]| (y.min(b) as i64 - x.max(a) as i64).max(0) as u64).sum()
 }

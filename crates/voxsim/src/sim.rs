@@ -133,11 +133,14 @@ pub struct SimReport {
     pub gouge_voxels: u64,
     /// Source line of the first move (in program order) that removed a target voxel.
     pub first_gouge_line: Option<u64>,
-    /// Distinct source lines (ascending) of rapid moves that removed material.
+    /// Distinct source lines (ascending) of rapid moves that removed material past
+    /// [`SimOptions::collision_tolerance`].
     pub rapid_collision_lines: Vec<u64>,
-    /// Voxels removed by rapid moves.
+    /// Voxels removed by rapid moves past the collision tolerance (grazed ones are removed
+    /// but not counted here).
     pub rapid_collision_voxels: u64,
-    /// Distinct source lines (ascending) where the shank or holder met stock.
+    /// Distinct source lines (ascending) where the shank or holder met stock past the
+    /// collision tolerance.
     pub holder_collisions: Vec<u64>,
     /// Stock voxels met by the shank or holder (summed over moves).
     pub holder_collision_voxels: u64,
