@@ -854,6 +854,13 @@ mod tests {
         }
     }
 
+    /// The tests' 40-voxel grid over a 20 x 16 x 12 box, and their tie tolerance.
+    fn test_grid() -> (GridSpec, f64) {
+        let bbox = Aabb::new(Point3::new(-10.0, -8.0, -6.0), Point3::new(10.0, 8.0, 6.0));
+        let spec = GridSpec::cubic(&bbox, 40).unwrap();
+        (spec, 1e-6 * spec.voxel.min())
+    }
+
     /// Every voxel's index and centre, x fastest.
     fn centres(spec: &GridSpec) -> impl Iterator<Item = ([usize; 3], Point3)> + '_ {
         let [nx, ny, nz] = spec.dims;
@@ -869,9 +876,7 @@ mod tests {
     #[test]
     fn culling_matches_a_per_voxel_brute_force() {
         let mut rng = StdRng::seed_from_u64(11);
-        let bbox = Aabb::new(Point3::new(-10.0, -8.0, -6.0), Point3::new(10.0, 8.0, 6.0));
-        let spec = GridSpec::cubic(&bbox, 40).unwrap();
-        let eps = 1e-6 * spec.voxel.min();
+        let (spec, eps) = test_grid();
         let tol = Tolerance { tie: eps, graze: 0.2 * spec.voxel.min() };
         let mut grazed = 0;
         let cutters = [
@@ -936,9 +941,7 @@ mod tests {
     #[test]
     fn occupancy_culling_across_batches_is_exact() {
         let mut rng = StdRng::seed_from_u64(5);
-        let bbox = Aabb::new(Point3::new(-10.0, -8.0, -6.0), Point3::new(10.0, 8.0, 6.0));
-        let spec = GridSpec::cubic(&bbox, 40).unwrap();
-        let eps = 1e-6 * spec.voxel.min();
+        let (spec, eps) = test_grid();
         let mut store = Store::from_grid(&VoxelGrid::full(spec));
         let mut want = vec![true; spec.dims.iter().product()];
         let mut scratch = Scratch::default();
