@@ -138,7 +138,8 @@ pub struct MillOptions {
     /// orientation selection then sees all four walls of a prismatic part from above, and
     /// chooses axis-aligned setups where the paper's front-facing test (`n . v > 0`)
     /// prefers oblique ones that see three faces each and terrace all of them. Default
-    /// false (the paper's test, which the learning environment and the shipped policy use).
+    /// true; false is the paper's test, on which the learning environment
+    /// ([`TrainOptions`](crate::TrainOptions)) and the shipped policy were trained.
     pub flank_walls: bool,
 }
 
@@ -176,7 +177,7 @@ impl Default for MillOptions {
             carver: Carver::Exact,
             contour: true,
             roughing_depth_diameters: 1.0,
-            flank_walls: false,
+            flank_walls: true,
         }
     }
 }

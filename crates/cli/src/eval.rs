@@ -45,6 +45,10 @@ pub struct Args {
     /// Seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// The paper's front-facing visibility, as `s2g mill --front-facing`: the environment
+    /// the shipped policy was trained in.
+    #[arg(long)]
+    front_facing: bool,
     /// Print JSON.
     #[arg(long, conflicts_with = "markdown")]
     json: bool,
@@ -122,6 +126,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         orient_points: args.points,
         seed: args.seed,
         setups,
+        flank_walls: !args.front_facing,
         ..MillOptions::default()
     };
     let eval = EvalOptions { tables: which, finetune_episodes: args.finetune, seed_groups };

@@ -62,11 +62,12 @@ pub struct Args {
     /// the walls. 0 clears every layer whole, as the paper does.
     #[arg(long, default_value_t = 1.0)]
     roughing_depth: f64,
-    /// Count walls parallel to a tool axis as reachable from it (the tool's flank cuts
-    /// them): prismatic parts get axis-aligned setups instead of oblique ones. Off by
-    /// default: the paper's front-facing visibility, which the shipped policy learned on.
+    /// The paper's front-facing visibility: a surface counts as reachable from a tool axis
+    /// only when it faces it. By default walls parallel to a tool axis count too (the
+    /// tool's flank cuts them), so prismatic parts get axis-aligned setups instead of
+    /// oblique ones. The shipped policy was trained with the paper's test.
     #[arg(long)]
-    flank_walls: bool,
+    front_facing: bool,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -150,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,
-        flank_walls: args.flank_walls,
+        flank_walls: !args.front_facing,
         ..MillOptions::default()
     };
 
