@@ -36,20 +36,26 @@ pub(crate) fn rings(region: &Region2, r: f64, s: f64, arc_step: f64) -> Vec<(f64
     // eroding by a then by b is eroding by a + b). Offsetting by a small distance keeps
     // the offset engine fast (one large inward offset of a long, finely divided boundary
     // overlaps every segment strip with many others: about a second for 2,000 vertices);
-    // each ring is then thinned at a small fraction of the step, or the round joins of
-    // the previous ring's arcs would double the vertex count ring after ring; finally it
-    // is clipped to its parent so that neither thinning nor a numerical artefact of the
-    // offset can put a ring outside the region.
+    // each ring is then thinned (Douglas-Peucker) at a small fraction of the step: the
+    // round joins of every vertex of the previous ring, and the rounded staircase of a
+    // clearing region made of material-map cells, would otherwise come back ring after
+    // ring as segments a tenth of the radius long, millions of lines a setup that
+    // neither the finish nor the clearing needs; finally it is clipped to its parent so
+    // that neither thinning nor a numerical artefact of the offset can put a ring outside
+    // the region. The first ring is the region itself thinned, then eroded: offsetting
+    // the staircase whole costs more than all the rings after it.
     let eps = 0.25 * arc_step.max(0.01) * s.min(r);
-    let erode = |from: &Region2, d: f64| from.offset(-d, arc_step).simplified(eps).intersection(from);
+    let erode = |from: &Region2, d: f64, parent: &Region2| {
+        from.offset(-d, arc_step).thinned(eps).intersection(parent)
+    };
     let mut d = s.min(r);
-    let mut inner = erode(region, d);
+    let mut inner = erode(&region.thinned(eps), d, region);
     // A bound on the number of rings: the region's half-width over the smallest step.
     let max_rings =
         region.bbox().map(|(lo, hi)| ((hi - lo).norm() / (0.9 * r.min(s))).ceil() as usize + 2).unwrap_or(0);
     while !inner.is_empty() && out.len() <= max_rings {
         out.push((d, inner.loops()));
-        let next = erode(&inner, s);
+        let next = erode(&inner, s, &inner);
         if !next.is_empty() {
             d += s;
             inner = next;
@@ -59,7 +65,7 @@ pub(crate) fn rings(region: &Region2, r: f64, s: f64, arc_step: f64) -> Vec<(f64
         // a ring in between.
         if s > r && !inner.offset(-r, arc_step).is_empty() {
             d += 0.95 * r;
-            inner = erode(&inner, 0.95 * r);
+            inner = erode(&inner, 0.95 * r, &inner);
             continue;
         }
         break;
