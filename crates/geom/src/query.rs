@@ -13,6 +13,9 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub(crate) mod bvh;
+mod parallel;
+
+pub use parallel::ParallelRays;
 
 use rayon::prelude::*;
 

@@ -33,7 +33,7 @@ use crate::error::{GeomError, Result};
 use crate::math::Point3;
 use crate::mesh::Mesh;
 use crate::query::MeshIndex;
-use crate::voxel::{BRICK, GridSpec, VoxelGrid};
+use crate::voxel::{BRICK, Brick, GridSpec, VoxelGrid};
 
 /// Options of [`voxelize_opt`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,21 +77,18 @@ pub fn voxelize_opt(mesh: &Mesh, spec: &GridSpec, opts: &VoxelizeOptions) -> Res
         .par_bricks_mut()
         .flat_map_iter(|(base, brick)| {
             let mut pending = Vec::new();
+            if let Some(words) = whole_brick(&fills, base, d) {
+                *brick = words;
+                return pending;
+            }
             for z in 0..BRICK.min(d[2] - base[2]) {
                 for y in 0..BRICK.min(d[1] - base[1]) {
                     for x in 0..BRICK.min(d[0] - base[0]) {
                         let idx = [base[0] + x, base[1] + y, base[2] + z];
-                        let (mut known, mut inside) = (0u32, 0u32);
-                        for f in &fills {
-                            if let Some(v) = f.get(idx) {
-                                known += 1;
-                                inside += v as u32;
-                            }
-                        }
-                        if 2 * inside > known {
-                            brick[z] |= 1u64 << (x + BRICK * y);
-                        } else if 2 * inside == known {
-                            pending.push(idx);
+                        match vote(&fills, idx) {
+                            Some(true) => brick[z] |= 1u64 << (x + BRICK * y),
+                            Some(false) => {}
+                            None => pending.push(idx),
                         }
                     }
                 }
@@ -265,6 +262,63 @@ impl AxisFill {
     }
 }
 
+/// The majority of the fills whose column through voxel `idx` is known; `None` for a tie
+/// (or no known column).
+fn vote(fills: &[AxisFill], idx: [usize; 3]) -> Option<bool> {
+    let (mut known, mut inside) = (0u32, 0u32);
+    for f in fills {
+        if let Some(v) = f.get(idx) {
+            known += 1;
+            inside += v as u32;
+        }
+    }
+    (2 * inside != known).then_some(2 * inside > known)
+}
+
+/// The voxels of the whole brick at `base` (grid dimensions `d`) when every fill knows
+/// every column through it: bit `x + 8 y` of word `z`, the majority of the fills. `None`
+/// for a brick cut by the grid's end or crossed by an unknown column.
+fn whole_brick(fills: &[AxisFill], base: [usize; 3], d: [usize; 3]) -> Option<Brick> {
+    if (0..3).any(|a| base[a] + BRICK > d[a]) || !matches!(fills.len(), 1 | 3) {
+        return None;
+    }
+    let mut votes = [[0u64; BRICK]; 3];
+    for (f, out) in fills.iter().zip(&mut votes) {
+        let (a, b, c) = (f.axis, (f.axis + 1) % 3, (f.axis + 2) % 3);
+        let (word, shift) = (base[a] / 64, base[a] % 64);
+        for v in 0..BRICK {
+            for u in 0..BRICK {
+                let col = base[b] + u + f.nb * (base[c] + v);
+                if !f.known[col] {
+                    return None;
+                }
+                // The column's eight voxels along its axis, bit `t` at `base[a] + t`.
+                let byte = (f.bits[col * f.words + word] >> shift) & 0xff;
+                let mut idx = [0; 3];
+                (idx[b], idx[c]) = (u, v);
+                match a {
+                    0 => out[idx[2]] |= byte << (BRICK * idx[1]),
+                    1 => {
+                        for t in (0..BRICK).filter(|t| byte >> t & 1 == 1) {
+                            out[idx[2]] |= 1 << (idx[0] + BRICK * t);
+                        }
+                    }
+                    _ => {
+                        for t in (0..BRICK).filter(|t| byte >> t & 1 == 1) {
+                            out[t] |= 1 << (idx[0] + BRICK * idx[1]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if fills.len() == 1 {
+        return Some(votes[0]);
+    }
+    let [x, y, z] = votes;
+    Some(std::array::from_fn(|k| (x[k] & y[k]) | (x[k] & z[k]) | (y[k] & z[k])))
+}
+
 /// Sets bits `lo..=hi` of a bitset.
 fn set_range(words: &mut [u64], lo: usize, hi: usize) {
     let (wl, wh) = (lo / 64, hi / 64);
@@ -308,6 +362,89 @@ fn rasterise(v: [[f64; 3]; 3], nb: usize, nc: usize, out: &mut Vec<(u32, Crossin
                 };
                 out.push(((i + nb * j) as u32, Crossing { depth, sign }));
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box with half its top face missing (unknown columns), and three tubes open at
+    /// both ends, along X, Y and Z (the fill along a tube's axis sees no wall, the other
+    /// two see it inside: known columns that disagree, every pair of axes outvoting the
+    /// third somewhere).
+    fn leaky() -> Mesh {
+        let mut tris: Vec<[Point3; 3]> = Vec::new();
+        // (corner, corner, faces left out: 0..6 as in `faces`, 6 = half the top).
+        let solids: [([f64; 3], [f64; 3], &[usize]); 4] = [
+            ([-2.8, -2.8, -2.8], [-0.5, -0.5, -0.5], &[6]),
+            ([0.2, -2.8, 0.2], [2.8, -1.2, 1.8], &[4, 5]),
+            ([-2.8, 0.2, 0.2], [-1.2, 2.8, 1.8], &[2, 3]),
+            ([0.2, 0.2, -2.8], [1.8, 1.8, -0.2], &[0, 1]),
+        ];
+        let faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        for (lo, hi, open) in solids {
+            let p = |k: usize| {
+                Point3::new(
+                    if k & 1 == 0 { lo[0] } else { hi[0] },
+                    if k & 2 == 0 { lo[1] } else { hi[1] },
+                    if k & 4 == 0 { lo[2] } else { hi[2] },
+                )
+            };
+            for (f, q) in faces.iter().enumerate() {
+                if open.contains(&f) {
+                    continue;
+                }
+                tris.push([p(q[0]), p(q[1]), p(q[2])]);
+                if !(f == 1 && open.contains(&6)) {
+                    tris.push([p(q[0]), p(q[2]), p(q[3])]);
+                }
+            }
+        }
+        Mesh::from_soup(&tris).expect("mesh")
+    }
+
+    #[test]
+    fn whole_bricks_take_the_per_voxel_majority() {
+        let mesh = leaky();
+        let spec = GridSpec::new(
+            &crate::Aabb::new(Point3::new(-3.0, -3.0, -3.0), Point3::new(3.0, 3.0, 3.0)),
+            [61, 70, 57],
+        )
+        .expect("spec");
+        for axes in [vec![0, 1, 2], vec![2]] {
+            let fills: Vec<AxisFill> = axes.iter().map(|&a| AxisFill::compute(&mesh, &spec, a)).collect();
+            let d = spec.dims;
+            let (mut whole, mut unknown) = (0, 0);
+            for bz in 0..d[2].div_ceil(BRICK) {
+                for by in 0..d[1].div_ceil(BRICK) {
+                    for bx in 0..d[0].div_ceil(BRICK) {
+                        let base = [bx * BRICK, by * BRICK, bz * BRICK];
+                        let votes: Vec<Option<bool>> = (0..BRICK * BRICK * BRICK)
+                            .filter(|k| (0..3).all(|a| base[a] + [k % 8, k / 8 % 8, k / 64][a] < d[a]))
+                            .map(|k| vote(&fills, [base[0] + k % 8, base[1] + k / 8 % 8, base[2] + k / 64]))
+                            .collect();
+                        match whole_brick(&fills, base, d) {
+                            Some(words) => {
+                                whole += 1;
+                                for (k, v) in votes.iter().enumerate() {
+                                    let bit = words[k / 64] >> (k % 64) & 1 == 1;
+                                    assert_eq!(Some(bit), *v, "axes {axes:?} brick {base:?} voxel {k}");
+                                }
+                            }
+                            // A whole-sized brick falls back only for an unknown column.
+                            None => unknown += (votes.len() == BRICK * BRICK * BRICK) as usize,
+                        }
+                    }
+                }
+            }
+            // Both paths are taken: whole bricks, and bricks left to the per-voxel vote
+            // because a column through them is unknown.
+            assert!(
+                whole > 10 && unknown > 0,
+                "axes {axes:?}: {whole} whole bricks, {unknown} crossed by unknown columns"
+            );
         }
     }
 }

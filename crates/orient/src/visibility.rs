@@ -13,7 +13,9 @@
 //! same ray, from the point back towards the spindle; only the sign of `v` differs.
 
 use rayon::prelude::*;
-use s2g_geom::{Aabb, Mesh, MeshIndex, OccluderCache, Point3, Real, SurfaceSamples, UnitVector3, Vector3};
+use s2g_geom::{
+    Aabb, Mesh, MeshIndex, OccluderCache, ParallelRays, Point3, Real, SurfaceSamples, UnitVector3, Vector3,
+};
 
 use crate::directions::orthonormal_basis;
 use crate::error::{OrientError, Result};
@@ -122,7 +124,10 @@ pub struct VisibilityContext<'a> {
 }
 
 /// What the rays of one direction share.
-struct Probe {
+struct Probe<'a> {
+    /// The triangles binned across the direction, when a row of rays pays for it
+    /// (answers as the BVH does, faster for a whole row of samples).
+    rays: Option<ParallelRays<'a>>,
     /// `orthonormal_basis(v)`, for the offset rays of tool-aware mode.
     basis: (Vector3, Vector3),
     /// The support height `max over vertices of v . x`, plus the grown margin: past the
@@ -238,26 +243,34 @@ impl<'a> VisibilityContext<'a> {
         if t.is_finite() { t.max(0.0) } else { 0.0 }
     }
 
-    /// The shared data of direction `v`'s rays.
-    fn probe(&self, v: &UnitVector3) -> Probe {
+    /// The shared data of direction `v`'s rays, for a row of `samples` samples.
+    fn probe(&self, v: &UnitVector3, samples: usize) -> Probe<'a> {
         let top = self.vertices.iter().map(|p| v.dot(&p.coords)).fold(Real::NEG_INFINITY, Real::max);
         let grow = self.eps + self.opts.tool_radius.unwrap_or(0.0);
-        Probe { basis: orthonormal_basis(v), top: top + grow }
+        // Binning a triangle costs about as much as a ray, and about half the samples of
+        // a row (the front-facing ones) cast one.
+        let worth = 2 * self.index.num_triangles() <= samples;
+        let rays = worth.then(|| self.index.parallel_rays(v)).flatten();
+        Probe { rays, basis: orthonormal_basis(v), top: top + grow }
     }
 
     /// Whether a ray from `o` along `v` leaves the box, or passes the support plane of
     /// `probe`, without hitting the part.
     /// `cache` holds the triangle that blocked the last ray of the run.
     #[inline]
-    fn free(&self, o: &Point3, v: &Vector3, probe: &Probe, cache: &mut OccluderCache) -> bool {
+    fn free(&self, o: &Point3, v: &Vector3, probe: &Probe<'_>, cache: &mut OccluderCache) -> bool {
         let t = self.exit_distance(o, v).min(probe.top - v.dot(&o.coords));
-        t <= 0.0 || !self.index.ray_hits_any_cached(o, v, t, cache)
+        t <= 0.0
+            || !match &probe.rays {
+                Some(rays) => rays.hits_any(o, t, cache),
+                None => self.index.ray_hits_any_cached(o, v, t, cache),
+            }
     }
 
     /// Whether sample `i` is visible from tool axis `v` (see the module docs).
     /// `probe` is `self.probe(v)`.
     #[inline]
-    fn visible_with(&self, i: usize, v: &Vector3, probe: &Probe, cache: &mut OccluderCache) -> bool {
+    fn visible_with(&self, i: usize, v: &Vector3, probe: &Probe<'_>, cache: &mut OccluderCache) -> bool {
         let n = &self.normals[i];
         if n.dot(v).partial_cmp(&self.opts.min_cos) != Some(std::cmp::Ordering::Greater) {
             return false;
@@ -289,17 +302,17 @@ impl<'a> VisibilityContext<'a> {
     /// support plane (a pass over every vertex): its rays run to the box's exit, which
     /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        let probe = Probe { basis: orthonormal_basis(v), top: Real::INFINITY };
+        let probe = Probe { rays: None, basis: orthonormal_basis(v), top: Real::INFINITY };
         i < self.points.len() && self.visible_with(i, v, &probe, &mut OccluderCache::default())
     }
 
     /// Writes the bitset of samples visible from `v` into `out` (`words()` long),
     /// sequentially.
     pub fn row_into(&self, v: &UnitVector3, out: &mut [u64]) {
-        self.fill_words(v, &self.probe(v), 0, out);
+        self.fill_words(v, &self.probe(v, self.points.len()), 0, out);
     }
 
-    fn fill_words(&self, v: &UnitVector3, probe: &Probe, first_word: usize, out: &mut [u64]) {
+    fn fill_words(&self, v: &UnitVector3, probe: &Probe<'_>, first_word: usize, out: &mut [u64]) {
         self.fill_words_masked(v, probe, first_word, out, None);
     }
 
@@ -307,7 +320,7 @@ impl<'a> VisibilityContext<'a> {
     fn fill_words_masked(
         &self,
         v: &UnitVector3,
-        probe: &Probe,
+        probe: &Probe<'_>,
         first_word: usize,
         out: &mut [u64],
         skip: Option<&[u64]>,
@@ -343,7 +356,8 @@ impl<'a> VisibilityContext<'a> {
                 self.words()
             )));
         }
-        let probe = self.probe(v);
+        let todo = self.points.len() - popcount(skip).min(self.points.len());
+        let probe = self.probe(v, todo);
         let mut out = vec![0u64; self.words()];
         out.par_chunks_mut(8)
             .enumerate()
@@ -354,7 +368,7 @@ impl<'a> VisibilityContext<'a> {
     /// The bitset of samples visible from `v`, computed in parallel over the samples
     /// (for one direction at a time, e.g. refinement).
     pub fn row(&self, v: &UnitVector3) -> Vec<u64> {
-        let probe = self.probe(v);
+        let probe = self.probe(v, self.points.len());
         let mut out = vec![0u64; self.words()];
         out.par_chunks_mut(8).enumerate().for_each(|(c, chunk)| self.fill_words(v, &probe, c * 8, chunk));
         out
@@ -374,7 +388,7 @@ impl<'a> VisibilityContext<'a> {
     /// direction for a block of 64 samples); the alternative schedule to [`Self::matrix`].
     pub fn matrix_by_points(&self, dirs: &[UnitVector3]) -> VisibilityMatrix {
         let words = self.words();
-        let probes: Vec<Probe> = dirs.iter().map(|v| self.probe(v)).collect();
+        let probes: Vec<Probe<'_>> = dirs.iter().map(|v| self.probe(v, self.points.len())).collect();
         // Column blocks: block w holds word w of every direction.
         let blocks: Vec<Vec<u64>> = (0..words)
             .into_par_iter()

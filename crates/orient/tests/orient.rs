@@ -255,6 +255,37 @@ fn visibility_matches_brute_force_ray_casting() {
 }
 
 #[test]
+fn rows_of_many_samples_answer_as_single_rays_do() {
+    // Enough samples per triangle that full rows bin the triangles across each direction
+    // (`MeshIndex::parallel_rays`) instead of walking the BVH; `visible` never bins.
+    for (name, tool_radius) in
+        [("openscad/openscad_Old_example002.stl", None), ("openscad/openscad_Old_example002.stl", Some(0.5))]
+    {
+        let mesh = load(name);
+        let samples = sample_surface(&mesh, 4 * mesh.triangles().len() + 64, 5).unwrap();
+        let index = MeshIndex::new(&mesh).unwrap();
+        let vopts = VisibilityOptions { tool_radius, tool_rays: 4, ..VisibilityOptions::default() };
+        let ctx = VisibilityContext::new(&mesh, &index, &samples, &vopts).unwrap();
+        let mut dirs: Vec<UnitVector3> = candidate_directions(16);
+        dirs.push(UnitVector3::new_normalize(Vector3::new(0.0, 1.0, 1.0)));
+        let m = ctx.matrix(&dirs);
+        let mut seen = 0;
+        for (d, v) in dirs.iter().enumerate() {
+            for i in 0..samples.len() {
+                assert_eq!(
+                    m.get(i, d),
+                    ctx.visible(i, v),
+                    "{name} {tool_radius:?}: sample {i} direction {v:?}"
+                );
+                seen += m.get(i, d) as usize;
+            }
+        }
+        let total = samples.len() * dirs.len();
+        assert!(seen > total / 10 && seen < total * 9 / 10, "{name}: {seen} of {total} visible");
+    }
+}
+
+#[test]
 fn convex_parts_see_exactly_their_front_faces() {
     let cube = box_mesh(Point3::new(-1.0, -2.0, -0.5), Point3::new(2.0, 1.0, 1.5));
     let samples = sample_surface(&cube, 3000, 1).unwrap();

@@ -11,7 +11,7 @@ use s2g_geom::{Aabb, Mesh, Point3, Setup};
 
 use crate::error::ToolpathError;
 use crate::link::{Emitter, LinkParams};
-use crate::region::{Point2, Polyline2, Region2, nearest_index};
+use crate::region::{Point2, Polyline2, Region2, RegionIndex, nearest_index};
 use crate::rest::RemainingMaterial;
 use crate::slice::{Keepouts, flat_levels, layer_levels, setup_triangles, slab_regions};
 use crate::strategy::Strategy;
@@ -280,6 +280,22 @@ pub struct LayerPlan {
     pub cut_air: (f64, f64),
 }
 
+impl LayerPlan {
+    /// A layer with nothing to cut.
+    fn empty(index: usize, z: f64, z_above: f64, free: &Region2) -> Self {
+        LayerPlan {
+            index,
+            z,
+            z_above,
+            free: free.clone(),
+            clearing_region: Region2::empty(),
+            contour: Vec::new(),
+            clearing: Vec::new(),
+            cut_air: (0.0, 0.0),
+        }
+    }
+}
+
 fn check_tool_opts<E>(tool: &Tool, opts: &PlanOptions) -> Result<(), ToolpathError<E>> {
     tool.validate().map_err(ToolpathError::InvalidTool)?;
     opts.validate().map_err(ToolpathError::InvalidOptions)
@@ -505,22 +521,43 @@ impl Ctx<'_> {
         self.reaches.get_or_build(cells, |has| Reach::new(self.cells_reach(has)))
     }
 
-    /// The cells set in `has` (row by row over the material map), grown by the tool radius.
+    /// The cells set in `has` (row by row over the material map), grown by the tool radius:
+    /// the cells (of the map's grid, continued past the stock) whose boxes come within the
+    /// radius of one of them. It holds the exact growth and lies within a cell's diagonal
+    /// of it, and a raster dilation costs far less than offsetting the cells' staircase
+    /// outline with round joins.
     fn cells_reach(&self, has: &[bool]) -> Region2 {
         let (c, nx, ny) = self.material_grid();
-        let (lo, hi) = (self.stock.min, self.stock.max);
-        let mut rects: Vec<Vec<[f64; 2]>> = Vec::new();
+        let lo = self.stock.min;
+        // Cell offsets whose boxes lie within the radius of a cell's box, and the margin of
+        // cells the growth adds around the map.
+        let m = (self.tool.radius / c).ceil() as usize + 1;
+        let gap = |d: usize| d.saturating_sub(1) as f64 * c;
+        let reach: Vec<(usize, usize)> = (0..=2 * m)
+            .flat_map(|dj| (0..=2 * m).map(move |di| (di, dj)))
+            .filter(|&(di, dj)| gap(di.abs_diff(m)).hypot(gap(dj.abs_diff(m))) <= self.tool.radius)
+            .collect();
+        let (wx, wy) = (nx + 2 * m, ny + 2 * m);
+        // Cell `(i, j)` of the grown grid is map cell `(i - m, j - m)`; a map cell's
+        // neighbour `(di, dj)` (shifted by `m`) is grown cell `(i + di, j + dj)`.
+        let mut near = vec![false; wx * wy];
         for j in 0..ny {
-            let y0 = lo.y + j as f64 * c;
-            let y1 = (y0 + c).min(hi.y);
+            for i in (0..nx).filter(|&i| has[j * nx + i]) {
+                for &(di, dj) in &reach {
+                    near[(j + dj) * wx + i + di] = true;
+                }
+            }
+        }
+        let mut rects: Vec<Vec<[f64; 2]>> = Vec::new();
+        let at = |i: usize, o: f64| o + (i as f64 - m as f64) * c;
+        for j in 0..wy {
+            let (y0, y1) = (at(j, lo.y), at(j + 1, lo.y));
             let mut run: Option<usize> = None;
-            for i in 0..=nx {
-                let has = i < nx && has[j * nx + i];
-                match (has, run) {
+            for i in 0..=wx {
+                match (i < wx && near[j * wx + i], run) {
                     (true, None) => run = Some(i),
                     (false, Some(s)) => {
-                        let x0 = lo.x + s as f64 * c;
-                        let x1 = (lo.x + i as f64 * c).min(hi.x);
+                        let (x0, x1) = (at(s, lo.x), at(i, lo.x));
                         rects.push(vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]);
                         run = None;
                     }
@@ -528,7 +565,7 @@ impl Ctx<'_> {
                 }
             }
         }
-        Region2::union_contours(rects).offset(self.tool.radius, self.opts.arc_step)
+        Region2::union_contours(rects)
     }
 
     /// No remaining material under the central half of the cutter (the rim is left out:
@@ -541,11 +578,14 @@ impl Ctx<'_> {
     /// The tool-centre keep-out and free region of a level with keep-out `keepout`.
     fn clearance(&self, keepout: &Region2) -> Clearance {
         let r = self.tool.radius;
-        let off = keepout.grown_safe(
-            r + self.opts.finishing_allowance,
-            self.opts.offset_eps * r,
-            self.opts.arc_step,
-        );
+        let thin = 0.005 * r;
+        let off = keepout
+            .grown_safe(
+                r + self.opts.finishing_allowance + thin,
+                self.opts.offset_eps * r,
+                self.opts.arc_step,
+            )
+            .thinned(thin);
         let free = self.centre_rect().difference(&off);
         Clearance { off, free }
     }
@@ -560,12 +600,12 @@ impl Ctx<'_> {
         z: f64,
         z_above: f64,
         clearance: &Clearance,
-        roughed: Option<&Region2>,
+        roughed: Option<(&Region2, &RegionIndex)>,
     ) -> LayerPlan {
         let r = self.tool.radius;
         let Clearance { off, free } = clearance;
         let to_clear = match roughed {
-            Some(done) => Cow::Owned(free.difference(done)),
+            Some((done, _)) => Cow::Owned(free.difference(done)),
             None => Cow::Borrowed(free),
         };
         let reach = self.rest.map(|rest| self.material_reach(rest, z, z_above));
@@ -594,6 +634,12 @@ impl Ctx<'_> {
                 Some(_) => {}
                 None => pieces.extend(rect.clip_polyline(&lp)),
             }
+        }
+        // On a level above a roughing level, the contour where it runs in the roughing
+        // level's free region was cut there already (the tool stood lower at the same
+        // place): only the rest is kept.
+        if let Some((_, done)) = roughed {
+            pieces = pieces.into_iter().flat_map(|p| p.outside(done, gap)).collect();
         }
         let mut contour = Vec::with_capacity(pieces.len());
         let mut cur = start;
@@ -740,10 +786,16 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
         groups.iter().enumerate().flat_map(|(k, g)| g.fine.clone().map(move |l| (k, l))).collect();
     let mut fine_plans: Vec<Vec<LayerPlan>> =
         groups.iter().map(|g| Vec::with_capacity(g.fine.len())).collect();
+    let indices: Vec<RegionIndex> = rough.par_iter().map(|p| p.free.index()).collect();
     let planned: Vec<(usize, LayerPlan)> = fine
         .par_iter()
         .map(|&(k, l)| {
-            let roughed = Some(&rough[k].free);
+            if slot[l - first] == slot[groups[k].rough - first] {
+                // The same keep-out as the roughing level's: its cut, lower down at every
+                // place this level's tool may stand, left nothing here.
+                return (k, LayerPlan::empty(l, levels.z[l], levels.above(l), &clearance(l).free));
+            }
+            let roughed = Some((&rough[k].free, &indices[k]));
             (k, ctx.plan_layer(l, levels.z[l], levels.above(l), clearance(l), roughed))
         })
         .collect();
@@ -861,4 +913,46 @@ pub fn plan_setup_rest<S: MotionSink>(
         .filter(|_| opts.measure_air_cut)
         .map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_material_reach_covers_the_cells_grown_by_the_radius() {
+        let stock = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(10.0, 7.0, 1.0));
+        let tool = Tool::flat(0.8);
+        let opts = PlanOptions { rest_cell: Some(0.25), ..PlanOptions::default() };
+        let ctx = make_ctx(&stock, &tool, &opts, None);
+        let (c, nx, ny) = ctx.material_grid();
+        // Scattered cells, a solid block and a ring.
+        let has: Vec<bool> = (0..nx * ny)
+            .map(|k| {
+                let (i, j) = (k % nx, k / nx);
+                (i * 7 + j * 13) % 29 == 0 || (4..9).contains(&i) && (20..26).contains(&j) || {
+                    let (x, y) = (i as f64 - 28.0, j as f64 - 14.0);
+                    (6.0..8.0).contains(&x.hypot(y))
+                }
+            })
+            .collect();
+        let reach = ctx.cells_reach(&has);
+        let mut rects = Vec::new();
+        for (k, _) in has.iter().enumerate().filter(|(_, h)| **h) {
+            let (x, y) = ((k % nx) as f64 * c, (k / nx) as f64 * c);
+            rects.push(vec![[x, y], [x + c, y], [x + c, y + c], [x, y + c]]);
+        }
+        let cells = Region2::union_contours(rects);
+        // Every point within the radius of a cell is in the reach...
+        let exact = cells.offset(tool.radius, opts.arc_step);
+        let missed = exact.difference(&reach).area();
+        assert!(missed < 1e-9 * exact.area(), "the reach misses {missed} of {}", exact.area());
+        // ... and nothing farther than the radius and a cell's diagonal.
+        let loose = cells.offset(tool.radius + c * std::f64::consts::SQRT_2, opts.arc_step);
+        let extra = reach.difference(&loose).area();
+        assert!(extra < 1e-9 * reach.area(), "the reach goes {extra} beyond a cell's diagonal");
+        assert!(reach.area() > exact.area() && reach.area() < loose.area());
+        // No cells, no reach.
+        assert!(ctx.cells_reach(&vec![false; nx * ny]).is_empty());
+    }
 }

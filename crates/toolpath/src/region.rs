@@ -85,6 +85,42 @@ impl Polyline2 {
         bbox_of(self.points.iter().map(|p| [p.x, p.y]))
     }
 
+    /// The pieces of the polyline outside `region` (given by its index): segments that
+    /// stay inside it or within `tol` of its boundary are left out, in the original
+    /// direction of travel. A polyline with no such segment comes back whole.
+    pub fn outside(self, region: &RegionIndex, tol: f64) -> Vec<Polyline2> {
+        let n = self.points.len();
+        let segs = if self.closed { n } else { n.saturating_sub(1) };
+        let inside: Vec<bool> = (0..segs)
+            .map(|i| region.segment_inside(&self.points[i], &self.points[(i + 1) % n], tol))
+            .collect();
+        if !inside.contains(&true) {
+            return vec![self];
+        }
+        // Start where a kept run begins: after an inside segment (a loop) or at the start.
+        let first = if self.closed { inside.iter().position(|&x| x).map_or(0, |i| i + 1) } else { 0 };
+        let mut out = Vec::new();
+        let mut run: Vec<Point2> = Vec::new();
+        for k in 0..segs {
+            let i = (first + k) % segs;
+            if inside[i] {
+                if run.len() >= 2 {
+                    out.push(Polyline2::open(std::mem::take(&mut run)));
+                }
+                run.clear();
+            } else {
+                if run.is_empty() {
+                    run.push(self.points[i]);
+                }
+                run.push(self.points[(i + 1) % n]);
+            }
+        }
+        if run.len() >= 2 {
+            out.push(Polyline2::open(run));
+        }
+        out
+    }
+
     /// Reverses the direction of travel (a loop keeps its start point).
     pub fn reverse(&mut self) {
         if self.closed && self.points.len() > 1 {
@@ -794,6 +830,42 @@ mod tests {
     /// A staircase of 0.5-wide cells around a hole, grown by 1 with round joins (what a
     /// clearing region made of material-map cells looks like): thinning at 0.02 keeps the
     /// boundary within 0.02 both ways and drops two thirds of its vertices.
+    #[test]
+    fn pieces_outside_a_region_keep_their_direction() {
+        let done = Region2::rect(Point2::new(0.0, 0.0), Point2::new(2.0, 2.0)).index();
+        let p = |x: f64, y: f64| Point2::new(x, y);
+        // A loop along the region's boundary on two sides and outside it on the others.
+        let lp = Polyline2::closed(vec![
+            p(0.0, 0.0),
+            p(2.0, 0.0),
+            p(2.0, 2.0),
+            p(3.0, 2.0),
+            p(3.0, -1.0),
+            p(0.0, -1.0),
+        ]);
+        let out = lp.clone().outside(&done, 1e-9);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert_eq!(out[0].points, vec![p(2.0, 2.0), p(3.0, 2.0), p(3.0, -1.0), p(0.0, -1.0), p(0.0, 0.0)]);
+        assert!(!out[0].closed);
+        // Reversed, the piece runs the other way.
+        let mut back = lp.clone();
+        back.reverse();
+        let out = back.outside(&done, 1e-9);
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].start(), Some(p(0.0, 0.0)));
+        assert_eq!(out[0].end(), Some(p(2.0, 2.0)));
+        // Wholly outside: the loop itself; wholly inside or on the boundary: nothing.
+        let far = Polyline2::closed(vec![p(5.0, 5.0), p(6.0, 5.0), p(6.0, 6.0)]);
+        assert_eq!(far.clone().outside(&done, 1e-9), vec![far]);
+        let on = Polyline2::closed(vec![p(0.0, 0.0), p(2.0, 0.0), p(2.0, 2.0), p(0.0, 2.0)]);
+        assert!(on.outside(&done, 1e-9).is_empty());
+        // An open line crossing the region keeps its two outer ends.
+        let line = Polyline2::open(vec![p(-1.0, 1.0), p(0.5, 1.0), p(1.5, 1.0), p(3.0, 1.0)]);
+        let out = line.outside(&done, 1e-9);
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert_eq!((out[0].start(), out[1].end()), (Some(p(-1.0, 1.0)), Some(p(3.0, 1.0))));
+    }
+
     #[test]
     fn thinning_moves_the_boundary_by_at_most_its_tolerance() {
         let cells: Vec<Vec<Raw>> = (0..40)

@@ -355,6 +355,21 @@ fn roughing_groups_leave_the_same_part_with_less_cutting() {
             rough.cutting_length,
             whole.cutting_length
         );
+        // The finer levels of a group trace the walls only where their keep-out differs
+        // from the roughing level's: where the wall is vertical, the roughing cut stood
+        // lower at the same place, so their contours (kept whole without groups) vanish.
+        let contour = |opts: &PlanOptions| -> (f64, usize) {
+            let (_, layers) = plan_layers::<()>(&part, &Setup::top(), &tool, opts, None).expect("layers");
+            let len = layers.iter().flat_map(|l| &l.contour).map(|p| p.length()).sum();
+            (len, layers.iter().filter(|l| l.contour.is_empty() && l.clearing.is_empty()).count())
+        };
+        let ((grouped, empty), (every, _)) = (contour(&rough_opts), contour(&base));
+        println!(
+            "{name}: contour length {grouped:.2} with roughing groups, {every:.2} without; {empty} empty levels"
+        );
+        let most = if name == "example001" { 0.5 } else { 0.7 };
+        assert!(grouped < most * every, "{name}: contours {grouped} with roughing groups, {every} without");
+        assert!(empty > 0, "{name}: no level left empty by its roughing level");
         // A depth below the layer height groups nothing: the program is the paper's.
         let none = PlanOptions { roughing_depth: Some(0.5 * base.layer_height), ..base.clone() };
         let (same, _, _) = run(&none);
