@@ -43,24 +43,35 @@ use crate::voxsim::RewardWeights;
 
 /// The cheap geometric shape descriptor: for each tool radius, how much of the visible
 /// surface it reaches (relative to the smallest tool); the fraction of the part visible
-/// from the setup; the histogram of where that surface lies along the tool axis.
+/// from the setup; the histogram of where that surface lies along the tool axis. With
+/// [`at_resolution`](Self::at_resolution), also for each radius how much it reaches to
+/// within half a voxel of the simulation grid ([`SetupFeatures::reach_at_resolution`],
+/// relative to the smallest tool): what a finer tool buys that the simulation, and so the
+/// reward, can see.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GeometricEncoder {
     /// Radii of the action space.
     pub radii: usize,
+    /// Add the reach at the grid's resolution ([`EncoderKind::GeometricAtResolution`]).
+    pub at_resolution: bool,
 }
 
 impl Encoder for GeometricEncoder {
     type Input = SetupFeatures;
 
     fn dim(&self) -> usize {
-        self.radii + 1 + SetupFeatures::DEPTH_BINS
+        self.radii * (1 + self.at_resolution as usize) + 1 + SetupFeatures::DEPTH_BINS
     }
 
     fn encode(&self, f: &SetupFeatures) -> Vec<f32> {
-        let best = f.reach_by_radius.first().copied().filter(|&r| r > 0.0).unwrap_or(1.0);
-        let mut out: Vec<f32> =
-            (0..self.radii).map(|i| f.reach_by_radius.get(i).map_or(0.0, |&r| (r / best) as f32)).collect();
+        let relative = |reach: &[f64]| -> Vec<f32> {
+            let best = reach.first().copied().filter(|&r| r > 0.0).unwrap_or(1.0);
+            (0..self.radii).map(|i| reach.get(i).map_or(0.0, |&r| (r / best) as f32)).collect()
+        };
+        let mut out = relative(&f.reach_by_radius);
+        if self.at_resolution {
+            out.extend(relative(&f.reach_at_resolution));
+        }
         out.push(f.visible_fraction as f32);
         out.extend(
             (0..SetupFeatures::DEPTH_BINS).map(|i| f.depth_histogram.get(i).copied().unwrap_or(0.0) as f32),
@@ -80,6 +91,8 @@ pub enum EncoderKind {
     /// The cheap [`GeometricEncoder`] (the default).
     #[default]
     Geometric,
+    /// The [`GeometricEncoder`] with the reach at the grid's resolution added.
+    GeometricAtResolution,
     /// A DGCNN ([`DgcnnEncoder`], seed 000 §3.5) on the setup's visible surface samples
     /// ([`SetupFeatures::points`]). Its weights are the config's seeded initialisation,
     /// frozen: no pretrained DGCNN can be had offline, and the Q-network learns on top of
@@ -108,16 +121,20 @@ impl SetupEncoder {
     /// The encoder `kind` names for an action space of `radii` tool radii.
     pub fn new(kind: &EncoderKind, radii: usize) -> Result<Self, MillError> {
         Ok(match kind {
-            EncoderKind::Geometric => Self::Geometric(GeometricEncoder { radii }),
+            EncoderKind::Geometric => Self::Geometric(GeometricEncoder { radii, at_resolution: false }),
+            EncoderKind::GeometricAtResolution => {
+                Self::Geometric(GeometricEncoder { radii, at_resolution: true })
+            }
             EncoderKind::Dgcnn(config) => {
                 Self::Dgcnn(Box::new(DgcnnEncoder::new(config.clone()).map_err(rl_error)?))
             }
         })
     }
 
-    /// The name policy files give it: `geometric` or `dgcnn`.
+    /// The name policy files give it: `geometric`, `geometric-res` or `dgcnn`.
     pub fn name(&self) -> &'static str {
         match self {
+            Self::Geometric(g) if g.at_resolution => "geometric-res",
             Self::Geometric(_) => "geometric",
             Self::Dgcnn(_) => "dgcnn",
         }
@@ -690,6 +707,7 @@ impl LearnedPolicy {
         let agent = Dqn::from_bytes(&rest[eol + 1..], config).map_err(|e| bad(e.to_string()))?;
         let kind = match (info.encoder.as_str(), &info.dgcnn) {
             ("geometric", _) => EncoderKind::Geometric,
+            ("geometric-res", _) => EncoderKind::GeometricAtResolution,
             ("dgcnn", Some(shape)) => EncoderKind::Dgcnn(shape.config()),
             (e, _) => return Err(bad(format!("unknown encoder {e:?}"))),
         };
@@ -735,6 +753,7 @@ impl LearnedPolicy {
     /// The kind of encoder the policy reads.
     fn encoder_kind(&self) -> EncoderKind {
         match &self.encoder {
+            SetupEncoder::Geometric(g) if g.at_resolution => EncoderKind::GeometricAtResolution,
             SetupEncoder::Geometric(_) => EncoderKind::Geometric,
             SetupEncoder::Dgcnn(d) => EncoderKind::Dgcnn(d.config().clone()),
         }
@@ -831,7 +850,7 @@ pub fn train_policy(
     let info = PolicyInfo {
         encoder: env.encoder.name().into(),
         dgcnn: match &opts.encoder {
-            EncoderKind::Geometric => None,
+            EncoderKind::Geometric | EncoderKind::GeometricAtResolution => None,
             EncoderKind::Dgcnn(config) => Some(DgcnnShape::of(config)),
         },
         hidden: opts.dqn.hidden.clone(),

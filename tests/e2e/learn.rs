@@ -186,6 +186,56 @@ fn a_dgcnn_policy_trains_saves_and_loads() {
     assert_eq!(a.programs, b.programs);
 }
 
+/// The geometric encoder with the reach at the grid's resolution: twice the reach
+/// features (exact, then at the grid's resolution, each relative to the smallest tool), a
+/// policy file that names it, and a loaded policy that mills as the saved one did.
+#[test]
+fn a_policy_on_the_reach_at_resolution_saves_and_loads() {
+    use shape2gcode::rl::Encoder;
+    use shape2gcode::{EncoderKind, MachiningEnv, SetupEncoder, SetupFeatures};
+    let (parts, opts) = cheap();
+    let radii = opts.action_space().radii.len();
+    let (plain, res) = (
+        SetupEncoder::new(&EncoderKind::Geometric, radii).unwrap(),
+        SetupEncoder::new(&EncoderKind::GeometricAtResolution, radii).unwrap(),
+    );
+    assert_eq!(res.dim(), plain.dim() + radii);
+    let f = SetupFeatures {
+        reach_by_radius: (0..radii).map(|i| 0.8 - 0.1 * i as f64).collect(),
+        reach_at_resolution: (0..radii).map(|i| 0.5 / (1 + i) as f64).collect(),
+        visible_fraction: 0.7,
+        ..SetupFeatures::default()
+    };
+    let (a, b) = (plain.encode(&f), res.encode(&f));
+    assert_eq!(a[..radii], b[..radii], "the exact reach comes first in both");
+    let relative: Vec<f32> = (0..radii).map(|i| (1.0 / (1 + i) as f64) as f32).collect();
+    assert_eq!(b[radii..2 * radii], relative[..], "then the reach at the resolution, relative to the first");
+    assert_eq!(a[radii..], b[2 * radii..], "then the same visible fraction and depth histogram");
+
+    let encoder = EncoderKind::GeometricAtResolution;
+    let env =
+        MachiningEnv::with_encoder(parts.clone(), opts.clone(), RewardWeights::default(), &encoder).unwrap();
+    assert_eq!(env.state_dim(), res.dim() + 2);
+    let train = TrainOptions {
+        episodes: 2,
+        seed: 2,
+        mill: opts.clone(),
+        dqn: DqnConfig { hidden: vec![8], learning_starts: 2, batch_size: 2, ..TrainOptions::default().dqn },
+        encoder,
+        ..TrainOptions::default()
+    };
+    let mut policy = train_policy(&parts, &train, &mut |_| {}).unwrap();
+    assert_eq!(policy.info().encoder, "geometric-res");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("res.s2gp");
+    policy.save(&path).unwrap();
+    let mut loaded = LearnedPolicy::load(&path).unwrap();
+    assert_eq!(loaded.info(), policy.info());
+    let a = mill(&parts[0].1, &mut policy, &opts, &mut |_| {}).unwrap();
+    let b = mill(&parts[0].1, &mut loaded, &opts, &mut |_| {}).unwrap();
+    assert_eq!(a.programs, b.programs);
+}
+
 /// The policy shipped in the crate loads, speaks the paper's action space, and was trained
 /// only on the training split, never on a part of the evaluation split
 /// (`assets/policy/README.md`).

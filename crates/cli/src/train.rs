@@ -40,7 +40,8 @@ pub struct Args {
     /// Surface points for orientation selection.
     #[arg(long, default_value_t = 2048)]
     points: usize,
-    /// Shape encoder of the states: `geometric` (the cheap descriptor) or `dgcnn`
+    /// Shape encoder of the states: `geometric` (the cheap descriptor), `geometric-res`
+    /// (with the reach at the grid's resolution added) or `dgcnn`
     /// (DGCNN on the setup's surface points, seeded frozen weights).
     #[arg(long, default_value = "geometric")]
     encoder: String,
@@ -71,8 +72,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let defaults = TrainOptions::default();
     let encoder = match args.encoder.as_str() {
         "geometric" => EncoderKind::Geometric,
+        "geometric-res" => EncoderKind::GeometricAtResolution,
         "dgcnn" => EncoderKind::Dgcnn(DgcnnConfig { seed: args.seed, ..DgcnnConfig::default() }),
-        e => bail!("unknown encoder {e:?} (geometric or dgcnn)"),
+        e => bail!("unknown encoder {e:?} (geometric, geometric-res or dgcnn)"),
     };
     let w: Vec<f64> = args
         .reward_weights
