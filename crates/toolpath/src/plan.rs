@@ -103,8 +103,9 @@ pub struct PlanOptions {
     /// whole, as the paper does (§3.3). With `Some(d)`, the levels are grouped top down so
     /// that each group spans at most `d`: its lowest level (the roughing level) clears the
     /// whole free region in one cut of the group's depth, and only then are the group's
-    /// finer levels above it machined, each with its contour and with clearing limited to
-    /// the material the roughing cut left there (the steps along the part's walls). The
+    /// finer levels above it machined, each with its contour and its clearing limited to
+    /// where the roughing cut's tool centres did not stand (the steps along the part's
+    /// sloping walls; a level whose keep-out is the roughing level's has nothing left). The
     /// finished shape is the same; the clearing passes of all but one level per group are
     /// saved. A `d` below the layer height changes nothing.
     pub roughing_depth: Option<f64>,
