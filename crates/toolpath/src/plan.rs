@@ -787,7 +787,9 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
         groups.iter().enumerate().flat_map(|(k, g)| g.fine.clone().map(move |l| (k, l))).collect();
     let mut fine_plans: Vec<Vec<LayerPlan>> =
         groups.iter().map(|g| Vec::with_capacity(g.fine.len())).collect();
-    let indices: Vec<RegionIndex> = rough.par_iter().map(|p| p.free.index()).collect();
+    // A roughing level's free-region index, built when a finer level first needs it (groups
+    // without finer levels, or whose finer levels share its keep-out, need none).
+    let indices: Vec<OnceLock<RegionIndex>> = rough.iter().map(|_| OnceLock::new()).collect();
     let planned: Vec<(usize, LayerPlan)> = fine
         .par_iter()
         .map(|&(k, l)| {
@@ -796,7 +798,7 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
                 // place this level's tool may stand, left nothing here.
                 return (k, LayerPlan::empty(l, levels.z[l], levels.above(l), &clearance(l).free));
             }
-            let roughed = Some((&rough[k].free, &indices[k]));
+            let roughed = Some((&rough[k].free, indices[k].get_or_init(|| rough[k].free.index())));
             (k, ctx.plan_layer(l, levels.z[l], levels.above(l), clearance(l), roughed))
         })
         .collect();

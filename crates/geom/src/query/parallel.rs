@@ -85,14 +85,17 @@ impl MeshIndex {
             top,
             tol,
         };
-        let span = |bx: &[f64; 4]| {
-            let (i0, j0) = grid.cell_of(bx[0] - tol, bx[1] - tol);
-            let (i1, j1) = grid.cell_of(bx[2] + tol, bx[3] + tol);
-            (i0, j0, i1, j1)
-        };
+        // Each triangle's cells, grown by the slack.
+        let spans: Vec<(usize, usize, usize, usize)> = boxes
+            .iter()
+            .map(|bx| {
+                let (i0, j0) = grid.cell_of(bx[0] - tol, bx[1] - tol);
+                let (i1, j1) = grid.cell_of(bx[2] + tol, bx[3] + tol);
+                (i0, j0, i1, j1)
+            })
+            .collect();
         let mut count = vec![0u32; dims[0] * dims[1] + 1];
-        for bx in &boxes {
-            let (i0, j0, i1, j1) = span(bx);
+        for &(i0, j0, i1, j1) in &spans {
             for j in j0..=j1 {
                 for i in i0..=i1 {
                     count[j * dims[0] + i + 1] += 1;
@@ -108,7 +111,7 @@ impl MeshIndex {
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_by(|&x, &y| grid.top[y as usize].total_cmp(&grid.top[x as usize]).then(x.cmp(&y)));
         for &t in &order {
-            let (i0, j0, i1, j1) = span(&boxes[t as usize]);
+            let (i0, j0, i1, j1) = spans[t as usize];
             for j in j0..=j1 {
                 for i in i0..=i1 {
                     let slot = &mut fill[j * dims[0] + i];
