@@ -618,6 +618,10 @@ pub struct PolicyInfo {
     pub seed: u64,
     /// Simulation resolution it was trained at.
     pub resolution: usize,
+    /// Whether it was trained with double-DQN targets ([`DqnConfig::double`]); fine-tuning
+    /// keeps the rule. Absent (false) in files written before the option.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub double: bool,
 }
 
 /// The shape and seed of a policy's DGCNN encoder, as its file states them.
@@ -776,6 +780,7 @@ impl LearnedPolicy {
             epsilon_decay_steps: (episodes as u64 * 3).max(1),
             learning_starts: 8,
             batch_size: 8,
+            double: self.info.double,
             ..opts.dqn.clone()
         };
         let bytes = self.agent.to_bytes().map_err(rl_error)?;
@@ -862,6 +867,7 @@ pub fn train_policy(
         episodes: opts.episodes as u64,
         seed: opts.seed,
         resolution: opts.mill.resolution,
+        double: opts.dqn.double,
     };
     Ok(LearnedPolicy { encoder: env.encoder, agent, info })
 }

@@ -188,7 +188,8 @@ fn a_dgcnn_policy_trains_saves_and_loads() {
 
 /// The geometric encoder with the reach at the grid's resolution: twice the reach
 /// features (exact, then at the grid's resolution, each relative to the smallest tool), a
-/// policy file that names it, and a loaded policy that mills as the saved one did.
+/// policy file that names it (and its double-DQN training), and a loaded policy that mills
+/// as the saved one did.
 #[test]
 fn a_policy_on_the_reach_at_resolution_saves_and_loads() {
     use shape2gcode::rl::Encoder;
@@ -220,12 +221,19 @@ fn a_policy_on_the_reach_at_resolution_saves_and_loads() {
         episodes: 2,
         seed: 2,
         mill: opts.clone(),
-        dqn: DqnConfig { hidden: vec![8], learning_starts: 2, batch_size: 2, ..TrainOptions::default().dqn },
+        dqn: DqnConfig {
+            hidden: vec![8],
+            learning_starts: 2,
+            batch_size: 2,
+            double: true,
+            ..TrainOptions::default().dqn
+        },
         encoder,
         ..TrainOptions::default()
     };
     let mut policy = train_policy(&parts, &train, &mut |_| {}).unwrap();
     assert_eq!(policy.info().encoder, "geometric-res");
+    assert!(policy.info().double, "the file says its targets were double-DQN ones");
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("res.s2gp");
     policy.save(&path).unwrap();

@@ -58,6 +58,11 @@ pub struct Args {
     /// the first episodes of a longer one, replayed from its outcome file.
     #[arg(long)]
     epsilon_decay_steps: Option<u64>,
+    /// Double-DQN targets: the next state's action is chosen by the online network and
+    /// valued by the target network, which removes most of the upward bias of the plain
+    /// DQN's maximum over many noisy action values.
+    #[arg(long)]
+    double: bool,
     /// Outcome file: read first (steps an earlier training simulated are not simulated
     /// again, whatever its encoder, seed or reward weights) and written after training.
     #[arg(long)]
@@ -104,6 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .unwrap_or(2 * args.episodes as u64 * args.setups.max(1) as u64 / 3)
                 .max(1),
             updates_per_train: args.updates_per_step,
+            double: args.double,
             ..defaults.dqn
         },
         encoder,

@@ -87,6 +87,13 @@ pub struct DqnConfig {
     pub target_sync_every: u64,
     /// Huber loss threshold, finite and `> 0`. Default `1.0`.
     pub huber_delta: f32,
+    /// Double DQN (van Hasselt, Guez and Silver, AAAI 2016): the TD target of a
+    /// non-terminal transition evaluates, with the target network, the action the *online*
+    /// network prefers in the next state, `r + gamma * Q_target(s', argmax_a' Q_online(s', a'))`,
+    /// rather than the target network's own maximum. The maximum over noisy estimates of
+    /// many actions is biased upwards; choosing and evaluating with different networks
+    /// removes most of that bias. Default `false` (the paper's DQN).
+    pub double: bool,
     /// Episodes longer than this are truncated (not treated as terminal), `> 0`.
     /// Default `1_000`.
     pub max_episode_steps: usize,
@@ -114,6 +121,7 @@ impl Default for DqnConfig {
             updates_per_train: 1,
             target_sync_every: 500,
             huber_delta: 1.0,
+            double: false,
             max_episode_steps: 1_000,
             seed: 0,
             backend: Backend::default(),

@@ -284,7 +284,8 @@ impl Dqn {
     /// [`train_every`](DqnConfig::train_every) steps (once
     /// [`learning_starts`](DqnConfig::learning_starts) steps are taken and the buffer holds a
     /// batch) makes [`updates_per_train`](DqnConfig::updates_per_train) Adam updates of the Huber loss between `Q(s, a)` and
-    /// `r + gamma * max_a' Q_target(s', a') * (1 - done)`; the target network is copied from
+    /// `r + gamma * max_a' Q_target(s', a') * (1 - done)` (or its [double](DqnConfig::double)
+    /// form); the target network is copied from
     /// the online one every [`target_sync_every`](DqnConfig::target_sync_every) steps.
     /// Counters, the schedule and the buffer carry over between calls.
     ///
@@ -358,37 +359,54 @@ impl Dqn {
         self.target = self.online.valid();
     }
 
-    /// One gradient update on a uniformly sampled batch; returns its loss.
-    fn update(&mut self) -> Result<f32, RlError> {
+    /// The TD targets of the sampled batch: `r` for a terminal transition, otherwise
+    /// `r + gamma * Q_target(s', a*)` with `a*` the target network's best action in `s'`,
+    /// or the online network's with [`double`](DqnConfig::double).
+    ///
+    /// Computed on the host: they are constants for the gradient, and a batch of `b`
+    /// maxima is cheaper there than another graph.
+    fn td_targets(&self) -> Result<Vec<f32>, RlError> {
         let (b, d, a) = (self.config.batch_size, self.state_dim, self.num_actions);
-        self.replay.sample(b, &mut self.replay_rng, &mut self.batch);
-
-        // The TD target is computed on the host: it is a constant for the gradient, and a
-        // batch of `b` maxima is cheaper there than another graph.
-        let next_states = Tensor::<2>::from_data(
-            TensorData::new(self.batch.next_states.clone(), [b, d]),
-            &self.infer_device,
-        );
-        let next_q = self
-            .target
-            .forward(next_states)
-            .try_into_data()
-            .map_err(backend_err)?
-            .try_into_vec::<f32>()
-            .map_err(backend_err)?;
+        let next_states = || {
+            Tensor::<2>::from_data(
+                TensorData::new(self.batch.next_states.clone(), [b, d]),
+                &self.infer_device,
+            )
+        };
+        let host = |q: Tensor<2>| -> Result<Vec<f32>, RlError> {
+            q.try_into_data().map_err(backend_err)?.try_into_vec::<f32>().map_err(backend_err)
+        };
+        let next_q = host(self.target.forward(next_states()))?;
+        // The online network's choice in each next state, when it chooses.
+        let chosen = if self.config.double {
+            let online_q = host(self.online.valid().forward(next_states()))?;
+            Some(online_q.chunks_exact(a).map(argmax).collect::<Vec<_>>())
+        } else {
+            None
+        };
         let gamma = self.config.gamma;
-        let targets: Vec<f32> = (0..b)
+        Ok((0..b)
             .map(|i| {
                 let r = self.batch.rewards[i];
                 if self.batch.dones[i] {
-                    r
-                } else {
-                    let best = next_q[i * a..(i + 1) * a].iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                    r + gamma * best
+                    return r;
                 }
+                let q = &next_q[i * a..(i + 1) * a];
+                let next = match &chosen {
+                    Some(c) => q[c[i]],
+                    None => q.iter().copied().fold(f32::NEG_INFINITY, f32::max),
+                };
+                r + gamma * next
             })
-            .collect();
+            .collect())
+    }
 
+    /// One gradient update on a uniformly sampled batch; returns its loss.
+    fn update(&mut self) -> Result<f32, RlError> {
+        let (b, d) = (self.config.batch_size, self.state_dim);
+        self.replay.sample(b, &mut self.replay_rng, &mut self.batch);
+
+        let targets = self.td_targets()?;
         let states =
             Tensor::<2>::from_data(TensorData::new(self.batch.states.clone(), [b, d]), &self.train_device);
         let actions = Tensor::<2, Int>::from_data(
@@ -465,5 +483,68 @@ mod tests {
         assert_eq!(argmax(&[1.0, 3.0, 3.0, 2.0]), 1);
         assert_eq!(argmax(&[f32::NAN, 0.5, 0.7]), 2);
         assert_eq!(argmax(&[-1.0]), 0);
+    }
+
+    /// The TD targets follow their formulas: terminal transitions give `r`; otherwise the
+    /// plain form takes the target network's maximum and the double form the target
+    /// network's value of the online network's choice. The online network is trained away
+    /// from the target first, so the two choices differ somewhere and the forms can be told
+    /// apart.
+    #[test]
+    fn td_targets_take_the_target_networks_value_of_the_right_action() {
+        let (d, a) = (3, 5);
+        let mut agent = Dqn::new(
+            DqnConfig {
+                hidden: vec![16],
+                learning_rate: 1e-2,
+                batch_size: 32,
+                replay_capacity: 256,
+                target_sync_every: 1_000_000,
+                seed: 3,
+                ..DqnConfig::default()
+            },
+            d,
+            a,
+        )
+        .unwrap();
+        let mut rng = SplitMix64::new(11, 0);
+        let mut unit = || rng::unit_f64(rng.next_u64()) as f32 * 2.0 - 1.0;
+        for k in 0..200 {
+            let s: Vec<f32> = (0..d).map(|_| unit()).collect();
+            let s2: Vec<f32> = (0..d).map(|_| unit()).collect();
+            let r = 3.0 * unit();
+            agent.replay.push(&s, k % a, r, &s2, k % 7 == 0);
+        }
+        for _ in 0..40 {
+            agent.update().unwrap();
+        }
+        let target_q = |agent: &Dqn, s: &[f32]| {
+            let x = Tensor::<2>::from_data(TensorData::new(s.to_vec(), [1, d]), &agent.infer_device);
+            agent.target.forward(x).try_into_data().unwrap().try_into_vec::<f32>().unwrap()
+        };
+        let (mut disagree, mut terminal) = (0, 0);
+        for double in [false, true] {
+            agent.config.double = double;
+            agent.replay.sample(32, &mut agent.replay_rng, &mut agent.batch);
+            let got = agent.td_targets().unwrap();
+            for (i, &t) in got.iter().enumerate() {
+                let r = agent.batch.rewards[i];
+                if agent.batch.dones[i] {
+                    assert_eq!(t, r, "terminal transition {i}");
+                    terminal += 1;
+                    continue;
+                }
+                let next = &agent.batch.next_states[i * d..(i + 1) * d];
+                let (qt, qo) = (target_q(&agent, next), agent.q_values(next).unwrap());
+                let pick = if double { argmax(&qo) } else { argmax(&qt) };
+                disagree += usize::from(argmax(&qo) != argmax(&qt));
+                let want = r + agent.config.gamma * qt[pick];
+                assert!(
+                    (t - want).abs() <= 1e-5 * want.abs().max(1.0),
+                    "double {double}, {i}: {t} vs {want}"
+                );
+            }
+        }
+        assert!(disagree > 0 && terminal > 0, "{disagree} disagreements, {terminal} terminal transitions");
     }
 }
