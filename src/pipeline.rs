@@ -508,7 +508,23 @@ impl MillRun {
             oopts.max_setups = n.max(1);
             oopts.coverage_target = 1.0;
         }
-        let orientation = select_orientations(&part, &oopts)?;
+        // What does not depend on the setups (the part's voxels on the simulation grid, its
+        // index and the samples the features read) is computed beside the orientation
+        // search, whose serial steps leave a core idle.
+        let spec = GridSpec::cubic(&stock, opts.resolution)?;
+        let (orientation, (target, index, samples, beside)) = rayon::join(
+            || select_orientations(&part, &oopts),
+            || {
+                let t = Instant::now();
+                let target = voxelize(&part, &spec);
+                let voxelized = t.elapsed();
+                let index = MeshIndex::new(&part);
+                let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed);
+                (target, index, samples, [voxelized, t.elapsed() - voxelized])
+            },
+        );
+        let orientation = orientation?;
+        let (target, index, samples) = (target?, index?, samples?);
         // The rotary layout fails here, before any planning, on a setup its machine cannot reach.
         let placements = match opts.layout {
             ProgramLayout::PerSetup => None,
@@ -526,8 +542,6 @@ impl MillRun {
         // What the policy will look at.
         progress(Stage::ActionSelection);
         let t = Instant::now();
-        let index = MeshIndex::new(&part)?;
-        let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed)?;
         let diag = stock.extent().norm();
         let voxel = stock.extent().max() / opts.resolution as f64;
         let features = orientation
@@ -535,13 +549,11 @@ impl MillRun {
             .iter()
             .map(|setup| setup_features(&index, &samples, setup, &space, diag, &stock, voxel))
             .collect();
-        times.action_selection = t.elapsed().as_secs_f64();
+        times.action_selection = (t.elapsed() + beside[1]).as_secs_f64();
 
         // The simulator knows every tool of the action space: T1 is the smallest radius.
         let (feed, rapid) = feeds(opts.preset);
         let t = Instant::now();
-        let spec = GridSpec::cubic(&stock, opts.resolution)?;
-        let target = voxelize(&part, &spec)?;
         let mut tools = ToolTable::single(Cutter::flat(space.radii.first().copied().unwrap_or(1.0), diag));
         for (i, &r) in space.radii.iter().enumerate() {
             tools = tools.with(i as u32 + 1, Cutter::flat(r, diag));
@@ -554,7 +566,7 @@ impl MillRun {
             .map_err(sim_error)?;
         let mut remaining = sim.residual_grid();
         remaining.andnot(&target).map_err(|e| MillError::Simulation(e.to_string()))?;
-        times.simulation += t.elapsed().as_secs_f64();
+        times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
         Ok(Self {
             opts: opts.clone(),

@@ -200,7 +200,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
             for k in 0..8 {
                 let a = k as f64 * PI / 4.0;
                 let c = Point2::new(s.x + rh * a.cos(), s.y + rh * a.sin());
-                if index.contains(&c) && index.boundary_distance(&c, 2.0 * rh) >= rh * (1.0 + 1e-6) {
+                if index.contains(&c) && !index.any_edge_within(&c, rh * (1.0 + 1e-6)) {
                     let revs = (depth / pitch).ceil().max(1.0);
                     let l = revs * ((2.0 * PI * rh).powi(2) + (depth / revs).powi(2)).sqrt();
                     self.stats.cutting_length += l;

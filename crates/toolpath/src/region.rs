@@ -439,8 +439,7 @@ impl Region2 {
                 let a = c[i];
                 let b = c[(i + 1) % n];
                 for q in [Point2::new(a[0], a[1]), Point2::new(0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))] {
-                    if index.boundary_distance(&q, distance) < distance * (1.0 - 1e-9) && !index.contains(&q)
-                    {
+                    if index.any_edge_within(&q, distance * (1.0 - 1e-9)) && !index.contains(&q) {
                         for e in index.edges_near(&q, distance + eps) {
                             if seen.insert(e) {
                                 let [ax, ay, bx, by] = index.edges[e as usize];
@@ -623,6 +622,33 @@ impl RegionIndex {
         best
     }
 
+    /// Whether a boundary edge comes nearer `p` than `d`: `boundary_distance(p, d) < d`,
+    /// answered at the first such edge, with edges whose box lies `d` or more away skipped
+    /// and squared distances compared (no division or root for most edges).
+    pub fn any_edge_within(&self, p: &Point2, d: f64) -> bool {
+        if !(d > 0.0) {
+            return false;
+        }
+        let (i0, j0) = self.cell_of(p.x - d, p.y - d);
+        let (i1, j1) = self.cell_of(p.x + d, p.y + d);
+        let d2 = d * d;
+        (j0..=j1).any(|j| {
+            (i0..=i1).any(|i| {
+                self.cells[j * self.dims[0] + i].iter().any(|&e| {
+                    let [ax, ay, bx, by] = self.edges[e as usize];
+                    if ax.min(bx) - p.x >= d
+                        || p.x - ax.max(bx) >= d
+                        || ay.min(by) - p.y >= d
+                        || p.y - ay.max(by) >= d
+                    {
+                        return false;
+                    }
+                    point_segment_distance_squared(p, &Point2::new(ax, ay), &Point2::new(bx, by)) < d2
+                })
+            })
+        })
+    }
+
     /// Indices of the boundary edges within `d` of `p` (ascending).
     fn edges_near(&self, p: &Point2, d: f64) -> Vec<u32> {
         let (i0, j0) = self.cell_of(p.x - d, p.y - d);
@@ -724,10 +750,15 @@ fn thin_loop(c: &[Raw], tol: f64) -> Option<Vec<Raw>> {
 
 /// Distance from `p` to the segment `a`-`b`.
 pub fn point_segment_distance(p: &Point2, a: &Point2, b: &Point2) -> f64 {
+    point_segment_distance_squared(p, a, b).sqrt()
+}
+
+/// The square of [`point_segment_distance`].
+fn point_segment_distance_squared(p: &Point2, a: &Point2, b: &Point2) -> f64 {
     let ab = b - a;
     let l2 = ab.norm_squared();
     let t = if l2 > 0.0 { ((p - a).dot(&ab) / l2).clamp(0.0, 1.0) } else { 0.0 };
-    (p - (a + ab * t)).norm()
+    (p - (a + ab * t)).norm_squared()
 }
 
 fn orient(a: &Point2, b: &Point2, c: &Point2) -> f64 {
@@ -750,6 +781,34 @@ fn proper_cross(p: &Point2, q: &Point2, a: &Point2, b: &Point2, tol: f64) -> boo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `any_edge_within` answers `boundary_distance(p, d) < d` on a square with a disc-shaped
+    /// hole (edges of every direction), at points inside, outside and on the boundary's
+    /// scale, for distances from far below to far above the index's cell.
+    #[test]
+    fn any_edge_within_agrees_with_the_boundary_distance() {
+        let outer = Region2::rect(Point2::new(0.0, 0.0), Point2::new(6.0, 4.0));
+        let hole = Region2::rect(Point2::new(1.8, 1.8), Point2::new(2.2, 2.2)).offset(1.0, 0.05);
+        let index = outer.difference(&hole).index();
+        let (mut near, mut cases) = (0, 0);
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut unit = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..4000 {
+            let p = Point2::new(-1.0 + 8.0 * unit(), -1.0 + 6.0 * unit());
+            let d = 0.001 * 3000f64.powf(unit());
+            let want = index.boundary_distance(&p, d) < d;
+            assert_eq!(index.any_edge_within(&p, d), want, "{p:?} within {d}");
+            near += usize::from(want);
+            cases += 1;
+        }
+        assert!(near > 400 && near < cases - 400, "both answers: {near} of {cases}");
+        assert!(!index.any_edge_within(&Point2::new(0.5, 0.5), 0.0));
+    }
 
     #[test]
     fn square_minus_hole_area_offset_and_queries() {

@@ -49,6 +49,19 @@ impl RemainingMaterial for VoxelMaterial<'_> {
         // extents through |R| (the same box the eight corners would span, for one
         // transform instead of eight).
         let centre = self.rotation * nalgebra::center(min, max).coords + self.translation;
+        // Most boxes a planner asks lie in material: the voxel holding the box's centre
+        // has its centre within half a voxel of the box, so when it is set, so is one of
+        // the voxels below.
+        let at = |a: usize| {
+            let f = (centre[a] - spec.origin[a]) / spec.voxel[a];
+            // Truncation is floor for the non-negative values kept.
+            (f >= 0.0 && f < spec.dims[a] as f64).then_some(f as usize)
+        };
+        if let (Some(i), Some(j), Some(k)) = (at(0), at(1), at(2))
+            && self.grid.get(i, j, k)
+        {
+            return true;
+        }
         let reach = self.abs_rotation * ((max - min) * 0.5);
         let (lo, hi) = (centre - reach, centre + reach);
         let mut range = [(0, 0); 3];

@@ -638,8 +638,10 @@ fn popcount(b: &Brick) -> u64 {
 /// Voxel centres of the brick at `base` whose bit is set in `bits` and that satisfy
 /// `inside(q, 0)`, for a **convex** region. Each 8-voxel row along x is first cut down to
 /// the voxels inside `bounds` (a box around the region), or without one culled at its
-/// middle with `inside(mid, +half)`; then a row whose two end centres are inside is inside
-/// whole (convexity), so only rows crossing the boundary test their voxels one by one.
+/// middle with `inside(mid, +half)`. The inside centres of a row form one run (convexity):
+/// a row whose two end centres are inside is inside whole, one with a single end inside
+/// finds the run's other end by bisection, and only a row with both ends outside tests the
+/// voxels between them one by one.
 #[inline]
 fn select(
     view: &Store,
@@ -684,19 +686,41 @@ fn select(
             let first = row.trailing_zeros() as usize;
             let last = 63 - row.leading_zeros() as usize;
             let at = |x: usize| Point3::new(x0 + x as f64 * s.voxel.x, qy, qz);
-            let hit = if inside(&at(first), 0.0) && inside(&at(last), 0.0) {
-                row
-            } else {
-                let mut hit = 0u64;
-                let mut w = row;
-                while w != 0 {
-                    let x = w.trailing_zeros() as usize;
-                    w &= w - 1;
-                    if inside(&at(x), 0.0) {
-                        hit |= 1 << x;
+            // The inside centres of the row form one run (convexity).
+            let head = inside(&at(first), 0.0);
+            let tail = if first == last { head } else { inside(&at(last), 0.0) };
+            let hit = match (head, tail) {
+                (true, true) => row,
+                // One end inside: the run's other end, by bisection between the two.
+                (true, false) => {
+                    let (mut lo, mut hi) = (first, last);
+                    while hi - lo > 1 {
+                        let m = (lo + hi) / 2;
+                        if inside(&at(m), 0.0) { lo = m } else { hi = m }
                     }
+                    row & (u64::MAX >> (63 - lo))
                 }
-                hit
+                (false, true) => {
+                    let (mut lo, mut hi) = (first, last);
+                    while hi - lo > 1 {
+                        let m = (lo + hi) / 2;
+                        if inside(&at(m), 0.0) { hi = m } else { lo = m }
+                    }
+                    row & (u64::MAX << hi)
+                }
+                // Both ends outside: the run, if any, lies between them.
+                (false, false) => {
+                    let mut hit = 0u64;
+                    let mut w = row & !(1 << first) & !(1 << last);
+                    while w != 0 {
+                        let x = w.trailing_zeros() as usize;
+                        w &= w - 1;
+                        if inside(&at(x), 0.0) {
+                            hit |= 1 << x;
+                        }
+                    }
+                    hit
+                }
             };
             out[z] |= hit << (BRICK * y);
         }
