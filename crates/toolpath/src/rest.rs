@@ -50,8 +50,8 @@ impl RemainingMaterial for VoxelMaterial<'_> {
         // transform instead of eight).
         let centre = self.rotation * nalgebra::center(min, max).coords + self.translation;
         // Most boxes a planner asks lie in material: the voxel holding the box's centre
-        // has its centre within half a voxel of the box, so when it is set, so is one of
-        // the voxels below.
+        // has its centre within half a voxel of the box, so it is one of the voxels the
+        // range below looks at, and when it is set the answer is known.
         let at = |a: usize| {
             let f = (centre[a] - spec.origin[a]) / spec.voxel[a];
             // Truncation is floor for the non-negative values kept.
