@@ -629,44 +629,37 @@ impl RegionIndex {
         if !(d > 0.0) {
             return false;
         }
-        let (i0, j0) = self.cell_of(p.x - d, p.y - d);
-        let (i1, j1) = self.cell_of(p.x + d, p.y + d);
         let d2 = d * d;
-        (j0..=j1).any(|j| {
-            (i0..=i1).any(|i| {
-                self.cells[j * self.dims[0] + i].iter().any(|&e| {
-                    let [ax, ay, bx, by] = self.edges[e as usize];
-                    if ax.min(bx) - p.x >= d
-                        || p.x - ax.max(bx) >= d
-                        || ay.min(by) - p.y >= d
-                        || p.y - ay.max(by) >= d
-                    {
-                        return false;
-                    }
-                    point_segment_distance_squared(p, &Point2::new(ax, ay), &Point2::new(bx, by)) < d2
-                })
-            })
+        self.edge_ids_around(p, d).map(|e| self.edges[e as usize]).any(|[ax, ay, bx, by]| {
+            let far = ax.min(bx) - p.x >= d
+                || p.x - ax.max(bx) >= d
+                || ay.min(by) - p.y >= d
+                || p.y - ay.max(by) >= d;
+            !far && point_segment_distance_squared(p, &Point2::new(ax, ay), &Point2::new(bx, by)) < d2
         })
     }
 
     /// Indices of the boundary edges within `d` of `p` (ascending).
     fn edges_near(&self, p: &Point2, d: f64) -> Vec<u32> {
-        let (i0, j0) = self.cell_of(p.x - d, p.y - d);
-        let (i1, j1) = self.cell_of(p.x + d, p.y + d);
-        let mut out = Vec::new();
-        for j in j0..=j1 {
-            for i in i0..=i1 {
-                for &e in &self.cells[j * self.dims[0] + i] {
-                    let [ax, ay, bx, by] = self.edges[e as usize];
-                    if point_segment_distance(p, &Point2::new(ax, ay), &Point2::new(bx, by)) <= d {
-                        out.push(e);
-                    }
-                }
-            }
-        }
+        let mut out: Vec<u32> = self
+            .edge_ids_around(p, d)
+            .filter(|&e| {
+                let [ax, ay, bx, by] = self.edges[e as usize];
+                point_segment_distance(p, &Point2::new(ax, ay), &Point2::new(bx, by)) <= d
+            })
+            .collect();
         out.sort_unstable();
         out.dedup();
         out
+    }
+
+    /// The edges listed in the cells that the square `p ± d` meets (an edge listed in
+    /// several of them comes once per cell): every edge within `d` of `p` is among them.
+    fn edge_ids_around(&self, p: &Point2, d: f64) -> impl Iterator<Item = u32> + '_ {
+        let (i0, j0) = self.cell_of(p.x - d, p.y - d);
+        let (i1, j1) = self.cell_of(p.x + d, p.y + d);
+        (j0..=j1)
+            .flat_map(move |j| (i0..=i1).flat_map(move |i| self.cells[j * self.dims[0] + i].iter().copied()))
     }
 
     /// Whether the closed segment `a`-`b` stays inside the region, with boundary contact
