@@ -28,8 +28,8 @@ use std::io::{BufRead, Read};
 use std::time::Instant;
 
 use crate::gcode::{
-    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Plane, RotaryAxes, WriterOptions, linearize_arc,
-    parse_reader, rotary_angles, rotary_frame,
+    Dialect, FooterRetract, GcodeWriter, Motion, MotionSink, ParseOptions, Plane, RotaryAxes, WriterOptions,
+    linearize_arc, parse_reader, rotary_angles, rotary_frame,
 };
 use crate::geom::{
     Aabb, GridSpec, Isometry3, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Rotation3, Setup,
@@ -586,7 +586,11 @@ impl MillRun {
             remaining,
             trace: PathTrace::default(),
             times,
-            wopts: WriterOptions { decimals, ..WriterOptions::default() },
+            // Every program ends with the planner's retract to the clearance plane. No
+            // `G53 G0 Z0` after it: the program sets no work offset, so a reader (the
+            // simulator, `rs274`) takes machine Z0 for work Z0, and where the last pass ends
+            // over the part that is a rapid plunge into it.
+            wopts: WriterOptions { decimals, retract: FooterRetract::None, ..WriterOptions::default() },
             keep_programs: true,
             diag,
             feed,
