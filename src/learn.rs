@@ -663,6 +663,8 @@ pub struct LearnedPolicy {
     agent: Dqn,
     info: PolicyInfo,
     encoder: SetupEncoder,
+    /// Setups the heuristic chose for it (another action space, or acting failed).
+    deferred: usize,
 }
 
 const POLICY_MAGIC: &[u8; 10] = b"S2GPOLICY\n";
@@ -728,7 +730,7 @@ impl LearnedPolicy {
         if agent.num_actions() != actions {
             return Err(bad(format!("{} actions for an action space of {actions}", agent.num_actions())));
         }
-        Ok(Self { agent, info, encoder })
+        Ok(Self { agent, info, encoder, deferred: 0 })
     }
 
     /// Writes the policy atomically: a magic line, a JSON line of [`PolicyInfo`], then the
@@ -819,11 +821,16 @@ impl Policy for LearnedPolicy {
         } else {
             None
         };
-        learned.unwrap_or_else(|| crate::policy::HeuristicPolicy::default().choose(ctx))
+        learned.unwrap_or_else(|| {
+            self.deferred += 1;
+            crate::policy::HeuristicPolicy::default().choose(ctx)
+        })
     }
 
+    /// `learned`, or `learned (heuristic)` once the heuristic has chosen for it, so that a
+    /// report says which rule chose its actions.
     fn name(&self) -> String {
-        "learned".into()
+        if self.deferred == 0 { "learned".into() } else { "learned (heuristic)".into() }
     }
 }
 
@@ -869,7 +876,7 @@ pub fn train_policy(
         resolution: opts.mill.resolution,
         double: opts.dqn.double,
     };
-    Ok(LearnedPolicy { encoder: env.encoder, agent, info })
+    Ok(LearnedPolicy { encoder: env.encoder, agent, info, deferred: 0 })
 }
 
 /// Rewards follow each setup only in the per-setup layout.

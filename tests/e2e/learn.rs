@@ -276,6 +276,27 @@ fn the_bundled_policy_is_trained_on_the_training_split_only() {
     assert!(info.episodes > 0);
 }
 
+/// Outside the action space it was trained on (the shop preset's tools), the bundled
+/// policy lets the heuristic choose, choosing what the heuristic does, and its report says
+/// so; in the paper's space it chooses itself.
+#[test]
+fn the_bundled_policy_names_the_heuristic_when_it_chooses_for_it() {
+    let (parts, opts) = cheap();
+    let mut learned = LearnedPolicy::bundled().unwrap();
+    let mut heuristic = policy_by_name("heuristic", &opts.action_space(), 0).unwrap();
+    let a = mill(&parts[0].1, &mut learned, &opts, &mut |_| {}).unwrap();
+    let b = mill(&parts[0].1, &mut *heuristic, &opts, &mut |_| {}).unwrap();
+    assert_eq!(a.policy, "learned (heuristic)");
+    assert_eq!(b.policy, "heuristic");
+    let actions = |m: &shape2gcode::Milled| m.setups.iter().map(|p| p.action).collect::<Vec<_>>();
+    assert_eq!(actions(&a), actions(&b));
+    let paper =
+        MillOptions { preset: Preset::Paper, strategies: shape2gcode::StrategyKind::ALL.to_vec(), ..opts };
+    let mut learned = LearnedPolicy::bundled().unwrap();
+    let c = mill(&parts[0].1, &mut learned, &paper, &mut |_| {}).unwrap();
+    assert_eq!(c.policy, "learned");
+}
+
 /// Outcome files: what one environment simulated, another with the same parts and options
 /// reads back and steps through identically, under other reward weights too (the file
 /// keeps the reward terms, not their sum); other options take none of it; junk is a typed

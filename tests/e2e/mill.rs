@@ -8,8 +8,8 @@ use shape2gcode::geom::{
 };
 use shape2gcode::voxsim::{Cutter, SimOptions, Simulator, ToolTable};
 use shape2gcode::{
-    ActionSpace, HeuristicPolicy, MillError, MillOptions, Milled, ProgramLayout, SetupCount, SetupProgram,
-    mill,
+    ActionSpace, HeuristicPolicy, LearnedPolicy, MillError, MillOptions, Milled, ProgramLayout, SetupCount,
+    SetupProgram, mill,
 };
 
 use super::common::{closed_meshes, data, rs274_errors};
@@ -49,13 +49,7 @@ fn every_closed_mesh_mills_safely_and_meets_the_quality_targets() {
     for path in closed_meshes() {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let (_, m) = mill_file(&path, &opts);
-        for (i, s) in m.setups.iter().enumerate() {
-            assert_setup_safe(&name, i, s);
-            let program = dir.path().join(format!("{name}.{}.ngc", i + 1));
-            std::fs::write(&program, &s.text).unwrap();
-            let errors = rs274_errors(&program);
-            assert!(errors.is_empty(), "{name}: rs274 rejects setup {}: {errors:?}", i + 1);
-        }
+        assert_programs_safe_and_accepted(&name, &m, dir.path());
         let q = &m.metrics;
         table += &format!(
             "| {name} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.0} |\n",
@@ -76,6 +70,56 @@ fn every_closed_mesh_mills_safely_and_meets_the_quality_targets() {
     let (iou, nc) = (iou / n as f64, nc / n as f64);
     assert!(iou >= 0.90, "mean IoU on the OpenSCAD parts is {iou:.4} < 0.90\n{table}");
     assert!(nc >= 0.92, "mean normal consistency on the OpenSCAD parts is {nc:.4} < 0.92\n{table}");
+}
+
+/// Every setup of `m` is safe ([`assert_setup_safe`]) and its program, written into
+/// `dir`, runs through `rs274` without error.
+fn assert_programs_safe_and_accepted(name: &str, m: &Milled, dir: &std::path::Path) {
+    for (i, s) in m.setups.iter().enumerate() {
+        assert_setup_safe(name, i, s);
+        let program = dir.join(format!("{name}.{}.ngc", i + 1));
+        std::fs::write(&program, &s.text).unwrap();
+        let errors = rs274_errors(&program);
+        assert!(errors.is_empty(), "{name}: rs274 rejects setup {}: {errors:?}", i + 1);
+    }
+}
+
+/// `s2g mill`'s default policy, the learned one shipped in the crate, also mills every
+/// closed mesh with zero gouges and zero rapid collisions into programs `rs274` accepts
+/// (its finer layers and spiral clearing are other programs than the heuristic's).
+#[test]
+fn every_closed_mesh_mills_safely_with_the_shipped_learned_policy() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = MillOptions { resolution: 128, ..MillOptions::default() };
+    let mut policy = LearnedPolicy::bundled().unwrap();
+    for path in closed_meshes() {
+        let name = path.file_stem().unwrap().to_string_lossy().into_owned();
+        let mesh = load_mesh(&path).unwrap();
+        let m = mill(&mesh, &mut policy, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(m.policy, "learned", "{name}: the learned policy chose every setup");
+        assert_programs_safe_and_accepted(&name, &m, dir.path());
+    }
+}
+
+/// Every program ends where its planner left the tool, on the clearance plane above the
+/// stock: no `G53 G0 Z0` footer, which a reader that knows no work offset (the simulator,
+/// `rs274`) takes for work Z0, a rapid plunge into the part wherever the last pass ended
+/// over it (a 1 mm spiral on the LetterBlock ended at its corner and gouged 384 voxels).
+#[test]
+fn programs_end_on_the_clearance_plane() {
+    let path = data("meshes/openscad/openscad_Basics_LetterBlock.stl");
+    let opts = MillOptions { resolution: 64, setups: SetupCount::Exactly(2), ..MillOptions::default() };
+    let (_, m) = mill_file(&path, &opts);
+    for (i, s) in m.setups.iter().enumerate() {
+        assert!(!s.text.contains("G53"), "setup {}: a machine-coordinate move", i + 1);
+        let z: Vec<f64> = s
+            .text
+            .split_whitespace()
+            .filter_map(|w| w.strip_prefix('Z').and_then(|v| v.parse().ok()))
+            .collect();
+        let top = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(z.last(), Some(&top), "setup {}: the last Z word is not the clearance plane", i + 1);
+    }
 }
 
 /// The report's metrics agree with a recomputation from the residual mesh as written to

@@ -39,9 +39,10 @@ pub struct Args {
     #[arg(long, default_value = "auto")]
     setups: String,
     /// Policy: `heuristic`, `learned` (the DQN policy shipped with s2g, see
-    /// assets/policy/README.md), `random`, `fixed-fine`, `fixed-coarse`,
-    /// `fixed:RADIUS,LAYER,STRATEGY` (zigzag|periphery|spiral), or the path of a policy file
-    /// written by `s2g train`.
+    /// assets/policy/README.md; outside the paper's action space, as with `--preset shop`,
+    /// the heuristic chooses for it and the report names the policy `learned (heuristic)`),
+    /// `random`, `fixed-fine`, `fixed-coarse`, `fixed:RADIUS,LAYER,STRATEGY`
+    /// (zigzag|periphery|spiral), or the path of a policy file written by `s2g train`.
     #[arg(long, default_value = "heuristic")]
     policy: String,
     /// Fine-tune the learned policy (`learned` or a policy file given by --policy) on this
