@@ -65,7 +65,8 @@ fn check_row(r: &serde_json::Value) {
     // A cube milled from a cube of stock at 16^3: close to exact, and safe.
     assert!(x("iou") > 0.9 && x("f1") > 0.9 && x("normal_consistency") > 0.9, "{r}");
     assert!(x("chamfer_x1000") >= 0.0 && x("chamfer_x1000") < 20.0, "{r}");
-    assert!(x("machining_time_s") > 0.0 && x("machining_time_s").is_finite(), "{r}");
+    // Nothing to cut: the programs go to their start on the clearance plane and stay there.
+    assert!(x("machining_time_s") >= 0.0 && x("machining_time_s").is_finite(), "{r}");
     assert_eq!(r["unsafe_parts"], 0, "{r}");
     // Eq. 13: one R_s per setup (at most 1 each) plus R_f (at most 1) plus 0.1 R_MRR.
     assert!(x("reward") > 1.0 && x("reward").is_finite(), "{r}");
