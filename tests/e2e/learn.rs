@@ -98,6 +98,26 @@ impl Policy for Replay {
     }
 }
 
+/// Saves `policy` as `file` in `dir`, loads it back, and mills the first part with both:
+/// the file holds the policy (the same description, the same programs). Returns the file's
+/// path and the saved policy's run.
+fn assert_saved_policy_mills_alike(
+    policy: &mut LearnedPolicy,
+    parts: &[(String, shape2gcode::geom::Mesh)],
+    opts: &MillOptions,
+    dir: &std::path::Path,
+    file: &str,
+) -> (std::path::PathBuf, shape2gcode::Milled) {
+    let path = dir.join(file);
+    policy.save(&path).unwrap();
+    let mut loaded = LearnedPolicy::load(&path).unwrap();
+    assert_eq!(loaded.info(), policy.info());
+    let a = mill(&parts[0].1, policy, opts, &mut |_| {}).unwrap();
+    let b = mill(&parts[0].1, &mut loaded, opts, &mut |_| {}).unwrap();
+    assert_eq!(a.programs, b.programs, "the loaded policy chooses what the saved one did");
+    (path, a)
+}
+
 #[test]
 fn a_trained_policy_saves_loads_and_mills_like_itself() {
     let (parts, opts) = cheap();
@@ -115,13 +135,7 @@ fn a_trained_policy_saves_loads_and_mills_like_itself() {
     assert_eq!(policy.info().trained_on, vec!["cube10".to_string()]);
 
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("p.s2gp");
-    policy.save(&path).unwrap();
-    let mut loaded = LearnedPolicy::load(&path).unwrap();
-    assert_eq!(loaded.info(), policy.info());
-    let a = mill(&parts[0].1, &mut policy, &opts, &mut |_| {}).unwrap();
-    let b = mill(&parts[0].1, &mut loaded, &opts, &mut |_| {}).unwrap();
-    assert_eq!(a.programs, b.programs, "the loaded policy chooses what the saved one did");
+    let (path, a) = assert_saved_policy_mills_alike(&mut policy, &parts, &opts, dir.path(), "p.s2gp");
     assert_eq!(a.policy, "learned");
     // By path through the policy names, too.
     let space = shape2gcode::ActionSpace::shop();
@@ -177,13 +191,7 @@ fn a_dgcnn_policy_trains_saves_and_loads() {
     assert_eq!(policy.info().encoder, "dgcnn");
     assert_eq!(policy.info().dgcnn.as_ref().map(|d| d.embedding), Some(32));
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("dgcnn.s2gp");
-    policy.save(&path).unwrap();
-    let mut loaded = LearnedPolicy::load(&path).unwrap();
-    assert_eq!(loaded.info(), policy.info());
-    let a = mill(&parts[0].1, &mut policy, &opts, &mut |_| {}).unwrap();
-    let b = mill(&parts[0].1, &mut loaded, &opts, &mut |_| {}).unwrap();
-    assert_eq!(a.programs, b.programs);
+    assert_saved_policy_mills_alike(&mut policy, &parts, &opts, dir.path(), "dgcnn.s2gp");
 }
 
 /// The geometric encoder with the reach at the grid's resolution: twice the reach
@@ -235,13 +243,7 @@ fn a_policy_on_the_reach_at_resolution_saves_and_loads() {
     assert_eq!(policy.info().encoder, "geometric-res");
     assert!(policy.info().double, "the file says its targets were double-DQN ones");
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("res.s2gp");
-    policy.save(&path).unwrap();
-    let mut loaded = LearnedPolicy::load(&path).unwrap();
-    assert_eq!(loaded.info(), policy.info());
-    let a = mill(&parts[0].1, &mut policy, &opts, &mut |_| {}).unwrap();
-    let b = mill(&parts[0].1, &mut loaded, &opts, &mut |_| {}).unwrap();
-    assert_eq!(a.programs, b.programs);
+    assert_saved_policy_mills_alike(&mut policy, &parts, &opts, dir.path(), "res.s2gp");
 }
 
 /// The policy shipped in the crate loads, speaks the paper's action space, and was trained
