@@ -101,6 +101,25 @@ fn every_closed_mesh_mills_safely_with_the_shipped_learned_policy() {
     }
 }
 
+/// A finer level of a roughing group skips the stretches of its contour that run in the
+/// roughing level's free region (the roughing cut reached there from lower down), and
+/// keeps the rest. On `example004`'s first, oblique setup at 256^3, with a 1 mm tool on
+/// layers of half a voxel, the roughing level's free region has a 1.7 mm gap along one
+/// straight stretch of the finer levels' contour. The test for "this stretch runs in it"
+/// sampled the stretch at the region index's cell and missed the gap, so the finer levels
+/// left that wall uncut and the next level's rapid descent met it (two rapids through
+/// material). The test is exact now.
+#[test]
+fn a_finer_level_cuts_its_contour_across_a_gap_in_the_roughing_level_s_free_region() {
+    use shape2gcode::{Action, MillRun, StrategyKind};
+    let mesh = load_mesh(data("meshes/openscad/openscad_Old_example004.stl")).unwrap();
+    let opts = MillOptions { resolution: 256, ..MillOptions::default() };
+    let mut run = MillRun::new(&mesh, &opts, &mut |_| {}).unwrap();
+    let action = Action { tool_radius: 1.0, layer_height: 0.1953125, strategy: StrategyKind::Zigzag };
+    run.machine(action, &mut |_| {}).unwrap();
+    assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
+}
+
 /// Every program ends where its planner left the tool, on the clearance plane above the
 /// stock: no `G53 G0 Z0` footer, which a reader that knows no work offset (the simulator,
 /// `rs274`) takes for work Z0, a rapid plunge into the part wherever the last pass ended

@@ -663,28 +663,51 @@ impl RegionIndex {
     }
 
     /// Whether the closed segment `a`-`b` stays inside the region, with boundary contact
-    /// up to `tol` allowed: no boundary edge crosses it properly and sample points along it
-    /// are inside or within `tol` of the boundary.
+    /// up to `tol` allowed. Exact: no boundary edge crosses it properly, and between the
+    /// places where the boundary touches it (edge ends within `tol` of it, edges meeting
+    /// it) each piece is inside or within `tol` of the boundary. The boundary meets a
+    /// piece's interior nowhere, so its midpoint decides the piece: a gap in the region
+    /// narrower than any sampling step is still found.
     pub fn segment_inside(&self, a: &Point2, b: &Point2, tol: f64) -> bool {
         if self.edges.is_empty() {
             return false;
         }
-        let (i0, j0) = self.cell_of(a.x.min(b.x), a.y.min(b.y));
-        let (i1, j1) = self.cell_of(a.x.max(b.x), a.y.max(b.y));
+        let ab = b - a;
+        let len2 = ab.norm_squared();
+        let along = |p: &Point2| if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        let mut cuts = vec![0.0, 1.0];
+        let (i0, j0) = self.cell_of(a.x.min(b.x) - tol, a.y.min(b.y) - tol);
+        let (i1, j1) = self.cell_of(a.x.max(b.x) + tol, a.y.max(b.y) + tol);
+        let len = len2.sqrt().max(1e-300);
         for j in j0..=j1 {
             for i in i0..=i1 {
                 for &e in &self.cells[j * self.dims[0] + i] {
                     let [ax, ay, bx, by] = self.edges[e as usize];
-                    if proper_cross(a, b, &Point2::new(ax, ay), &Point2::new(bx, by), tol) {
+                    let (c, d) = (Point2::new(ax, ay), Point2::new(bx, by));
+                    if proper_cross(a, b, &c, &d, tol) {
                         return false;
+                    }
+                    for q in [&c, &d] {
+                        if point_segment_distance(q, a, b) <= tol {
+                            cuts.push(along(q));
+                        }
+                    }
+                    // An edge whose ends lie on either side of the segment's line meets it
+                    // where it crosses the line (if that is on the segment).
+                    let (dc, dd) = (orient(a, b, &c) / len, orient(a, b, &d) / len);
+                    if (dc < 0.0 && dd > 0.0) || (dc > 0.0 && dd < 0.0) {
+                        let x = c + (d - c) * (dc / (dc - dd));
+                        if point_segment_distance(&x, a, b) <= tol {
+                            cuts.push(along(&x));
+                        }
                     }
                 }
             }
         }
-        let len = (b - a).norm();
-        let n = ((len / self.cell).ceil() as usize).clamp(2, 64);
-        (0..=n).all(|k| {
-            let p = a + (b - a) * (k as f64 / n as f64);
+        cuts.sort_by(f64::total_cmp);
+        cuts.dedup();
+        cuts.windows(2).all(|w| {
+            let p = a + ab * (0.5 * (w[0] + w[1]));
             self.contains(&p) || self.boundary_distance(&p, tol) <= tol
         })
     }
@@ -822,6 +845,33 @@ mod tests {
         assert!((idx.boundary_distance(&Point2::new(0.5, 2.0), 10.0) - 0.5).abs() < 1e-9);
         assert!(idx.segment_inside(&Point2::new(0.5, 0.5), &Point2::new(3.5, 0.5), 1e-9));
         assert!(!idx.segment_inside(&Point2::new(0.5, 0.5), &Point2::new(3.5, 3.5), 1e-9));
+    }
+
+    /// A segment along the tops of two boxes is not inside their union: it crosses the
+    /// gap between them. The gap (1.1 wide) falls between the points a test sampled at the
+    /// index's cell (1.5 here) would look at; the gap is found at any width, and the
+    /// segments on either side of it stay inside.
+    #[test]
+    fn a_segment_across_a_narrow_gap_is_not_inside() {
+        let p = |x: f64, y: f64| Point2::new(x, y);
+        for gap in [1.1, 0.3, 1e-3] {
+            let left = Region2::rect(p(0.0, 0.0), p(3.2, 1.0));
+            let right = Region2::rect(p(3.2 + gap, 0.0), p(9.0, 1.0));
+            let idx = left.union(&right).index();
+            assert!(!idx.segment_inside(&p(0.0, 1.0), &p(9.0, 1.0), 1e-9), "gap {gap}: along the tops");
+            assert!(!idx.segment_inside(&p(0.5, 0.5), &p(8.5, 0.5), 1e-9), "gap {gap}: through the middle");
+            assert!(idx.segment_inside(&p(0.0, 1.0), &p(3.2, 1.0), 1e-9), "gap {gap}: the left top");
+            assert!(
+                idx.segment_inside(&p(3.2 + 2.0 * gap, 0.5), &p(8.5, 0.5), 1e-9),
+                "gap {gap}: in the right box"
+            );
+        }
+        // Two triangles whose tips touch the segment's line: the segment between the tips
+        // is outside, though the boundary meets it only at those two points.
+        let tips = [p(0.0, 0.0), p(4.0, 2.0), p(0.0, 2.0), p(9.0, 0.0), p(9.0, 2.0), p(5.0, 2.0)];
+        let idx = Region2::from_polygons([&tips[..3], &tips[3..]]).index();
+        assert!(!idx.segment_inside(&p(0.0, 2.0), &p(9.0, 2.0), 1e-9));
+        assert!(idx.segment_inside(&p(5.0, 2.0), &p(9.0, 2.0), 1e-9));
     }
 
     /// Holes below the area are filled, larger ones kept; and a hole of area below `π r²`
