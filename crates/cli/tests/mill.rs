@@ -60,6 +60,8 @@ fn writes_programs_report_residual_and_render() {
     assert_eq!(v["gouge_voxels"], 0, "{v}");
     assert_eq!(v["rapid_collisions"], 0, "{v}");
     assert!(v["iou"].as_f64().unwrap() > 0.8, "{v}");
+    // The default policy is the shipped learned one, and it chose every setup.
+    assert_eq!(v["policy"], "learned", "{v}");
     let setups = v["setups"].as_array().unwrap();
     assert_eq!(setups.len(), 2, "{v}");
     // One program per setup, each stating its fixture rotation, each with the lines counted.
