@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
-use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
+use shape2gcode::geom::{load_mesh, report, save_mesh, write_bytes_atomic};
 use shape2gcode::{
     LearnedPolicy, MillOptions, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions, mill,
     policy_by_name, render_machining,
@@ -124,6 +124,17 @@ fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
     let mesh = load_mesh(&mesh_path)?;
+    // An open mesh has no inside of its own: the simulation's part is a vote of voxel
+    // columns (and the winding number), while the planner keeps the tool off the surfaces
+    // alone, so it may reach into the part where the mesh is open.
+    let check = report(&mesh);
+    if !check.closed {
+        eprintln!(
+            "s2g mill: warning: {} is not closed ({} boundary edges): the tool may enter the part where it is open, and the simulation counts that as gouges",
+            mesh_path.display(),
+            check.boundary_edges
+        );
+    }
     let preset = match args.preset.as_str() {
         "paper" => Preset::Paper,
         "shop" => Preset::Shop,

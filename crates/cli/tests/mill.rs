@@ -164,3 +164,23 @@ fn unreachable_setup_is_one_line_and_a_failure_exit() {
     assert!(lines[0].starts_with("s2g: error:") && lines[0].contains("B range"), "{stderr}");
     assert!(!dir.path().join("block.ngc").exists(), "no program for an unreachable setup");
 }
+
+/// An open mesh (the Utah teapot, 64 boundary edges) mills with one warning line that
+/// names it and what to expect; a closed one mills without (the error test above finds
+/// stderr's only line to be the error).
+#[test]
+fn an_open_mesh_mills_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = s2g()
+        .args(["mill", &data("meshes/classic/utah_teapot.stl")])
+        .args(["--res", "32", "--setups", "1", "--points", "1024", "--policy", "heuristic"])
+        .arg("-o")
+        .arg(dir.path().join("teapot.ngc"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(1), "{stderr}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(warnings[0].contains("utah_teapot.stl is not closed (64 boundary edges)"), "{stderr}");
+}
