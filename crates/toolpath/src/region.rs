@@ -349,16 +349,28 @@ impl Region2 {
     /// vertices. Loops thinner than `tol` vanish; the result is re-run through a union, so
     /// it is a valid region even where thinning made a loop cross itself.
     pub fn thinned(&self, tol: f64) -> Region2 {
+        self.thinned_with_vanished(tol).0
+    }
+
+    /// [`thinned`](Self::thinned), and whether a part of the region vanished (an outer
+    /// loop thinner than `tol`).
+    pub(crate) fn thinned_with_vanished(&self, tol: f64) -> (Region2, bool) {
         if !(tol > 0.0) {
-            return self.clone();
+            return (self.clone(), false);
         }
+        let mut vanished = false;
         let shapes: Vec<Vec<Vec<Raw>>> = self
             .shapes
             .iter()
-            .map(|s| s.iter().filter_map(|c| thin_loop(c, tol)).collect::<Vec<_>>())
-            .filter(|s| !s.is_empty())
+            .filter_map(|s| {
+                // A shape is its outer loop, then its holes.
+                let outer = s.first().and_then(|c| thin_loop(c, tol));
+                vanished |= outer.is_none();
+                let holes = s.iter().skip(1).filter_map(|c| thin_loop(c, tol));
+                outer.map(|o| std::iter::once(o).chain(holes).collect::<Vec<_>>())
+            })
             .collect();
-        Region2 { shapes }.cleaned()
+        (Region2 { shapes }.cleaned(), vanished)
     }
 
     /// The region with zero-width spikes removed: a vertex whose neighbours lie within `tol`
