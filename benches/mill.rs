@@ -2,10 +2,14 @@
 //! re-parse, simulation, scoring) on the bundled sample, at a reduced grid so that one
 //! iteration takes seconds.
 //!
-//! - `mill/exact`: our pipeline as `s2g mill` runs it (exact swept-volume carver).
+//! - `mill/exact`: our pipeline with the heuristic policy and the exact swept-volume
+//!   carver.
 //! - `mill/paper_a1` (baseline): the same pipeline with the paper's Monte-Carlo carver
 //!   (Algorithm A1, 4 samples per mm of path: far coarser than the density at which A1
 //!   agrees with the exact result, so the baseline is flattered).
+//! - `mill/learned_exact`: as `s2g mill` runs it, with the shipped learned policy (its 1 mm
+//!   spiral on 1/512 layers), against `mill/exact` as the baseline: what the default
+//!   policy's finer program costs.
 //!
 //! Run: `cargo bench --bench mill`. The per-stage split of a full 256^3 run is in the
 //! report of `s2g mill --json`.
@@ -15,7 +19,7 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use shape2gcode::geom::load_mesh;
 use shape2gcode::voxsim::Carver;
-use shape2gcode::{HeuristicPolicy, MillOptions, SetupCount, mill};
+use shape2gcode::{HeuristicPolicy, LearnedPolicy, MillOptions, SetupCount, mill};
 
 const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/stanford_bunny.stl");
 
@@ -41,6 +45,13 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    let mut learned = LearnedPolicy::bundled().expect("bundled policy");
+    group.bench_function("learned_exact", |b| {
+        b.iter(|| {
+            let m = mill(&mesh, &mut learned, &base, &mut |_| {}).expect("mill");
+            black_box(m.metrics.iou)
+        })
+    });
     group.finish();
 }
 
