@@ -214,6 +214,14 @@ pub enum MillError {
     /// An option is out of range.
     #[error("invalid option: {0}")]
     InvalidOption(String),
+    /// The part fills no voxel of the simulation grid: nothing to machine toward.
+    #[error(
+        "the mesh encloses no voxel of the {resolution}^3 grid (an open surface, or thinner than a voxel): there is no part to machine"
+    )]
+    NoVolume {
+        /// The grid's voxels along the stock's longest axis.
+        resolution: usize,
+    },
     /// The rotary layout's machine cannot tilt the part to a setup's tool axis.
     #[error(
         "setup {setup}: tool axis {tool_axis:?} needs a {letter} tilt of +/-{tilt_deg:.4} degrees, outside the machine's {letter} range {range_deg:?} (widen the tilt range or use the per-setup layout)"
@@ -525,6 +533,10 @@ impl MillRun {
         );
         let orientation = orientation?;
         let (target, index, samples) = (target?, index?, samples?);
+        // Every setup would cut the whole stock away, and the scores have no part to compare.
+        if target.count() == 0 {
+            return Err(MillError::NoVolume { resolution: opts.resolution });
+        }
         // The rotary layout fails here, before any planning, on a setup its machine cannot reach.
         let placements = match opts.layout {
             ProgramLayout::PerSetup => None,

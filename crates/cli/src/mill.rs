@@ -124,17 +124,8 @@ fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
     let mesh = load_mesh(&mesh_path)?;
-    // An open mesh has no inside of its own: the simulation's part is a vote of voxel
-    // columns (and the winding number), while the planner keeps the tool off the surfaces
-    // alone, so it may reach into the part where the mesh is open.
+    // Whether the mesh is closed, for the warning after a run.
     let check = report(&mesh);
-    if !check.closed {
-        eprintln!(
-            "s2g mill: warning: {} is not closed ({} boundary edges): the tool may enter the part where it is open, and the simulation counts that as gouges",
-            mesh_path.display(),
-            check.boundary_edges
-        );
-    }
     let preset = match args.preset.as_str() {
         "paper" => Preset::Paper,
         "shop" => Preset::Shop,
@@ -303,6 +294,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         println!(
             "stages: orientation {:.2} s, actions {:.3} s, G-code {:.2} s, simulation {:.2} s, scoring {:.2} s",
             t.orientation, t.action_selection, t.gcode_translation, t.simulation, t.scoring
+        );
+    }
+    // An open mesh has no inside of its own: the simulation's part is a vote of voxel
+    // columns (and the winding number), while the planner keeps the tool off the surfaces
+    // alone, so it may reach into the part where the mesh is open. (After the run, so that
+    // a run that fails says one line.)
+    if !check.closed {
+        eprintln!(
+            "s2g mill: warning: {} is not closed ({} boundary edges): the tool may enter the part where it is open, and the simulation counts that as gouges",
+            mesh_path.display(),
+            check.boundary_edges
         );
     }
     Ok(if milled.is_safe() { ExitCode::SUCCESS } else { ExitCode::from(2) })

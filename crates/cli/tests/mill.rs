@@ -99,9 +99,12 @@ fn bad_input_is_one_line_and_a_failure_exit() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("missing.stl");
     let empty = data("meshes/stl_edge_cases/stl-models/broken/empty.stl");
-    let cases: [(Vec<String>, &str); 6] = [
+    // One open triangle: no part to machine (and no warning line besides the error).
+    let sheet = data("meshes/stl_edge_cases/stl-models/polytopes/triangle.ascii.stl");
+    let cases: [(Vec<String>, &str); 7] = [
         (vec!["mill".into(), missing.display().to_string()], "missing.stl"),
         (vec!["mill".into(), empty.clone()], "empty.stl"),
+        (vec!["mill".into(), sheet, "--res".into(), "32".into()], "encloses no voxel"),
         (vec!["mill".into(), "--policy".into(), "fixed:abc".into()], "fixed"),
         (vec!["mill".into(), "--setups".into(), "many".into()], "setups"),
         (vec!["mill".into(), "--layout".into(), "diagonal".into()], "layout"),
