@@ -411,6 +411,9 @@ pub struct MillRun {
     /// The part in planning units.
     part: Mesh,
     space: ActionSpace,
+    /// The radius of each tool the simulator knows, tool `i + 1` at `i`: the action
+    /// space's radii, then those of actions outside it, in the order first used.
+    tool_radii: Vec<f64>,
     stock: Aabb,
     to_input: Normalization,
     orientation: OrientationResult,
@@ -585,6 +588,7 @@ impl MillRun {
             unit_part: mesh.transformed(&unit.as_similarity()),
             unit,
             part,
+            tool_radii: space.radii.clone(),
             space,
             stock,
             to_input,
@@ -695,6 +699,19 @@ impl MillRun {
         &self.setups
     }
 
+    /// The tool number of `radius`. A radius outside the action space (a fixed action's)
+    /// gets a tool of its own, added to the simulator's table, so that the simulation cuts
+    /// with the radius the planner planned for.
+    fn tool_number(&mut self, radius: f64) -> Result<u32, MillError> {
+        if let Some(i) = self.tool_radii.iter().position(|&r| r == radius) {
+            return Ok(i as u32 + 1);
+        }
+        let number = self.tool_radii.len() as u32 + 1;
+        self.sim.get_mut().add_tool(number, Cutter::flat(radius, self.diag)).map_err(sim_error)?;
+        self.tool_radii.push(radius);
+        Ok(number)
+    }
+
     /// Cuts the next setup with `action`: plans it against the material left, writes its
     /// program, parses the text back and simulates it (per-setup layout), or records the
     /// action for [`finish`](Self::finish) (rotary layout). Errors when every setup already
@@ -703,11 +720,12 @@ impl MillRun {
         let Some(i) = self.next_setup() else {
             return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
         };
+        let number = self.tool_number(action.tool_radius)?;
         let o = &self.opts;
         let job = Job::new(
             &self.orientation.setups[i],
             &action,
-            &self.space,
+            number,
             &self.stock,
             self.diag,
             self.feed,
@@ -855,7 +873,7 @@ impl Job {
     fn new(
         setup: &Setup,
         action: &Action,
-        space: &ActionSpace,
+        number: u32,
         stock: &Aabb,
         diag: f64,
         feed: f64,
@@ -870,7 +888,7 @@ impl Job {
             feed,
             plunge_feed: feed / 3.0,
             spindle_rpm: 12000.0,
-            number: tool_number(space, action),
+            number,
         };
         let popts = PlanOptions {
             layer_height: action.layer_height,
@@ -1478,10 +1496,6 @@ fn feeds(_preset: Preset) -> (f64, f64) {
 }
 
 /// Tool numbers follow the action space's radii: T1 is the smallest.
-fn tool_number(space: &ActionSpace, a: &Action) -> u32 {
-    space.radii.iter().position(|&r| r == a.tool_radius).map_or(1, |i| i as u32 + 1)
-}
-
 /// Features of one setup: for each radius, the fraction of the surface samples visible
 /// from the setup that a ball of that radius touches without entering the part.
 fn setup_features(

@@ -120,6 +120,33 @@ fn a_finer_level_cuts_its_contour_across_a_gap_in_the_roughing_level_s_free_regi
     assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
 }
 
+/// A fixed action whose radius is outside the action space (2 mm; the paper preset's
+/// largest is 1 mm) gets a tool of its own, and the simulator cuts with that radius: the
+/// programs select a tool number past the space's, and the LetterBlock comes out whole.
+/// (The simulator used to take such a tool for tool 1, the 0.1 mm one, and left most of
+/// the stock: IoU 0.44.)
+#[test]
+fn a_radius_outside_the_action_space_is_simulated_with_its_own_tool() {
+    use shape2gcode::{Action, FixedPolicy, StrategyKind};
+    let mesh = load_mesh(data("meshes/openscad/openscad_Basics_LetterBlock.stl")).unwrap();
+    let opts = MillOptions {
+        resolution: 48,
+        orient_points: 1024,
+        setups: SetupCount::Exactly(2),
+        ..MillOptions::default()
+    };
+    let space = opts.action_space();
+    assert!(space.radii.iter().all(|&r| r < 2.0), "{:?}", space.radii);
+    let action = Action { tool_radius: 2.0, layer_height: 0.78125, strategy: StrategyKind::Zigzag };
+    let m = mill(&mesh, &mut FixedPolicy(action), &opts, &mut |_| {}).unwrap();
+    let tool = format!("T{} M6", space.radii.len() + 1);
+    for (i, s) in m.setups.iter().enumerate() {
+        assert_setup_safe("LetterBlock", i, s);
+        assert!(s.text.contains(&tool), "setup {}: no {tool}", i + 1);
+    }
+    assert!(m.metrics.iou > 0.95, "IoU {}", m.metrics.iou);
+}
+
 /// Every program ends where its planner left the tool, on the clearance plane above the
 /// stock: no `G53 G0 Z0` footer, which a reader that knows no work offset (the simulator,
 /// `rs274`) takes for work Z0, a rapid plunge into the part wherever the last pass ended

@@ -325,6 +325,14 @@ impl Simulator {
         Ok(s)
     }
 
+    /// Adds (or replaces) tool `number` of the tool table, for the tool changes still to
+    /// come. Errors on an invalid cutter.
+    pub fn add_tool(&mut self, number: u32, cutter: Cutter) -> Result<()> {
+        cutter.validate().map_err(|e| SimError::InvalidTool(format!("tool {number}: {e}")))?;
+        self.tools.tools.insert(number, cutter);
+        Ok(())
+    }
+
     /// Adds a target part on the same grid, for gouge detection and the rewards.
     pub fn with_target(mut self, target: &VoxelGrid) -> Result<Self> {
         if target.spec() != &self.store.spec {

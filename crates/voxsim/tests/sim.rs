@@ -679,3 +679,30 @@ fn simultaneous_axis_change_sweeps_the_fan() {
         check(&format!("pivot fan n={n}"), s.report().removed_volume_mm3, want, area * h / 2.0);
     }
 }
+
+/// A tool added after construction cuts with its own radius once selected, and an
+/// invalid one is refused: the same plunge removes a 1 mm hole with the default tool and
+/// a 3 mm one after `T7`.
+#[test]
+fn an_added_tool_cuts_with_its_own_radius() {
+    let (lo, hi) = (p(0., 0., 0.), p(20., 20., 10.));
+    let plunge = |tool: Option<u32>| {
+        let mut sim = Simulator::new(
+            full_box(lo, hi, 80),
+            ToolTable::single(Cutter::flat(1.0, 20.0)),
+            SimOptions::default(),
+        )
+        .unwrap();
+        assert!(sim.add_tool(8, Cutter::flat(f64::NAN, 20.0)).is_err(), "a NaN radius");
+        sim.add_tool(7, Cutter::flat(3.0, 20.0)).unwrap();
+        let mut ms = vec![];
+        if let Some(t) = tool {
+            ms.push(Motion::ToolChange { tool: t });
+        }
+        ms.extend([Motion::Rapid { to: p(10., 10., 15.) }, lin(p(10., 10., 5.))]);
+        run(sim, &numbered(ms)).report().removed_volume_mm3
+    };
+    let depth = 5.0;
+    check("default tool", plunge(None), PI * 1.0 * depth, 0.1 * PI * depth);
+    check("tool 7", plunge(Some(7)), PI * 9.0 * depth, 0.05 * PI * 9.0 * depth);
+}
