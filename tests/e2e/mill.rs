@@ -120,6 +120,22 @@ fn a_finer_level_cuts_its_contour_across_a_gap_in_the_roughing_level_s_free_regi
     assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
 }
 
+/// Zigzag passes never cross the keep-out where a horizontal edge of the clearing region
+/// (the material map's staircase) lies exactly on a pass line. On `example004`'s first
+/// setup at 64^3 with a 0.75 mm tool on 0.3 mm layers, a rounding in the first line of an
+/// edge dropped one crossing of such a line, the rest paired wrongly, and a pass ran
+/// through the part (155 gouged voxels).
+#[test]
+fn zigzag_passes_along_a_staircase_edge_stay_out_of_the_part() {
+    use shape2gcode::{Action, MillRun, StrategyKind};
+    let mesh = load_mesh(data("meshes/openscad/openscad_Old_example004.stl")).unwrap();
+    let opts = MillOptions { resolution: 64, ..MillOptions::default() };
+    let mut run = MillRun::new(&mesh, &opts, &mut |_| {}).unwrap();
+    let action = Action { tool_radius: 0.75, layer_height: 0.3, strategy: StrategyKind::Zigzag };
+    run.machine(action, &mut |_| {}).unwrap();
+    assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
+}
+
 /// A fixed action whose radius is outside the action space (2 mm; the paper preset's
 /// largest is 1 mm) gets a tool of its own, and the simulator cuts with that radius: the
 /// programs select a tool number past the space's, and the LetterBlock comes out whole.

@@ -36,24 +36,8 @@ impl ClearingStrategy for Zigzag {
         }
         let n = ((ymax - ymin) / stepover).ceil().max(1.0) as usize;
         let sp = (ymax - ymin) / n as f64;
-        let line_y = |k: usize| ymin + (k as f64 + 0.5) * sp;
-        let mut crossings: Vec<Vec<f64>> = vec![Vec::new(); n];
-        for (a, b) in &edges {
-            let (lo, hi) = if a.y < b.y { (a.y, b.y) } else { (b.y, a.y) };
-            if lo == hi {
-                continue;
-            }
-            // Lines with lo <= y < hi.
-            let k0 = (((lo - ymin) / sp) - 0.5).ceil().max(0.0) as usize;
-            let mut k = k0;
-            while k < n && line_y(k) < hi {
-                let y = line_y(k);
-                if y >= lo {
-                    crossings[k].push(a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x));
-                }
-                k += 1;
-            }
-        }
+        let line_y = |k: usize| line_y(ymin, sp, k);
+        let crossings = crossings(&edges, ymin, sp, n);
         let min_len = 1e-9 * (ymax - ymin).max(tool_radius);
         let mut intervals: Vec<Vec<(f64, f64, bool)>> = crossings
             .into_iter()
@@ -141,7 +125,65 @@ impl ClearingStrategy for Zigzag {
     }
 }
 
+/// Line `k` of the passes: `ymin + (k + 1/2) sp`.
+fn line_y(ymin: f64, sp: f64, k: usize) -> f64 {
+    ymin + (k as f64 + 0.5) * sp
+}
+
+/// Where the `n` pass lines cross the edges, per line. An edge crosses the lines with
+/// `lo <= y < hi`, so a line through a vertex, or along a horizontal edge, meets the loop
+/// an even number of times. Each line is compared with its own `y` for every edge: the
+/// first line of an edge is estimated from its `lo`, one line early, because rounding can
+/// put the estimate past a line lying exactly at `lo` (the material map's staircases put
+/// horizontal edges on the lines), which dropped one crossing of that line and paired the
+/// rest wrongly: a pass across the keep-out.
+fn crossings(edges: &[(Point2, Point2)], ymin: f64, sp: f64, n: usize) -> Vec<Vec<f64>> {
+    let mut out: Vec<Vec<f64>> = vec![Vec::new(); n];
+    for (a, b) in edges {
+        let (lo, hi) = if a.y < b.y { (a.y, b.y) } else { (b.y, a.y) };
+        if lo == hi {
+            continue;
+        }
+        let mut k = ((((lo - ymin) / sp) - 0.5).ceil() - 1.0).max(0.0) as usize;
+        while k < n && line_y(ymin, sp, k) < hi {
+            let y = line_y(ymin, sp, k);
+            if y >= lo {
+                out[k].push(a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x));
+            }
+            k += 1;
+        }
+    }
+    out
+}
+
 fn dedup(mut pts: Vec<Point2>) -> Vec<Point2> {
     pts.dedup_by(|a, b| (*a - *b).norm() == 0.0);
     pts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A step whose horizontal edge lies exactly on a pass line: the line crosses the left
+    /// side and the riser above the step, once each. The estimate of the riser's first line
+    /// from its `lo` rounds one line too far for these values (`ymin = -50`, spacing 0.3,
+    /// line 1 at -49.55), and the line kept only the left crossing.
+    #[test]
+    fn a_pass_line_along_a_horizontal_edge_crosses_the_loop_twice() {
+        let (ymin, sp, n) = (-50.0, 0.3, 7);
+        let y1 = line_y(ymin, sp, 1);
+        assert!((((y1 - ymin) / sp) - 0.5).ceil() > 1.0, "the values no longer round up");
+        let p = |x: f64, y: f64| Point2::new(x, y);
+        let step = [p(0.0, ymin), p(10.0, ymin), p(10.0, y1), p(5.0, y1), p(5.0, -48.0), p(0.0, -48.0)];
+        let edges: Vec<(Point2, Point2)> =
+            (0..step.len()).map(|i| (step[i], step[(i + 1) % step.len()])).collect();
+        let mut lines = crossings(&edges, ymin, sp, n);
+        for xs in &mut lines {
+            xs.sort_by(f64::total_cmp);
+        }
+        assert_eq!(lines[0], vec![0.0, 10.0]);
+        assert_eq!(lines[1], vec![0.0, 5.0]);
+        assert!(lines.iter().all(|xs| xs.len() % 2 == 0), "{lines:?}");
+    }
 }
