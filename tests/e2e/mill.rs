@@ -111,11 +111,18 @@ fn every_closed_mesh_mills_safely_with_the_shipped_learned_policy() {
 /// material). The test is exact now.
 #[test]
 fn a_finer_level_cuts_its_contour_across_a_gap_in_the_roughing_level_s_free_region() {
+    assert_example004_setup_1_safe(256, 1.0, 0.1953125);
+}
+
+/// `example004`'s first setup (an oblique one), milled on a `resolution`^3 grid with a
+/// zigzag of tool radius `radius` on layers `layer` thick, neither gouges nor rapids
+/// through material.
+fn assert_example004_setup_1_safe(resolution: usize, radius: f64, layer: f64) {
     use shape2gcode::{Action, MillRun, StrategyKind};
     let mesh = load_mesh(data("meshes/openscad/openscad_Old_example004.stl")).unwrap();
-    let opts = MillOptions { resolution: 256, ..MillOptions::default() };
+    let opts = MillOptions { resolution, ..MillOptions::default() };
     let mut run = MillRun::new(&mesh, &opts, &mut |_| {}).unwrap();
-    let action = Action { tool_radius: 1.0, layer_height: 0.1953125, strategy: StrategyKind::Zigzag };
+    let action = Action { tool_radius: radius, layer_height: layer, strategy: StrategyKind::Zigzag };
     run.machine(action, &mut |_| {}).unwrap();
     assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
 }
@@ -127,13 +134,7 @@ fn a_finer_level_cuts_its_contour_across_a_gap_in_the_roughing_level_s_free_regi
 /// through the part (155 gouged voxels).
 #[test]
 fn zigzag_passes_along_a_staircase_edge_stay_out_of_the_part() {
-    use shape2gcode::{Action, MillRun, StrategyKind};
-    let mesh = load_mesh(data("meshes/openscad/openscad_Old_example004.stl")).unwrap();
-    let opts = MillOptions { resolution: 64, ..MillOptions::default() };
-    let mut run = MillRun::new(&mesh, &opts, &mut |_| {}).unwrap();
-    let action = Action { tool_radius: 0.75, layer_height: 0.3, strategy: StrategyKind::Zigzag };
-    run.machine(action, &mut |_| {}).unwrap();
-    assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
+    assert_example004_setup_1_safe(64, 0.75, 0.3);
 }
 
 /// A fixed action whose radius is outside the action space (2 mm; the paper preset's
