@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
-use shape2gcode::geom::{load_mesh, report, save_mesh, write_bytes_atomic};
+use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
     LearnedPolicy, MillOptions, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions, mill,
     policy_by_name, render_machining,
@@ -124,8 +124,6 @@ fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
     let mesh = load_mesh(&mesh_path)?;
-    // Whether the mesh is closed, for the warning after a run.
-    let check = report(&mesh);
     let preset = match args.preset.as_str() {
         "paper" => Preset::Paper,
         "shop" => Preset::Shop,
@@ -300,6 +298,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     // columns (and the winding number), while the planner keeps the tool off the surfaces
     // alone, so it may reach into the part where the mesh is open. (After the run, so that
     // a run that fails says one line.)
+    let check = shape2gcode::geom::report(&mesh);
     if !check.closed {
         eprintln!(
             "s2g mill: warning: {} is not closed ({} boundary edges): the tool may enter the part where it is open, and the simulation counts that as gouges",

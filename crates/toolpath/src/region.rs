@@ -668,8 +668,14 @@ impl RegionIndex {
     /// The edges listed in the cells that the square `p ± d` meets (an edge listed in
     /// several of them comes once per cell): every edge within `d` of `p` is among them.
     fn edge_ids_around(&self, p: &Point2, d: f64) -> impl Iterator<Item = u32> + '_ {
-        let (i0, j0) = self.cell_of(p.x - d, p.y - d);
-        let (i1, j1) = self.cell_of(p.x + d, p.y + d);
+        self.edge_ids_in(Point2::new(p.x - d, p.y - d), Point2::new(p.x + d, p.y + d))
+    }
+
+    /// The edges listed in the cells that the box `lo`-`hi` meets (an edge listed in
+    /// several of them comes once per cell): every edge that meets the box is among them.
+    fn edge_ids_in(&self, lo: Point2, hi: Point2) -> impl Iterator<Item = u32> + '_ {
+        let (i0, j0) = self.cell_of(lo.x, lo.y);
+        let (i1, j1) = self.cell_of(hi.x, hi.y);
         (j0..=j1)
             .flat_map(move |j| (i0..=i1).flat_map(move |i| self.cells[j * self.dims[0] + i].iter().copied()))
     }
@@ -688,31 +694,27 @@ impl RegionIndex {
         let len2 = ab.norm_squared();
         let along = |p: &Point2| if len2 > 0.0 { ((p - a).dot(&ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
         let mut cuts = vec![0.0, 1.0];
-        let (i0, j0) = self.cell_of(a.x.min(b.x) - tol, a.y.min(b.y) - tol);
-        let (i1, j1) = self.cell_of(a.x.max(b.x) + tol, a.y.max(b.y) + tol);
+        let lo = Point2::new(a.x.min(b.x) - tol, a.y.min(b.y) - tol);
+        let hi = Point2::new(a.x.max(b.x) + tol, a.y.max(b.y) + tol);
         let len = len2.sqrt().max(1e-300);
-        for j in j0..=j1 {
-            for i in i0..=i1 {
-                for &e in &self.cells[j * self.dims[0] + i] {
-                    let [ax, ay, bx, by] = self.edges[e as usize];
-                    let (c, d) = (Point2::new(ax, ay), Point2::new(bx, by));
-                    if proper_cross(a, b, &c, &d, tol) {
-                        return false;
-                    }
-                    for q in [&c, &d] {
-                        if point_segment_distance(q, a, b) <= tol {
-                            cuts.push(along(q));
-                        }
-                    }
-                    // An edge whose ends lie on either side of the segment's line meets it
-                    // where it crosses the line (if that is on the segment).
-                    let (dc, dd) = (orient(a, b, &c) / len, orient(a, b, &d) / len);
-                    if (dc < 0.0 && dd > 0.0) || (dc > 0.0 && dd < 0.0) {
-                        let x = c + (d - c) * (dc / (dc - dd));
-                        if point_segment_distance(&x, a, b) <= tol {
-                            cuts.push(along(&x));
-                        }
-                    }
+        for e in self.edge_ids_in(lo, hi) {
+            let [ax, ay, bx, by] = self.edges[e as usize];
+            let (c, d) = (Point2::new(ax, ay), Point2::new(bx, by));
+            if proper_cross(a, b, &c, &d, tol) {
+                return false;
+            }
+            for q in [&c, &d] {
+                if point_segment_distance(q, a, b) <= tol {
+                    cuts.push(along(q));
+                }
+            }
+            // An edge whose ends lie on either side of the segment's line meets it where it
+            // crosses the line (if that is on the segment).
+            let (dc, dd) = (orient(a, b, &c) / len, orient(a, b, &d) / len);
+            if (dc < 0.0 && dd > 0.0) || (dc > 0.0 && dd < 0.0) {
+                let x = c + (d - c) * (dc / (dc - dd));
+                if point_segment_distance(&x, a, b) <= tol {
+                    cuts.push(along(&x));
                 }
             }
         }

@@ -689,25 +689,19 @@ fn select(
             // The inside centres of the row form one run (convexity).
             let head = inside(&at(first), 0.0);
             let tail = if first == last { head } else { inside(&at(last), 0.0) };
+            // With one end inside, the run's other end: the inside voxel next to the outside
+            // one, by bisection between the inside end `a` and the outside end `b`.
+            let run_end = |mut a: usize, mut b: usize| {
+                while a.abs_diff(b) > 1 {
+                    let m = (a + b) / 2;
+                    if inside(&at(m), 0.0) { a = m } else { b = m }
+                }
+                a
+            };
             let hit = match (head, tail) {
                 (true, true) => row,
-                // One end inside: the run's other end, by bisection between the two.
-                (true, false) => {
-                    let (mut lo, mut hi) = (first, last);
-                    while hi - lo > 1 {
-                        let m = (lo + hi) / 2;
-                        if inside(&at(m), 0.0) { lo = m } else { hi = m }
-                    }
-                    row & (u64::MAX >> (63 - lo))
-                }
-                (false, true) => {
-                    let (mut lo, mut hi) = (first, last);
-                    while hi - lo > 1 {
-                        let m = (lo + hi) / 2;
-                        if inside(&at(m), 0.0) { hi = m } else { lo = m }
-                    }
-                    row & (u64::MAX << hi)
-                }
+                (true, false) => row & (u64::MAX >> (63 - run_end(first, last))),
+                (false, true) => row & (u64::MAX << run_end(last, first)),
                 // Both ends outside: the run, if any, lies between them.
                 (false, false) => {
                     let mut hit = 0u64;
