@@ -109,6 +109,14 @@ pub struct PlanOptions {
     /// finished shape is the same; the clearing passes of all but one level per group are
     /// saved. A `d` below the layer height changes nothing.
     pub roughing_depth: Option<f64>,
+    /// Faces steeper than about 89.4 degrees whose projection along the tool axis is
+    /// narrower than this are left out of the keep-out regions, which are then exact to
+    /// within this width; the tool-centre keep-out grows by as much more, so the tool
+    /// stays as far from the part. Numerically vertical slivers (walls rounded to single
+    /// precision, or cut by a boolean) otherwise make the keep-outs' boundaries grow
+    /// without bound from layer to layer. `None` (default) means 1e-6 of the stock's
+    /// larger horizontal side (0.1 µm on a 100 mm part).
+    pub sliver_width: Option<f64>,
     /// Measure [`PlanSummary::air_cut_fraction`] in rest machining: one remaining-material
     /// query per half tool radius of path, which for a small tool on fine layers costs more
     /// than planning. Default false.
@@ -141,6 +149,7 @@ impl Default for PlanOptions {
             rest_cell: None,
             layers_per_batch: 32,
             roughing_depth: None,
+            sliver_width: None,
             measure_air_cut: false,
         }
     }
@@ -193,6 +202,9 @@ impl PlanOptions {
         }
         if let Some(c) = self.rest_cell {
             pos("rest_cell", c)?;
+        }
+        if let Some(w) = self.sliver_width {
+            nonneg("sliver_width", w)?;
         }
         if let Some(d) = self.roughing_depth {
             pos("roughing_depth", d)?;
@@ -253,8 +265,11 @@ pub struct SetupSlices {
     /// Per level: the keep-out region, the XY projection of the part above the level,
     /// exact except that holes of area below `π (r + allowance)²` are filled: no tool
     /// centre fits in them, so the tool-centre keep-out (this grown by `r + allowance`)
-    /// is the exact one.
+    /// is the exact one, and except for slivers narrower than
+    /// [`sliver_width`](Self::sliver_width).
     pub keepouts: Vec<Region2>,
+    /// The keep-outs are exact to within this width ([`PlanOptions::sliver_width`]).
+    pub sliver_width: f64,
 }
 
 /// One layer's plan: its regions and paths (tool-centre XY at level `z`).
@@ -312,7 +327,13 @@ pub fn slice_setup<E>(
     let s = slice_levels(part, setup, tool, opts)?;
     let n = s.levels.len();
     let keepouts = Keepouts::new(s.slabs, s.min_hole_area).advance(n);
-    Ok(SetupSlices { stock: s.stock, part_bbox: s.part_bbox, levels: s.levels, keepouts })
+    Ok(SetupSlices {
+        stock: s.stock,
+        part_bbox: s.part_bbox,
+        levels: s.levels,
+        keepouts,
+        sliver_width: s.sliver_width,
+    })
 }
 
 /// A setup's slicing before the keep-outs' running union: the slab regions instead.
@@ -324,6 +345,8 @@ struct Sliced {
     /// Keep-out holes smaller than this are filled: `π d²` for the keep-out growth `d`
     /// (tool radius + finishing allowance), which fills them anyway.
     min_hole_area: f64,
+    /// The keep-outs are exact to within this width ([`PlanOptions::sliver_width`]).
+    sliver_width: f64,
 }
 
 fn slice_levels<E>(
@@ -355,8 +378,9 @@ fn slice_levels<E>(
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
     let grow = tool.radius + opts.finishing_allowance;
     let min_hole_area = std::f64::consts::PI * grow * grow;
-    let slabs = slab_regions(&tris, &levels, opts.level_tolerance, min_hole_area);
-    Ok(Sliced { stock, part_bbox, levels, slabs, min_hole_area })
+    let sliver_width = opts.sliver_width.unwrap_or(1e-6 * stock.extent().x.max(stock.extent().y));
+    let slabs = slab_regions(&tris, &levels, opts.level_tolerance, min_hole_area, sliver_width);
+    Ok(Sliced { stock, part_bbox, levels, slabs, min_hole_area, sliver_width })
 }
 
 pub(crate) struct Ctx<'a> {
@@ -365,6 +389,8 @@ pub(crate) struct Ctx<'a> {
     pub stock: Aabb,
     pub start: Point3,
     pub rest: Option<&'a dyn RemainingMaterial>,
+    /// How far the keep-outs may lie inside the exact ones ([`SetupSlices::sliver_width`]).
+    pub sliver_width: f64,
     /// Material reaches of recent layers, by their cell maps.
     reaches: ReachCache,
 }
@@ -582,7 +608,7 @@ impl Ctx<'_> {
         let thin = 0.005 * r;
         let off = keepout
             .grown_safe(
-                r + self.opts.finishing_allowance + thin,
+                r + self.opts.finishing_allowance + thin + self.sliver_width,
                 self.opts.offset_eps * r,
                 self.opts.arc_step,
             )
@@ -701,7 +727,7 @@ pub fn plan_layers<E>(
     rest: Option<&dyn RemainingMaterial>,
 ) -> Result<(SetupSlices, Vec<LayerPlan>), ToolpathError<E>> {
     let slices = slice_setup(part, setup, tool, opts)?;
-    let ctx = make_ctx(&slices.stock, tool, opts, rest);
+    let ctx = make_ctx(&slices.stock, slices.sliver_width, tool, opts, rest);
     let groups = roughing_groups(&slices.levels, slices.stock.max.z, opts);
     let levels = Levels { z: &slices.levels, top: slices.stock.max.z, keepouts: &slices.keepouts, base: 0 };
     let mut layers: Vec<LayerPlan> = plan_groups(&ctx, &levels, &groups)
@@ -810,6 +836,7 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
 
 fn make_ctx<'a>(
     stock: &Aabb,
+    sliver_width: f64,
     tool: &'a Tool,
     opts: &'a PlanOptions,
     rest: Option<&'a dyn RemainingMaterial>,
@@ -819,7 +846,7 @@ fn make_ctx<'a>(
     let start = opts
         .safe_start
         .unwrap_or_else(|| Point3::new(stock.min.x - tool.radius, stock.min.y - tool.radius, clear_z));
-    Ctx { tool, opts, stock, start, rest, reaches: ReachCache::default() }
+    Ctx { tool, opts, stock, start, rest, sliver_width, reaches: ReachCache::default() }
 }
 
 /// Plans `part` (part frame) for `setup` and streams the program into `sink`:
@@ -848,7 +875,7 @@ pub fn plan_setup_rest<S: MotionSink>(
 ) -> Result<PlanSummary, ToolpathError<S::Error>> {
     let sliced = slice_levels(part, setup, tool, opts)?;
     let stock = sliced.stock;
-    let ctx = make_ctx(&stock, tool, opts, rest);
+    let ctx = make_ctx(&stock, sliced.sliver_width, tool, opts, rest);
     let clear_z = stock.max.z + opts.clearance_height;
     let params = LinkParams {
         clear_z: clear_z.max(ctx.start.z),
@@ -927,7 +954,7 @@ mod tests {
         let stock = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(10.0, 7.0, 1.0));
         let tool = Tool::flat(0.8);
         let opts = PlanOptions { rest_cell: Some(0.25), ..PlanOptions::default() };
-        let ctx = make_ctx(&stock, &tool, &opts, None);
+        let ctx = make_ctx(&stock, 0.0, &tool, &opts, None);
         let (c, nx, ny) = ctx.material_grid();
         // Scattered cells, a solid block and a ring.
         let has: Vec<bool> = (0..nx * ny)

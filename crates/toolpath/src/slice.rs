@@ -108,14 +108,43 @@ impl Keepouts {
     }
 }
 
+/// Faces steeper than this (`|n_z| <= STEEP * |n|`, within about 0.6 degrees of vertical)
+/// may be left out of the keep-out as slivers ([`slab_regions`]).
+pub(crate) const SLIVER_STEEPNESS: f64 = 0.01;
+
+/// Whether a face is a sliver of the projection: steeper than [`SLIVER_STEEPNESS`] and
+/// projecting to a triangle narrower than `width` (twice its area over its longest edge).
+/// Every point of such a projection lies within `width` of the projection of the face's
+/// longest edge, an edge it shares with the rest of the closed surface.
+pub(crate) fn is_sliver(tri: &[Point3; 3], width: f64) -> bool {
+    let n = (tri[1] - tri[0]).cross(&(tri[2] - tri[0]));
+    if n.z.abs() > SLIVER_STEEPNESS * n.norm() {
+        return false;
+    }
+    let edge = |a: usize, b: usize| (tri[a].x - tri[b].x).hypot(tri[a].y - tri[b].y);
+    let longest = edge(0, 1).max(edge(1, 2)).max(edge(2, 0));
+    // |n_z| is twice the projected area.
+    n.z.abs() <= width * longest
+}
+
 /// The XY projection of the part's material in each level's slab (from the level + `tol`
 /// up to the level above + `tol`, the first one unbounded above), one per level, with its
 /// holes of area below `min_hole_area` filled.
+///
+/// Faces that project to slivers narrower than `sliver_width` ([`is_sliver`]) are left
+/// out, so the regions are exact to within that width. Such faces are the walls of a mesh
+/// written in single precision or cut by a boolean (the flanks of a cross hole in a
+/// tube, rounded from vertical): each is a needle along the part's outline, the union of
+/// a few hundred of them is a boundary of tens of thousands of nearly collinear vertices,
+/// and every later union of the running keep-out grows it further (a flanged bushing at
+/// 256^3 never finished). The caller grows the tool-centre keep-out by `sliver_width`
+/// more, so it stays conservative.
 pub(crate) fn slab_regions(
     tris: &[[Point3; 3]],
     levels: &[f64],
     tol: f64,
     min_hole_area: f64,
+    sliver_width: f64,
 ) -> Vec<Region2> {
     let n = levels.len();
     if n == 0 {
@@ -147,7 +176,7 @@ pub(crate) fn slab_regions(
                     // Vertical (and numerically vertical) faces project to needles inside
                     // their neighbours' projections; they only add noise to the union.
                     let n = (tri[1] - tri[0]).cross(&(tri[2] - tri[0]));
-                    if n.z.abs() <= VERTICAL_TOLERANCE * n.norm() {
+                    if n.z.abs() <= VERTICAL_TOLERANCE * n.norm() || is_sliver(tri, sliver_width) {
                         return None;
                     }
                     let poly = clip_to_slab(tri, lo(l), hi(l));
