@@ -24,7 +24,8 @@
 //! they are written, so both layouts cut the same paths in the part frame.
 
 use std::cell::RefCell;
-use std::io::{BufRead, Read};
+use std::io::{BufRead, Read, Write};
+use std::sync::Arc;
 use std::time::Instant;
 
 use crate::gcode::{
@@ -39,7 +40,10 @@ use crate::geom::{
 use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures, StrategyKind};
 use crate::render::PathTrace;
-use crate::toolpath::{PlanOptions, PlanSummary, Strategy, Tool, ToolKind, VoxelMaterial, plan_setup_rest};
+use crate::toolpath::{
+    PlanOptions, PlanProgress, PlanSummary, Strategy, Tool, ToolKind, VoxelMaterial, plan_setup_rest,
+    plan_setup_watched,
+};
 use crate::voxsim::{Carver, Cutter, RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
 
 /// Units and action space of a run.
@@ -222,6 +226,14 @@ pub enum MillError {
         /// The grid's voxels along the stock's longest axis.
         resolution: usize,
     },
+    /// The run passed its time limit ([`MillRun::time_limit`]); nothing it made is kept.
+    #[error("time limit of {limit_s} s reached while {stage}")]
+    TimeLimit {
+        /// What the run was doing.
+        stage: String,
+        /// The limit, seconds.
+        limit_s: f64,
+    },
     /// The rotary layout's machine cannot tilt the part to a setup's tool axis.
     #[error(
         "setup {setup}: tool axis {tool_axis:?} needs a {letter} tilt of +/-{tilt_deg:.4} degrees, outside the machine's {letter} range {range_deg:?} (widen the tilt range or use the per-setup layout)"
@@ -262,6 +274,20 @@ pub enum Stage {
         setup: usize,
         /// Number of setups.
         setups: usize,
+    },
+    /// Within a setup's planning and simulation (per-setup layout), every few thousand
+    /// moves simulated: how far the planner and the simulator have come.
+    Layers {
+        /// The setup, 1-based.
+        setup: usize,
+        /// Number of setups.
+        setups: usize,
+        /// Levels the planner has emitted (or found empty).
+        done: usize,
+        /// The setup's number of levels (0 until it is sliced).
+        levels: usize,
+        /// Moves parsed back and simulated.
+        moves: u64,
     },
     /// Metrics.
     Scoring,
@@ -432,6 +458,12 @@ pub struct MillRun {
     /// Whether the per-setup programs' text and trace are kept (see
     /// [`keep_programs`](Self::keep_programs)).
     keep_programs: bool,
+    /// Whether the first setup's toolpath is kept for rendering ([`Self::keep_trace`]).
+    keep_trace: bool,
+    /// Where each per-setup program is written as it is made ([`Self::stream_programs`]).
+    outputs: Option<ProgramOutputs>,
+    /// When the run must have finished, and its limit ([`Self::time_limit`]).
+    deadline: Option<(Instant, f64)>,
     diag: f64,
     feed: f64,
     rapid: f64,
@@ -608,6 +640,9 @@ impl MillRun {
             // over the part that is a rapid plunge into it.
             wopts: WriterOptions { decimals, retract: FooterRetract::None, ..WriterOptions::default() },
             keep_programs: true,
+            keep_trace: true,
+            outputs: None,
+            deadline: None,
             diag,
             feed,
             rapid,
@@ -627,6 +662,24 @@ impl MillRun {
             dialect: self.opts.dialect,
             wopts: &self.wopts,
             keep_programs: self.keep_programs,
+            outputs: self.outputs.as_ref(),
+            deadline: self.deadline,
+        }
+    }
+
+    /// Stops the run with [`MillError::TimeLimit`] once `limit` has passed since `started`:
+    /// before each setup, within a setup's planning and simulation (the planner stops
+    /// before its next layer), and before scoring.
+    pub fn time_limit(&mut self, started: Instant, limit: std::time::Duration) {
+        self.deadline = Some((started + limit, limit.as_secs_f64()));
+    }
+
+    fn check_deadline(&self, stage: impl FnOnce() -> String) -> Result<(), MillError> {
+        match self.deadline {
+            Some((at, limit_s)) if Instant::now() >= at => {
+                Err(MillError::TimeLimit { stage: stage(), limit_s })
+            }
+            _ => Ok(()),
         }
     }
 
@@ -640,6 +693,31 @@ impl MillRun {
     /// program.
     pub fn keep_programs(&mut self, keep: bool) {
         self.keep_programs = keep;
+        self.keep_trace = keep;
+    }
+
+    /// Whether the first setup's toolpath is kept in [`Milled::trace`] for the rendering
+    /// (default: as [`keep_programs`](Self::keep_programs)). The trace keeps one level in
+    /// two, four, ... as needed to stay within [`PathTrace::CAPACITY`] segments.
+    pub fn keep_trace(&mut self, keep: bool) {
+        self.keep_trace = keep;
+    }
+
+    /// Writes each per-setup program into `open(setup)` (setup counted from 0) as it is
+    /// planned, instead of keeping its text ([`keep_programs`](Self::keep_programs) is
+    /// turned off): memory then stays bounded by the simulation grid whatever the
+    /// program's size. A writer that fails stops the run with [`MillError::Program`]; the
+    /// caller decides what becomes of what was written (the CLI writes to temporary files
+    /// and renames them only when the whole run succeeds). The rotary layout's one
+    /// program is always kept whole, as before.
+    pub fn stream_programs(
+        &mut self,
+        open: impl Fn(usize) -> std::io::Result<Box<dyn std::io::Write + Send>> + Send + Sync + 'static,
+    ) {
+        let keep_trace = self.keep_trace;
+        self.keep_programs(false);
+        self.keep_trace = keep_trace;
+        self.outputs = Some(Arc::new(open));
     }
 
     /// The action space, in planning units.
@@ -720,6 +798,7 @@ impl MillRun {
         let Some(i) = self.next_setup() else {
             return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
         };
+        self.check_deadline(|| format!("starting setup {} of {}", i + 1, self.setup_count()))?;
         let number = self.tool_number(action.tool_radius)?;
         let o = &self.opts;
         let job = Job::new(
@@ -742,7 +821,7 @@ impl MillRun {
             &self.ctx(),
             i,
             &self.remaining,
-            (i == 0 && self.keep_programs).then_some(&mut trace),
+            (i == 0 && self.keep_trace).then_some(&mut trace),
             &mut times,
             progress,
         );
@@ -809,6 +888,11 @@ impl MillRun {
         self.times.simulation += t.elapsed().as_secs_f64();
 
         // Score in the unit cube.
+        if let Some((at, limit_s)) = self.deadline
+            && Instant::now() >= at
+        {
+            return Err(MillError::TimeLimit { stage: "scoring the residual stock".into(), limit_s });
+        }
         progress(Stage::Scoring);
         let t = Instant::now();
         let mut residual_plan = marching_cubes_voxels(simulated.residual())?;
@@ -922,7 +1006,14 @@ struct Ctx<'a> {
     wopts: &'a WriterOptions,
     /// Keep the per-setup programs' text ([`MillRun::keep_programs`]).
     keep_programs: bool,
+    /// Where the per-setup programs are written ([`MillRun::stream_programs`]).
+    outputs: Option<&'a ProgramOutputs>,
+    /// When the run must have finished, and its limit in seconds.
+    deadline: Option<(Instant, f64)>,
 }
+
+/// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
+type ProgramOutputs = Arc<dyn Fn(usize) -> std::io::Result<Box<dyn std::io::Write + Send>> + Send + Sync>;
 
 impl Ctx<'_> {
     /// The material still to cut: the simulated stock less the part. The part is never
@@ -968,14 +1059,24 @@ fn machine_setup(
     // and simulates it, chunk by chunk: planning and simulation overlap, and the text is
     // held whole only when it is kept.
     let (part, dialect, wopts, keep) = (ctx.part, ctx.dialect, ctx.wopts.clone(), ctx.keep_programs);
+    let copy = match ctx.outputs {
+        Some(open) => Some(open(i).map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?),
+        None => None,
+    };
+    let watch = PlanProgress::default();
+    let mut tee = tee.watching(&mut *progress, &watch, i + 1, setups);
     let (planned, parsed, waited) = std::thread::scope(|scope| {
-        let (out, mut reader) = chunk_channel(keep);
+        let (mut out, mut reader) = chunk_channel(keep);
+        out.copy = copy;
+        reader.deadline = ctx.deadline.map(|(at, _)| at);
+        let watch = &watch;
         let planner = scope.spawn(move || {
             let t = Instant::now();
             let rest = VoxelMaterial::new(remaining, job.setup);
             let mut writer = GcodeWriter::new(out, dialect, wopts);
-            let plan = plan_setup_rest(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer)
-                .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() });
+            let plan =
+                plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
+                    .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() });
             plan.and_then(|plan| {
                 writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
                 let (text, blocked) = writer
@@ -991,11 +1092,22 @@ fn machine_setup(
             while reader.rx.recv().is_ok() {}
         }
         let waited = reader.waited;
-        // Hanging up stops a planner whose program is no longer read.
+        // Hanging up stops a planner whose program is no longer read, and cancelling
+        // stops one that is still planning a batch of layers.
         drop(reader);
+        watch.cancel();
         let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
         (planned, parsed, waited)
     });
+    drop(tee);
+    if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
+        && Instant::now() >= at
+    {
+        return Err(MillError::TimeLimit {
+            stage: format!("planning and simulating setup {} of {setups}", i + 1),
+            limit_s,
+        });
+    }
     let (plan, text, planning) = match (planned, &parsed) {
         (Ok(done), _) => done,
         // A parser that stopped hung up on the planner: its error is the cause.
@@ -1052,9 +1164,10 @@ fn chunk_channel(keep: bool) -> (ChunkWriter, ChunkReader) {
         buf: Vec::with_capacity(CHUNK_BYTES),
         tx,
         kept: keep.then(Vec::new),
+        copy: None,
         blocked: std::time::Duration::ZERO,
     };
-    (writer, ChunkReader { rx, chunk: Vec::new(), pos: 0, waited: std::time::Duration::ZERO })
+    (writer, ChunkReader { rx, chunk: Vec::new(), pos: 0, waited: std::time::Duration::ZERO, deadline: None })
 }
 
 /// The writing end of [`chunk_channel`]. A write fails once the reader has hung up.
@@ -1062,6 +1175,8 @@ struct ChunkWriter {
     buf: Vec<u8>,
     tx: std::sync::mpsc::SyncSender<Vec<u8>>,
     kept: Option<Vec<u8>>,
+    /// Where every byte is also written.
+    copy: Option<Box<dyn std::io::Write + Send>>,
     /// Time spent waiting for the reader.
     blocked: std::time::Duration,
 }
@@ -1075,6 +1190,9 @@ impl ChunkWriter {
         if let Some(kept) = &mut self.kept {
             kept.extend_from_slice(&chunk);
         }
+        if let Some(copy) = &mut self.copy {
+            copy.write_all(&chunk)?;
+        }
         let t = Instant::now();
         let sent = self.tx.send(chunk);
         self.blocked += t.elapsed();
@@ -1085,6 +1203,9 @@ impl ChunkWriter {
     /// without `keep`) and the time spent waiting for the reader.
     fn finish(mut self) -> std::io::Result<(Vec<u8>, std::time::Duration)> {
         self.send()?;
+        if let Some(copy) = &mut self.copy {
+            copy.flush()?;
+        }
         Ok((self.kept.take().unwrap_or_default(), self.blocked))
     }
 }
@@ -1110,6 +1231,8 @@ struct ChunkReader {
     pos: usize,
     /// Time spent waiting for the writer.
     waited: std::time::Duration,
+    /// Reading fails with [`std::io::ErrorKind::TimedOut`] from this time on.
+    deadline: Option<Instant>,
 }
 
 impl Read for ChunkReader {
@@ -1122,12 +1245,27 @@ impl BufRead for ChunkReader {
     fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
         while self.pos == self.chunk.len() {
             let t = Instant::now();
-            let next = self.rx.recv();
+            let next = match self.deadline {
+                Some(at) => loop {
+                    if Instant::now() >= at {
+                        return Err(std::io::Error::new(
+                            std::io::ErrorKind::TimedOut,
+                            "the time limit passed",
+                        ));
+                    }
+                    match self.rx.recv_timeout(std::time::Duration::from_millis(100)) {
+                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                        Ok(chunk) => break Ok(chunk),
+                        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break Err(()),
+                    }
+                },
+                None => self.rx.recv().map_err(|_| ()),
+            };
             self.waited += t.elapsed();
             match next {
                 Ok(chunk) => (self.chunk, self.pos) = (chunk, 0),
                 // The writer is gone: the end of the program.
-                Err(_) => return Ok(&[]),
+                Err(()) => return Ok(&[]),
             }
         }
         Ok(&self.chunk[self.pos..])
@@ -1580,12 +1718,46 @@ struct Tee<'a> {
     /// The current frame and how many setups have begun.
     frame: Setup,
     setups: usize,
-    last: Option<Point3>,
+    /// The last point, in the part frame and the program's (setup) frame.
+    last: Option<(Point3, Point3)>,
+    /// Where to report [`Stage::Layers`] ([`Tee::watching`]).
+    watch: Option<Watch<'a>>,
+}
+
+/// What a [`Tee`] reports progress with.
+struct Watch<'a> {
+    progress: &'a mut dyn FnMut(Stage),
+    planner: &'a PlanProgress,
+    setup: usize,
+    setups: usize,
+    moves: u64,
 }
 
 impl<'a> Tee<'a> {
     fn new(sim: &'a RefCell<Simulator>, trace: Option<&'a mut PathTrace>) -> Self {
-        Self { sim, trace, frame: Setup::top(), setups: 0, last: None }
+        Self { sim, trace, frame: Setup::top(), setups: 0, last: None, watch: None }
+    }
+
+    /// Reports [`Stage::Layers`] of setup `setup` (1-based) of `setups` to `progress`
+    /// every few thousand moves, with the levels `planner` has emitted.
+    fn watching<'b>(
+        self,
+        progress: &'b mut dyn FnMut(Stage),
+        planner: &'b PlanProgress,
+        setup: usize,
+        setups: usize,
+    ) -> Tee<'b>
+    where
+        'a: 'b,
+    {
+        Tee {
+            sim: self.sim,
+            trace: self.trace,
+            frame: self.frame,
+            setups: self.setups,
+            last: self.last,
+            watch: Some(Watch { progress, planner, setup, setups, moves: 0 }),
+        }
     }
 }
 
@@ -1596,12 +1768,26 @@ impl MotionSink for Tee<'_> {
             self.frame = Setup { frame: *frame };
             self.setups += 1;
             self.last = None;
-        } else if let (Some(trace), Some(to), 1) = (self.trace.as_deref_mut(), m.end_point(), self.setups) {
-            let to = self.frame.to_part(&to);
-            if let Some(from) = self.last {
-                trace.segments.push((from, to, !matches!(m, Motion::Rapid { .. })));
+        } else if let (Some(trace), Some(at), 1) = (self.trace.as_deref_mut(), m.end_point(), self.setups) {
+            let to = self.frame.to_part(&at);
+            if let Some((from, was)) = self.last {
+                // Program coordinates of one level are written alike.
+                trace.push(from, to, !matches!(m, Motion::Rapid { .. }), [was.z, at.z], 1e-9);
             }
-            self.last = Some(to);
+            self.last = Some((to, at));
+        }
+        if let Some(w) = &mut self.watch {
+            w.moves += 1;
+            if w.moves % (1 << 14) == 0 {
+                let (done, levels) = w.planner.levels();
+                (w.progress)(Stage::Layers {
+                    setup: w.setup,
+                    setups: w.setups,
+                    done,
+                    levels,
+                    moves: w.moves,
+                });
+            }
         }
         self.sim.borrow_mut().motion(m)
     }

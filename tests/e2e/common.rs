@@ -21,6 +21,19 @@ pub fn closed_meshes() -> Vec<PathBuf> {
     v
 }
 
+/// The stress corpus of our own (tests/data/meshes/stress, remade by
+/// `scripts/stress_corpus.sh`): turned parts with 32-256 facets per circle, thin walls,
+/// holes of one or two voxels, nearly coplanar faces, parts 100 times longer than thick.
+pub fn stress_meshes() -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(data("meshes/stress"))
+        .expect("tests/data/meshes/stress")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "stl"))
+        .collect();
+    v.sort();
+    v
+}
+
 /// `rs274` keeps its tool table in `$HOME/.tool.mmap` and writes `rs274ngc.var` in its
 /// working folder: each run gets the program's folder as both, and runs in this process
 /// are serialised.
@@ -45,7 +58,7 @@ pub fn rs274_errors(program: &Path) -> Vec<String> {
             .current_dir(dir)
             .stdin(std::process::Stdio::null())
             .output()
-            .expect("rs274 is required: apt-get install linuxcnc-uspace (.ci/run installs it)")
+            .expect("rs274 is required: apt-get install linuxcnc-uspace (scripts/test installs it)")
     };
     let mut out = run();
     if out.status.code().is_none() {

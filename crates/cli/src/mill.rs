@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
 use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    LearnedPolicy, MillOptions, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions, mill,
+    LearnedPolicy, MillOptions, MillRun, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions,
     policy_by_name, render_machining,
 };
 
@@ -94,6 +94,10 @@ pub struct Args {
     /// Leave wall-clock timings out of the report, so that two runs give identical bytes.
     #[arg(long)]
     reproducible: bool,
+    /// Stop with an error (exit status 1, naming the stage, nothing written) once the run
+    /// has taken this many seconds.
+    #[arg(long, value_name = "SECONDS")]
+    time_limit: Option<f64>,
 }
 
 /// `--setups auto|N`.
@@ -109,6 +113,28 @@ fn parse_range(spec: &str) -> anyhow::Result<[f64; 2]> {
     let [lo, hi] = parts[..] else { bail!("--tilt-range MIN,MAX in degrees, got {spec:?}") };
     let num = |s: &str| s.trim().parse::<f64>().with_context(|| format!("--tilt-range: bad angle {s:?}"));
     Ok([num(lo)?, num(hi)?])
+}
+
+/// `1234567` as `1.2M`.
+fn human_count(n: u64) -> String {
+    match n {
+        0..1_000 => n.to_string(),
+        1_000..1_000_000 => format!("{:.1}k", n as f64 / 1e3),
+        _ => format!("{:.1}M", n as f64 / 1e6),
+    }
+}
+
+/// Seconds as `m:ss` (or `h:mm:ss`).
+fn human_duration(s: f64) -> String {
+    let s = s.round() as u64;
+    let (h, m, s) = (s / 3600, s / 60 % 60, s % 60);
+    if h > 0 { format!("{h}:{m:02}:{s:02}") } else { format!("{m}:{s:02}") }
+}
+
+/// Where a program is written before it is renamed to `path`: a hidden file beside it.
+fn partial_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
 }
 
 fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
@@ -193,21 +219,45 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     // Steps: orientation, action selection, then planning and simulation per setup, then
     // scoring; the number of setups is known once planning starts.
-    let bar = ProgressBar::new(3);
+    let started = std::time::Instant::now();
+    let limit = match args.time_limit {
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+        Some(s) => bail!("--time-limit must be a positive number of seconds, got {s}"),
+        None => None,
+    };
+    // On stderr, only for a person at a terminal (indicatif draws nothing otherwise).
+    let bar = if args.json { ProgressBar::hidden() } else { ProgressBar::new(3) };
     bar.set_style(
         ProgressStyle::with_template("{spinner} {elapsed} [{bar:24}] {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.enable_steady_tick(Duration::from_millis(120));
+    // When the current setup's planning began, for its estimate of the time left.
+    let mut setup_started = started;
     let mut progress = |stage: Stage| {
         let (pos, msg) = match stage {
             Stage::Orientation => (0, "choosing tool orientations".to_string()),
             Stage::ActionSelection => (1, "choosing tool, layer height and strategy".to_string()),
             Stage::GcodeTranslation { setup, setups } => {
+                setup_started = std::time::Instant::now();
                 bar.set_length(3 + 2 * setups as u64);
                 (
                     2 * setup as u64,
                     format!("setup {setup}/{setups}: planning toolpaths, writing and simulating G-code"),
+                )
+            }
+            Stage::Layers { setup, setups, done, levels, moves } => {
+                let eta = (done > 0 && levels > done).then(|| {
+                    let left = setup_started.elapsed().as_secs_f64() * (levels - done) as f64 / done as f64;
+                    format!(", about {} left in this setup", human_duration(left))
+                });
+                (
+                    2 * setup as u64,
+                    format!(
+                        "setup {setup}/{setups}: layer {done}/{levels} planned, {} moves simulated{}",
+                        human_count(moves),
+                        eta.unwrap_or_default()
+                    ),
                 )
             }
             Stage::Simulation { setup, setups } => {
@@ -218,19 +268,57 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         bar.set_position(pos);
         bar.set_message(msg);
     };
-    let milled = mill(&mesh, policy.as_mut(), &opts, &mut progress)
-        .with_context(|| format!("milling {}", mesh_path.display()))?;
-    bar.finish_and_clear();
-
     let stem =
         mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "part".into());
     let output = args.output.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.ngc")));
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let paths = program_paths(&output, milled.programs.len());
-    for (path, text) in paths.iter().zip(&milled.programs) {
-        write_bytes_atomic(path, text.as_bytes())?;
+    // Per-setup programs are streamed into temporary files beside their paths as they are
+    // planned (never held whole: a fine action writes gigabytes), and renamed into place
+    // only once the whole run has succeeded; the rotary layout's one program is kept.
+    let mut run = MillRun::new(&mesh, &opts, &mut progress)
+        .with_context(|| format!("milling {}", mesh_path.display()))?;
+    if let Some(limit) = limit {
+        if started.elapsed() >= limit {
+            bail!(
+                "milling {}: time limit of {} s reached while choosing tool orientations",
+                mesh_path.display(),
+                limit.as_secs_f64()
+            );
+        }
+        run.time_limit(started, limit);
+    }
+    run.keep_trace(args.render.is_some());
+    let streamed = matches!(layout, ProgramLayout::PerSetup);
+    let paths = program_paths(&output, if streamed { run.setup_count() } else { 1 });
+    let partial: Vec<PathBuf> = paths.iter().map(|p| partial_path(p)).collect();
+    if streamed {
+        let files = partial.clone();
+        run.stream_programs(move |i| {
+            let file = std::fs::File::create(&files[i])?;
+            Ok(Box::new(std::io::BufWriter::with_capacity(1 << 20, file)) as Box<dyn std::io::Write + Send>)
+        });
+    }
+    let milled = match run.complete(policy.as_mut(), &mut progress) {
+        Ok(milled) => milled,
+        Err(e) => {
+            for p in &partial {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(e).with_context(|| format!("milling {}", mesh_path.display()));
+        }
+    };
+    bar.finish_and_clear();
+
+    if streamed {
+        for (from, to) in partial.iter().zip(&paths) {
+            std::fs::rename(from, to).with_context(|| format!("writing {}", to.display()))?;
+        }
+    } else {
+        for (path, text) in paths.iter().zip(&milled.programs) {
+            write_bytes_atomic(path, text.as_bytes())?;
+        }
     }
     let mut report = milled.report_json(!args.reproducible);
     report["input"] = serde_json::json!(mesh_path.display().to_string());

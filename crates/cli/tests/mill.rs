@@ -187,3 +187,56 @@ fn an_open_mesh_mills_with_a_warning() {
     assert_eq!(warnings.len(), 1, "{stderr}");
     assert!(warnings[0].contains("utah_teapot.stl is not closed (64 boundary edges)"), "{stderr}");
 }
+
+/// `--time-limit` stops a run that would take far longer (a 0.05 mm end mill on 0.05 mm
+/// layers over the 65 mm cube) with one line naming the stage, exit status 1, and no
+/// program or partial file left behind.
+#[test]
+fn a_time_limit_stops_the_run_and_leaves_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let started = std::time::Instant::now();
+    let out = s2g()
+        .args(["mill", &data("meshes/openscad/openscad_Basics_text_on_cube.stl")])
+        .args(["--policy", "fixed:0.05,0.05,zigzag", "--time-limit", "3", "--setups", "1"])
+        .arg("-o")
+        .arg(dir.path().join("cube.ngc"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
+    assert!(
+        stderr.contains("time limit of 3 s reached while planning and simulating setup 1 of 1"),
+        "{stderr}"
+    );
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "files left behind: {left:?}");
+    // It stopped soon after the limit (not a timing assertion on the work itself: without
+    // the limit this run writes for hours).
+    assert!(started.elapsed().as_secs_f64() < 60.0, "took {:?}", started.elapsed());
+}
+
+/// Programs are streamed to their files as they are planned: what `s2g mill` writes is
+/// byte for byte what the library keeps in memory for the same run.
+#[test]
+fn streamed_programs_are_the_library_s_programs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = mill_letterblock(dir.path(), &["--policy", "heuristic"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mesh = shape2gcode::geom::load_mesh(data("meshes/openscad/openscad_Basics_LetterBlock.stl")).unwrap();
+    let opts = shape2gcode::MillOptions {
+        resolution: 48,
+        setups: shape2gcode::SetupCount::Exactly(2),
+        orient_points: 1024,
+        ..shape2gcode::MillOptions::default()
+    };
+    let milled =
+        shape2gcode::mill(&mesh, &mut shape2gcode::HeuristicPolicy::default(), &opts, &mut |_| {}).unwrap();
+    assert_eq!(milled.programs.len(), 2);
+    for (i, text) in milled.programs.iter().enumerate() {
+        let written = std::fs::read_to_string(dir.path().join(format!("block.{}.ngc", i + 1))).unwrap();
+        assert!(written == *text, "program {} differs from the library's", i + 1);
+    }
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 2, "only the two programs: {names:?}");
+}

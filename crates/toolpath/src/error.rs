@@ -17,6 +17,9 @@ pub enum ToolpathError<E> {
     /// The stock box is invalid (not finite, or min above max).
     #[error("invalid stock box: {0}")]
     InvalidStock(String),
+    /// Planning was cancelled ([`PlanProgress::cancel`](crate::PlanProgress::cancel)).
+    #[error("cancelled")]
+    Cancelled,
     /// The motion sink refused a motion.
     #[error("the motion sink failed: {0}")]
     Sink(E),

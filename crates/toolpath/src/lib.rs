@@ -58,8 +58,8 @@ mod zigzag;
 pub use crate::error::ToolpathError;
 pub use crate::periphery::{Periphery, Spiral};
 pub use crate::plan::{
-    DEFAULT_ARC_STEP, LayerPlan, PlanOptions, PlanSummary, RampOptions, SetupSlices, plan_layers, plan_setup,
-    plan_setup_rest, slice_setup,
+    DEFAULT_ARC_STEP, LayerPlan, PlanOptions, PlanProgress, PlanSummary, RampOptions, SetupSlices,
+    plan_layers, plan_setup, plan_setup_rest, plan_setup_watched, slice_setup,
 };
 pub use crate::region::{Point2, Polyline2, Region2, RegionIndex, Vector2, point_segment_distance};
 pub use crate::rest::{RemainingMaterial, VoxelMaterial};

@@ -873,7 +873,56 @@ pub fn plan_setup_rest<S: MotionSink>(
     rest: Option<&dyn RemainingMaterial>,
     sink: &mut S,
 ) -> Result<PlanSummary, ToolpathError<S::Error>> {
+    plan_setup_watched(part, setup, tool, opts, rest, sink, &PlanProgress::default())
+}
+
+/// How far a setup's planning has come, shared with another thread: the planner counts
+/// the levels it has emitted, and stops with [`ToolpathError::Cancelled`] soon after
+/// [`cancel`](Self::cancel) (before its next batch of layers, and before each layer it
+/// emits).
+#[derive(Debug, Default)]
+pub struct PlanProgress {
+    levels: std::sync::atomic::AtomicUsize,
+    done: std::sync::atomic::AtomicUsize,
+    cancelled: std::sync::atomic::AtomicBool,
+}
+
+impl PlanProgress {
+    /// Levels emitted (or found empty) so far, and the setup's number of levels (0 until
+    /// slicing is done).
+    pub fn levels(&self) -> (usize, usize) {
+        use std::sync::atomic::Ordering::Relaxed;
+        (self.done.load(Relaxed), self.levels.load(Relaxed))
+    }
+
+    /// Asks the planner to stop.
+    pub fn cancel(&self) {
+        self.cancelled.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    fn check<E>(&self) -> Result<(), ToolpathError<E>> {
+        if self.cancelled.load(std::sync::atomic::Ordering::Relaxed) {
+            Err(ToolpathError::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// [`plan_setup_rest`], reporting its progress to and taking cancellation from `progress`.
+pub fn plan_setup_watched<S: MotionSink>(
+    part: &Mesh,
+    setup: &Setup,
+    tool: &Tool,
+    opts: &PlanOptions,
+    rest: Option<&dyn RemainingMaterial>,
+    sink: &mut S,
+    progress: &PlanProgress,
+) -> Result<PlanSummary, ToolpathError<S::Error>> {
+    use std::sync::atomic::Ordering::Relaxed;
+    progress.check()?;
     let sliced = slice_levels(part, setup, tool, opts)?;
+    progress.levels.store(sliced.levels.len(), Relaxed);
     let stock = sliced.stock;
     let ctx = make_ctx(&stock, sliced.sliver_width, tool, opts, rest);
     let clear_z = stock.max.z + opts.clearance_height;
@@ -911,6 +960,7 @@ pub fn plan_setup_rest<S: MotionSink>(
     let mut chain = Keepouts::new(sliced.slabs, sliced.min_hole_area);
     let mut window = batches.first().map(|b| chain.advance(end_level(b))).unwrap_or_default();
     for (i, b) in batches.iter().enumerate() {
+        progress.check()?;
         let levels = Levels { z: &sliced.levels, top: stock.max.z, keepouts: &window, base: first_level(b) };
         let next_end = batches.get(i + 1).map(end_level);
         let (plans, next) = rayon::join(
@@ -919,6 +969,8 @@ pub fn plan_setup_rest<S: MotionSink>(
         );
         for (rough, fine) in &plans {
             for plan in std::iter::once(rough).chain(fine) {
+                progress.check()?;
+                progress.done.fetch_add(1, Relaxed);
                 if plan.contour.is_empty() && plan.clearing.is_empty() {
                     summary.skipped_layers += 1;
                     continue;

@@ -228,6 +228,23 @@ pub fn region_signed_distance(region: &Region2, p: &Point2) -> f64 {
 mod tests {
     use super::*;
 
+    /// A face rounded from vertical and narrower than the width is a sliver; a steep face
+    /// wider than it, or a narrow face that is not steep, is not.
+    #[test]
+    fn slivers_are_steep_and_narrow() {
+        let p = Point3::new;
+        // A vertical wall 10 long and 1 high, its top edge moved by 1e-7 in y.
+        let wall = [p(0.0, 0.0, 0.0), p(10.0, 0.0, 0.0), p(10.0, 1e-7, 1.0)];
+        assert!(is_sliver(&wall, 1e-6));
+        assert!(!is_sliver(&wall, 1e-8), "wider than the width");
+        // Steeper than 89.4 degrees but 0.005 wide in projection.
+        let steep = [p(0.0, 0.0, 0.0), p(10.0, 0.0, 0.0), p(10.0, 0.005, 1.0)];
+        assert!(!is_sliver(&steep, 1e-3) && is_sliver(&steep, 1e-2));
+        // A flat needle is narrow but lies flat: its projection is the face itself.
+        let needle = [p(0.0, 0.0, 0.0), p(10.0, 0.0, 0.0), p(10.0, 1e-7, 1e-9)];
+        assert!(!is_sliver(&needle, 1e-3));
+    }
+
     #[test]
     fn levels_land_on_flats_and_floor() {
         let lv = layer_levels(1.0, 0.0, 0.3, &[0.5], 1e-9);
