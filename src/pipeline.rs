@@ -145,6 +145,13 @@ pub struct MillOptions {
     /// true; false is the paper's test, on which the learning environment
     /// ([`TrainOptions`](crate::TrainOptions)) and the shipped policy were trained.
     pub flank_walls: bool,
+    /// Refuse a setup whose action would machine for longer than this, in hours, by an
+    /// upper estimate made before planning (every level cleared whole over the stock's
+    /// outline at the stepover, at the cutting feed): an action far too fine for its part
+    /// (a 4 µm end mill on 8 µm layers over a 100 mm block would write about 10^11 bytes of
+    /// G-code) stops at once with [`MillError::ActionTooLarge`] instead of writing for
+    /// days. Default 10,000 h (the shipped policy's bunny estimates at about 140 h).
+    pub max_estimated_hours: f64,
 }
 
 impl MillOptions {
@@ -182,6 +189,7 @@ impl Default for MillOptions {
             contour: true,
             roughing_depth_diameters: 1.0,
             flank_walls: true,
+            max_estimated_hours: 10_000.0,
         }
     }
 }
@@ -225,6 +233,24 @@ pub enum MillError {
     NoVolume {
         /// The grid's voxels along the stock's longest axis.
         resolution: usize,
+    },
+    /// A setup's action would machine for longer than [`MillOptions::max_estimated_hours`].
+    #[error(
+        "setup {setup}: the action (tool radius {tool_radius}, layer height {layer_height}) would machine for up to {hours:.3e} h ({length_mm:.3e} mm of toolpath), beyond the limit of {limit_hours} h: choose a larger tool or layer height, or raise the limit"
+    )]
+    ActionTooLarge {
+        /// 1-based setup.
+        setup: usize,
+        /// The action's tool radius and layer height, planning units.
+        tool_radius: f64,
+        /// See `tool_radius`.
+        layer_height: f64,
+        /// The upper estimate of the toolpath's length and of its machining time.
+        length_mm: f64,
+        /// See `length_mm`.
+        hours: f64,
+        /// [`MillOptions::max_estimated_hours`].
+        limit_hours: f64,
     },
     /// The run passed its time limit ([`MillRun::time_limit`]); nothing it made is kept.
     #[error("time limit of {limit_s} s reached while {stage}")]
@@ -812,6 +838,17 @@ impl MillRun {
             self.clearance,
             o,
         );
+        let (length_mm, hours) = job.estimate();
+        if hours.is_nan() || hours > o.max_estimated_hours {
+            return Err(MillError::ActionTooLarge {
+                setup: i + 1,
+                tool_radius: action.tool_radius,
+                layer_height: action.layer_height,
+                length_mm,
+                hours,
+                limit_hours: o.max_estimated_hours,
+            });
+        }
         self.jobs.push(job);
         if self.placements.is_some() {
             return Ok(());
@@ -991,6 +1028,18 @@ impl Job {
         };
         Self { setup: *setup, action: *action, tool, popts }
     }
+
+    /// An upper estimate of the setup's toolpath length and machining time (hours): every
+    /// level cleared whole over the stock's outline at the stepover, at the cutting feed.
+    fn estimate(&self) -> (f64, f64) {
+        let stock = self.popts.stock.unwrap_or_else(Aabb::empty).extent();
+        let depth = stock.z.min(self.tool.flute_length);
+        let levels = (depth / self.popts.layer_height).ceil().max(1.0);
+        let stepover = self.popts.stepover * self.tool.diameter();
+        let length =
+            levels * (stock.x + 2.0 * self.tool.radius) * (stock.y + 2.0 * self.tool.radius) / stepover;
+        (length, length / self.tool.feed / 60.0)
+    }
 }
 
 /// What both layouts share.
@@ -1099,7 +1148,6 @@ fn machine_setup(
         let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
         (planned, parsed, waited)
     });
-    drop(tee);
     if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
         && Instant::now() >= at
     {

@@ -201,7 +201,7 @@ impl PathTrace {
         }
         let n = self.levels - 1;
         self.stride = self.stride.max(1);
-        if n % self.stride != 0 {
+        if !n.is_multiple_of(self.stride) {
             return;
         }
         if self.segments.len() == Self::CAPACITY {
@@ -211,10 +211,10 @@ impl PathTrace {
             let level_of = &self.level_of;
             self.segments.retain(|_| {
                 k += 1;
-                level_of[k - 1] as usize % stride == 0
+                (level_of[k - 1] as usize).is_multiple_of(stride)
             });
-            self.level_of.retain(|&l| l as usize % stride == 0);
-            if n % stride != 0 {
+            self.level_of.retain(|&l| (l as usize).is_multiple_of(stride));
+            if !n.is_multiple_of(stride) {
                 return;
             }
         }

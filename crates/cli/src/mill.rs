@@ -98,6 +98,10 @@ pub struct Args {
     /// has taken this many seconds.
     #[arg(long, value_name = "SECONDS")]
     time_limit: Option<f64>,
+    /// Refuse, before planning, a setup whose action would machine for longer than this
+    /// many hours by an upper estimate (every layer cleared whole at the stepover).
+    #[arg(long, value_name = "HOURS", default_value_t = 10_000.0)]
+    max_hours: f64,
 }
 
 /// `--setups auto|N`.
@@ -180,6 +184,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
+        max_estimated_hours: args.max_hours,
         ..MillOptions::default()
     };
 
