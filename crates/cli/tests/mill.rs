@@ -188,16 +188,16 @@ fn an_open_mesh_mills_with_a_warning() {
     assert!(warnings[0].contains("utah_teapot.stl is not closed (64 boundary edges)"), "{stderr}");
 }
 
-/// `--time-limit` stops a run that would take far longer (a 0.05 mm end mill on 0.05 mm
-/// layers over the 65 mm cube) with one line naming the stage, exit status 1, and no
-/// program or partial file left behind.
+/// `--time-limit` stops a run that would take far longer (a 0.1 mm end mill on 0.1 mm
+/// layers over the cube, 100 mm in the paper preset) with one line naming the stage, exit
+/// status 1, and no program or partial file left behind.
 #[test]
 fn a_time_limit_stops_the_run_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let started = std::time::Instant::now();
     let out = s2g()
         .args(["mill", &data("meshes/openscad/openscad_Basics_text_on_cube.stl")])
-        .args(["--policy", "fixed:0.05,0.05,zigzag", "--time-limit", "3", "--setups", "1"])
+        .args(["--policy", "fixed:0.1,0.1,zigzag", "--time-limit", "3", "--setups", "1"])
         .arg("-o")
         .arg(dir.path().join("cube.ngc"))
         .output()
@@ -239,4 +239,31 @@ fn streamed_programs_are_the_library_s_programs() {
     }
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 2, "only the two programs: {names:?}");
+}
+
+/// An action far too fine for its part is refused before planning, in one line that says
+/// how much machining it would be, with exit status 1 and nothing written; `--max-hours`
+/// raises the limit (the same run then plans, and the time limit stops it).
+#[test]
+fn an_absurdly_fine_action_is_refused_before_planning() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| {
+        s2g()
+            .args(["mill", &data("meshes/openscad/openscad_Basics_text_on_cube.stl")])
+            .args(["--policy", "fixed:0.05,0.05,zigzag", "--setups", "1"])
+            .arg("-o")
+            .arg(dir.path().join("cube.ngc"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
+    assert!(stderr.contains("would machine for up to") && stderr.contains("limit of 10000 h"), "{stderr}");
+    let out = run(&["--max-hours", "100000", "--time-limit", "2"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("time limit of 2 s reached"), "{stderr}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "nothing written");
 }
