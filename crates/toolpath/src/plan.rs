@@ -75,7 +75,8 @@ pub struct PlanOptions {
     /// Radians per arc segment in offsets (chord tolerance: the sagitta is
     /// `radius * (1 - cos(arc_step / 2))`). Default [`DEFAULT_ARC_STEP`].
     pub arc_step: f64,
-    /// Keep-out vertices closer than `offset_eps * tool radius` are merged before offsetting
+    /// Keep-outs are thinned (Douglas-Peucker) at `offset_eps * tool radius`, and rid of
+    /// slits and spikes narrower than that, before offsetting
     /// (the offset grows by as much, so it stays conservative). Default 1e-3.
     pub offset_eps: f64,
     /// Put a layer exactly on every horizontal face's level. Default true.

@@ -205,15 +205,28 @@ fn clip_to_slab(tri: &[Point3; 3], lo: f64, hi: f64) -> Vec<[f64; 2]> {
                 out.push(a);
             }
             if ia != ib {
-                let t = (bound - a.z) / (b.z - a.z);
-                let mut p = a + (b - a) * t;
-                p.z = bound;
-                out.push(p);
+                out.push(cross_level(&a, &b, bound));
             }
         }
         poly = out;
     }
     poly.iter().map(|p| [p.x, p.y]).collect()
+}
+
+/// Where the segment `a`-`b` crosses the level `z`, computed from its endpoints in a fixed
+/// order (lower z first, then x, then y), so that the two triangles sharing an edge put
+/// bit-identical points on it. Computed from each triangle's own direction of travel, the
+/// two points differ in the last bits; the union of the projections then keeps a hairline
+/// slit between the triangles, and a keep-out made of thousands of such slits (the long
+/// steep facets of a rounded box) made each offset of it take tens of seconds.
+fn cross_level(a: &Point3, b: &Point3, z: f64) -> Point3 {
+    let key = |p: &Point3| (p.z, p.x, p.y);
+    let (lo, hi) =
+        if key(a).partial_cmp(&key(b)) == Some(std::cmp::Ordering::Greater) { (b, a) } else { (a, b) };
+    let t = (z - lo.z) / (hi.z - lo.z);
+    let mut p = lo + (hi - lo) * t;
+    p.z = z;
+    p
 }
 
 /// Exact distance from a point to a region's boundary, negative inside (test helper and
