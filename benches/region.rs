@@ -9,9 +9,13 @@
 //!   and the keep-out's boundary grows from level to level.
 //! - `staircase/N`: the per-layer operations on a staircase region (the cells of an
 //!   N x N grid over 100 mm that a 96-facet circle of 40 mm radius covers, as the
-//!   remaining-material map gives them): its union from cell rows, the tool-centre
-//!   keep-out of a 1 mm tool grown from it (`grown_safe`), and the free region around it.
-//!   The boundary has about 4N vertices; the time per vertex should not grow with N.
+//!   remaining-material map gives them): its union from cell rows, its intersection with
+//!   a layer's free region (a 96-facet ring of 10-45 mm) and the difference with a
+//!   roughing level's (a 96-facet disc of 30 mm), as `Ctx::plan_layer` does. The boundary
+//!   has about 4N vertices.
+//! - `staircase_offset/N`: the same staircase grown by 1 mm with `grown_safe` (the
+//!   planner grows keep-outs made of facets, not staircases: this is the worst case of the
+//!   offset engine, whose round joins overlap about r / cell neighbours).
 //!
 //! Run: `cargo bench --bench region`.
 
@@ -70,19 +74,37 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
+    let polygon = |radius: f64| -> Vec<Point2> {
+        (0..96)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / 96.0;
+                Point2::new(radius * a.cos(), radius * a.sin())
+            })
+            .collect()
+    };
+    let disc = |radius: f64| Region2::from_polygons([&polygon(radius)[..]]);
+    let free = disc(45.0).difference(&disc(10.0));
+    let done = disc(30.0);
     let mut g = c.benchmark_group("staircase");
     g.sample_size(10);
-    let outline = Region2::rect(Point2::new(-51.0, -51.0), Point2::new(51.0, 51.0));
     for n in [128, 256, 512, 1024] {
         let rects = staircase(n);
         let region = Region2::from_polygons(rects.iter().map(|r| &r[..]));
         println!("staircase/{n}: {} boundary vertices", region.vertex_count());
         g.bench_with_input(BenchmarkId::from_parameter(n), &rects, |b, rects| {
             b.iter(|| {
-                let region = Region2::from_polygons(rects.iter().map(|r| &r[..]));
-                let off = region.grown_safe(1.0, 1e-3, DEFAULT_ARC_STEP);
-                black_box(outline.difference(&off).vertex_count())
+                let reach = Region2::from_polygons(rects.iter().map(|r| &r[..]));
+                black_box(free.difference(&done).intersection(&reach).vertex_count())
             })
+        });
+    }
+    g.finish();
+    let mut g = c.benchmark_group("staircase_offset");
+    g.sample_size(10);
+    for n in [128, 256, 512, 1024] {
+        let region = Region2::from_polygons(staircase(n).iter().map(|r| &r[..]));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &region, |b, region| {
+            b.iter(|| black_box(region.grown_safe(1.0, 1e-3, DEFAULT_ARC_STEP).vertex_count()))
         });
     }
     g.finish();
