@@ -915,6 +915,7 @@ impl MillRun {
             s.preservation = if part_voxels > 0.0 { 1.0 - gouged as f64 / part_voxels } else { 1.0 };
         }
         let t = Instant::now();
+        self.check_deadline(|| "scoring the residual stock".into())?;
         let simulated = self.sim.into_inner().into_simulation().map_err(sim_error)?;
         let rewards = simulated.rewards(&self.target, &RewardWeights::default()).map_err(sim_error)?;
         let simulation = simulated.report().clone();
@@ -925,11 +926,6 @@ impl MillRun {
         self.times.simulation += t.elapsed().as_secs_f64();
 
         // Score in the unit cube.
-        if let Some((at, limit_s)) = self.deadline
-            && Instant::now() >= at
-        {
-            return Err(MillError::TimeLimit { stage: "scoring the residual stock".into(), limit_s });
-        }
         progress(Stage::Scoring);
         let t = Instant::now();
         let mut residual_plan = marching_cubes_voxels(simulated.residual())?;
