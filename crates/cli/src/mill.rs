@@ -152,6 +152,8 @@ fn program_paths(output: &Path, n: usize) -> Vec<PathBuf> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+    // `--time-limit` counts from here: loading and fine-tuning are part of the run.
+    let started = std::time::Instant::now();
     let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
     let mesh = load_mesh(&mesh_path)?;
     let preset = match args.preset.as_str() {
@@ -224,12 +226,22 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     };
     // Steps: orientation, action selection, then planning and simulation per setup, then
     // scoring; the number of setups is known once planning starts.
-    let started = std::time::Instant::now();
     let limit = match args.time_limit {
         Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
         Some(s) => bail!("--time-limit must be a positive number of seconds, got {s}"),
         None => None,
     };
+    let past_limit = |stage: &str| -> anyhow::Result<()> {
+        match limit {
+            Some(limit) if started.elapsed() >= limit => bail!(
+                "milling {}: time limit of {} s reached while {stage}",
+                mesh_path.display(),
+                limit.as_secs_f64()
+            ),
+            _ => Ok(()),
+        }
+    };
+    past_limit("loading the mesh and the policy")?;
     // On stderr, only for a person at a terminal (indicatif draws nothing otherwise).
     let bar = if args.json { ProgressBar::hidden() } else { ProgressBar::new(3) };
     bar.set_style(
@@ -285,13 +297,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let mut run = MillRun::new(&mesh, &opts, &mut progress)
         .with_context(|| format!("milling {}", mesh_path.display()))?;
     if let Some(limit) = limit {
-        if started.elapsed() >= limit {
-            bail!(
-                "milling {}: time limit of {} s reached while choosing tool orientations",
-                mesh_path.display(),
-                limit.as_secs_f64()
-            );
-        }
+        past_limit("choosing tool orientations")?;
         run.time_limit(started, limit);
     }
     run.keep_trace(args.render.is_some());
