@@ -177,8 +177,8 @@ pub struct PathTrace {
     /// level's height.
     levels: usize,
     level: Option<f64>,
-    /// Keep the levels whose number is a multiple of this (a power of two).
-    stride: usize,
+    /// Keep the levels whose number is a multiple of `2^stride_log`.
+    stride_log: u32,
     /// The level number of each kept segment.
     level_of: Vec<u32>,
 }
@@ -200,21 +200,16 @@ impl PathTrace {
             self.level = Some(h0);
         }
         let n = self.levels - 1;
-        self.stride = self.stride.max(1);
-        if !n.is_multiple_of(self.stride) {
+        let kept = |stride_log: u32, level: usize| level.is_multiple_of(1 << stride_log);
+        if !kept(self.stride_log, n) {
             return;
         }
         if self.segments.len() == Self::CAPACITY {
-            self.stride *= 2;
-            let stride = self.stride;
-            let mut k = 0;
-            let level_of = &self.level_of;
-            self.segments.retain(|_| {
-                k += 1;
-                (level_of[k - 1] as usize).is_multiple_of(stride)
-            });
-            self.level_of.retain(|&l| (l as usize).is_multiple_of(stride));
-            if !n.is_multiple_of(stride) {
+            self.stride_log += 1;
+            let mut keep = self.level_of.iter().map(|&l| kept(self.stride_log, l as usize));
+            self.segments.retain(|_| keep.next() == Some(true));
+            self.level_of.retain(|&l| kept(self.stride_log, l as usize));
+            if !kept(self.stride_log, n) {
                 return;
             }
         }

@@ -10,12 +10,7 @@ pub fn data(rel: &str) -> PathBuf {
 
 /// Every closed mesh of the bundled corpus (the OpenSCAD parts, the bunny, the gear).
 pub fn closed_meshes() -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(data("meshes/openscad"))
-        .expect("tests/data/meshes/openscad")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "stl"))
-        .collect();
-    v.sort();
+    let mut v = stl_files("meshes/openscad");
     v.push(data("meshes/classic/stanford_bunny.stl"));
     v.push(data("meshes/classic/gearwheel_40t.bin.stl"));
     v
@@ -25,8 +20,13 @@ pub fn closed_meshes() -> Vec<PathBuf> {
 /// `scripts/stress_corpus.sh`): turned parts with 32-256 facets per circle, thin walls,
 /// holes of one or two voxels, nearly coplanar faces, parts 100 times longer than thick.
 pub fn stress_meshes() -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(data("meshes/stress"))
-        .expect("tests/data/meshes/stress")
+    stl_files("meshes/stress")
+}
+
+/// The STL files of a folder of tests/data, sorted.
+fn stl_files(rel: &str) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(data(rel))
+        .unwrap_or_else(|e| panic!("tests/data/{rel}: {e}"))
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "stl"))
         .collect();

@@ -21,6 +21,19 @@ fn mill_letterblock(dir: &std::path::Path, extra: &[&str]) -> std::process::Outp
     cmd.output().unwrap()
 }
 
+/// One setup of the 65 mm cube (100 mm in the paper preset) with a fixed `action`,
+/// written into `dir`.
+fn mill_cube_with(dir: &std::path::Path, action: &str, extra: &[&str]) -> std::process::Output {
+    s2g()
+        .args(["mill", &data("meshes/openscad/openscad_Basics_text_on_cube.stl")])
+        .args(["--policy", action, "--setups", "1"])
+        .arg("-o")
+        .arg(dir.join("cube.ngc"))
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn writes_programs_report_residual_and_render() {
     let dir = tempfile::tempdir().unwrap();
@@ -195,13 +208,7 @@ fn an_open_mesh_mills_with_a_warning() {
 fn a_time_limit_stops_the_run_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let started = std::time::Instant::now();
-    let out = s2g()
-        .args(["mill", &data("meshes/openscad/openscad_Basics_text_on_cube.stl")])
-        .args(["--policy", "fixed:0.1,0.1,zigzag", "--time-limit", "3", "--setups", "1"])
-        .arg("-o")
-        .arg(dir.path().join("cube.ngc"))
-        .output()
-        .unwrap();
+    let out = mill_cube_with(dir.path(), "fixed:0.1,0.1,zigzag", &["--time-limit", "3"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
@@ -247,16 +254,7 @@ fn streamed_programs_are_the_library_s_programs() {
 #[test]
 fn an_absurdly_fine_action_is_refused_before_planning() {
     let dir = tempfile::tempdir().unwrap();
-    let run = |extra: &[&str]| {
-        s2g()
-            .args(["mill", &data("meshes/openscad/openscad_Basics_text_on_cube.stl")])
-            .args(["--policy", "fixed:0.05,0.05,zigzag", "--setups", "1"])
-            .arg("-o")
-            .arg(dir.path().join("cube.ngc"))
-            .args(extra)
-            .output()
-            .unwrap()
-    };
+    let run = |extra: &[&str]| mill_cube_with(dir.path(), "fixed:0.05,0.05,zigzag", extra);
     let out = run(&[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
