@@ -55,6 +55,10 @@ pub enum GeomError {
     /// An argument is out of its valid range.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// A cutter's dimensions are impossible (non-finite or non-positive size, corner radius
+    /// above the radius, flute shorter than the rounded end, ...).
+    #[error("invalid tool: {0}")]
+    InvalidTool(String),
     /// Two voxel grids do not share the same layout.
     #[error("voxel grids differ in bounds or resolution")]
     GridMismatch,
