@@ -11,6 +11,7 @@
 use serde_json::{Value, json};
 
 use crate::geom::Mesh;
+#[cfg(feature = "learn")]
 use crate::learn::{LearnedPolicy, TrainOptions};
 use crate::pipeline::{MillError, MillOptions, MillRun, Milled};
 use crate::policy::{Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, StrategyKind};
@@ -126,7 +127,7 @@ impl Default for TableSet {
 }
 
 /// The policies of Tables 1 and 3, by name: `learned` (the policy shipped in the crate,
-/// [`LearnedPolicy::bundled`]), `heuristic`, `random`, `fixed-fine` or `fine` (smallest tool and layer), `fixed-coarse`
+/// `LearnedPolicy::bundled`; with the `learn` feature), `heuristic`, `random`, `fixed-fine` or `fine` (smallest tool and layer), `fixed-coarse`
 /// or `coarse` (largest tool and layer), `fixed:RADIUS,LAYER,STRATEGY` (planning units), or
 /// the path of a policy file written by `s2g train`. `None` for anything else.
 pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<dyn Policy>> {
@@ -141,7 +142,7 @@ pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<
         return None;
     }
     match name {
-        "learned" => LearnedPolicy::bundled().ok().map(|p| Box::new(p) as Box<dyn Policy>),
+        "learned" => learned_by_name(name),
         "heuristic" => Some(Box::new(HeuristicPolicy::default())),
         "random" => Some(Box::new(RandomPolicy::new(seed))),
         "fine" | "fixed-fine" => Some(fixed(0, 0)),
@@ -155,7 +156,49 @@ pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<
                 strategy: StrategyKind::from_name(st.trim())?,
             })))
         }
-        path => LearnedPolicy::load(std::path::Path::new(path)).ok().map(|p| Box::new(p) as Box<dyn Policy>),
+        path => learned_by_name(path),
+    }
+}
+
+/// The shipped learned policy (`learned`) or the policy file at `name`; `None` when it
+/// cannot be read, or always without the `learn` feature.
+fn learned_by_name(name: &str) -> Option<Box<dyn Policy>> {
+    #[cfg(feature = "learn")]
+    {
+        let policy = if name == "learned" {
+            LearnedPolicy::bundled()
+        } else {
+            LearnedPolicy::load(std::path::Path::new(name))
+        };
+        policy.ok().map(|p| Box::new(p) as Box<dyn Policy>)
+    }
+    #[cfg(not(feature = "learn"))]
+    {
+        let _ = name;
+        None
+    }
+}
+
+/// The learned policy `name` fine-tuned on `mesh` for `episodes` episodes (Appendix A.7);
+/// an error without the `learn` feature.
+fn finetuned(
+    name: &str,
+    part: &str,
+    mesh: &Mesh,
+    episodes: usize,
+    opts: &MillOptions,
+) -> Result<Box<dyn Policy>, MillError> {
+    #[cfg(feature = "learn")]
+    {
+        let mut learned = LearnedPolicy::named(name)?;
+        let train = TrainOptions { seed: opts.seed, mill: opts.clone(), ..TrainOptions::default() };
+        learned.finetune(mesh, part, episodes, &train, &mut |_| {})?;
+        Ok(Box::new(learned))
+    }
+    #[cfg(not(feature = "learn"))]
+    {
+        let _ = (part, mesh, episodes, opts);
+        Err(MillError::InvalidOption(format!("fine-tuning {name} needs shape2gcode's `learn` feature")))
     }
 }
 
@@ -239,10 +282,7 @@ pub fn evaluate(
         for (part, mesh) in parts {
             on_run(part, &label);
             let mut policy = if finetune > 0 {
-                let mut learned = LearnedPolicy::named(name)?;
-                let train = TrainOptions { seed: opts.seed, mill: opts.clone(), ..TrainOptions::default() };
-                learned.finetune(mesh, part, finetune, &train, &mut |_| {})?;
-                Box::new(learned) as Box<dyn Policy>
+                finetuned(name, part, mesh, finetune, opts)?
             } else {
                 policy_by_name(name, &space, opts.seed)
                     .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {name:?}")))?

@@ -6,6 +6,7 @@
 pub use s2g_gcode as gcode;
 pub use s2g_geom as geom;
 pub use s2g_orient as orient;
+#[cfg(feature = "learn")]
 pub use s2g_rl as rl;
 pub use s2g_toolpath as toolpath;
 pub use s2g_voxsim as voxsim;
@@ -13,6 +14,7 @@ pub use s2g_voxsim as voxsim;
 mod eval;
 pub mod fdm;
 mod feature;
+#[cfg(feature = "learn")]
 mod learn;
 mod pipeline;
 mod policy;
@@ -32,6 +34,7 @@ pub use crate::feature::{
     FeatureCheck, FeatureError, FeatureProgram, FeatureResidual, JobSpec, feature_program,
     feature_writer_options, load_job, parse_job,
 };
+#[cfg(feature = "learn")]
 pub use crate::learn::{
     DgcnnShape, EncoderKind, GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, SetupEncoder,
     TrainOptions, observation, train_policy,

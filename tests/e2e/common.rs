@@ -16,6 +16,15 @@ pub fn closed_meshes() -> Vec<PathBuf> {
     v
 }
 
+/// `s2g mill`'s default policy: the learned one shipped in the crate, or the heuristic
+/// without the `learn` feature.
+pub fn default_policy() -> Box<dyn shape2gcode::Policy> {
+    #[cfg(feature = "learn")]
+    return Box::new(shape2gcode::LearnedPolicy::bundled().unwrap());
+    #[cfg(not(feature = "learn"))]
+    return Box::new(shape2gcode::HeuristicPolicy::default());
+}
+
 /// The stress corpus of our own (tests/data/meshes/stress, remade by
 /// `scripts/stress_corpus.sh`): turned parts with 32-256 facets per circle, thin walls,
 /// holes of one or two voxels, nearly coplanar faces, parts 100 times longer than thick.

@@ -8,8 +8,8 @@ use shape2gcode::geom::{
 };
 use shape2gcode::voxsim::{Cutter, SimOptions, Simulator, ToolTable};
 use shape2gcode::{
-    ActionSpace, HeuristicPolicy, LearnedPolicy, MillError, MillOptions, Milled, ProgramLayout, SetupCount,
-    SetupProgram, mill,
+    ActionSpace, HeuristicPolicy, MillError, MillOptions, Milled, ProgramLayout, SetupCount, SetupProgram,
+    mill,
 };
 
 use super::common::{closed_meshes, data, rs274_errors};
@@ -87,11 +87,12 @@ fn assert_programs_safe_and_accepted(name: &str, m: &Milled, dir: &std::path::Pa
 /// `s2g mill`'s default policy, the learned one shipped in the crate, also mills every
 /// closed mesh with zero gouges and zero rapid collisions into programs `rs274` accepts
 /// (its finer layers and spiral clearing are other programs than the heuristic's).
+#[cfg(feature = "learn")]
 #[test]
 fn every_closed_mesh_mills_safely_with_the_shipped_learned_policy() {
     let dir = tempfile::tempdir().unwrap();
     let opts = MillOptions { resolution: 128, ..MillOptions::default() };
-    let mut policy = LearnedPolicy::bundled().unwrap();
+    let mut policy = shape2gcode::LearnedPolicy::bundled().unwrap();
     for path in closed_meshes() {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let mesh = load_mesh(&path).unwrap();
@@ -559,7 +560,8 @@ fn flank_walls_give_a_box_axis_aligned_setups() {
     assert!(f.iou > b.iou, "IoU {} vs {}", f.iou, b.iou);
 }
 
-/// The stress corpus mills with the default (learned) policy: zero gouges, zero rapids
+/// The stress corpus mills with the default policy (the learned one; the heuristic without
+/// the `learn` feature): zero gouges, zero rapids
 /// through material, programs `rs274` accepts, and the part comes out (IoU against the
 /// mesh at this coarse grid). Before the sliver fix the flanged bushings (a cross hole in
 /// a tube, 96 and 256 facets per circle) never finished.
@@ -567,14 +569,14 @@ fn flank_walls_give_a_box_axis_aligned_setups() {
 fn every_stress_part_mills_safely_with_the_default_policy() {
     let dir = tempfile::tempdir().unwrap();
     let opts = MillOptions { resolution: 128, ..MillOptions::default() };
-    let mut policy = LearnedPolicy::bundled().unwrap();
+    let mut policy = super::common::default_policy();
     let meshes = super::common::stress_meshes();
     assert!(meshes.len() >= 10, "the stress corpus has {} parts", meshes.len());
     let mut table = String::new();
     for path in meshes {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let mesh = load_mesh(&path).unwrap();
-        let m = mill(&mesh, &mut policy, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let m = mill(&mesh, policy.as_mut(), &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_programs_safe_and_accepted(&name, &m, dir.path());
         table += &format!("{name}: IoU {:.4}\n", m.metrics.iou);
         // The others come out whole; these are at most two voxels thick at this grid (0.6
