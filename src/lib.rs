@@ -20,6 +20,7 @@ mod pipeline;
 mod policy;
 mod render;
 mod report;
+mod trace;
 
 pub use crate::eval::{
     Ci95, CoverageRow, EvalOptions, Row, SeedGroup, TableSet, Tables, evaluate, policy_by_name,
@@ -47,4 +48,5 @@ pub use crate::policy::{
     Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,
     StrategyKind,
 };
-pub use crate::render::{Image, PathTrace, render_machining};
+pub use crate::render::{Image, render_machining};
+pub use crate::trace::PathTrace;

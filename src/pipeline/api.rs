@@ -1,0 +1,386 @@
+//! The public types of a milling run: options, presets, layouts, stages, errors and results.
+
+use crate::gcode::{Dialect, RotaryAxes};
+use crate::geom::{Aabb, Mesh, Setup, ShapeMetrics, Vector3};
+use crate::orient::OrientationResult;
+use crate::policy::{Action, ActionSpace, StrategyKind};
+use crate::toolpath::PlanSummary;
+use crate::trace::PathTrace;
+use crate::voxsim::{Carver, RewardWeights, Rewards, SimReport};
+
+/// Units and action space of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Preset {
+    /// The paper's convention: the part is normalised into [-0.5, 0.5]^3 (max extent 1,
+    /// centred) and the action space is the paper's (tool radius 0.001-0.01, layer
+    /// height 1/512-1/64, in normalised units). A machine needs real sizes, so the
+    /// normalised part is machined at [`MillOptions::paper_scale_mm`] millimetres per
+    /// unit (default 100: tools of 0.1-1 mm radius, layers of 0.2-1.6 mm).
+    #[default]
+    Paper,
+    /// Part units (mm) with a shop tool library ([`ActionSpace::shop`]).
+    Shop,
+}
+
+/// How many setups.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SetupCount {
+    /// Up to five, fewer when 99 % coverage is reached sooner.
+    #[default]
+    Auto,
+    /// Exactly this many (the best set of that size).
+    Exactly(usize),
+}
+
+/// How the setups become programs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ProgramLayout {
+    /// One 3-axis program per setup; the fixture rotation is stated in its header comment.
+    #[default]
+    PerSetup,
+    /// One 3+2 program for a table-table machine with these rotary axes (A/C or B/C),
+    /// whose tilt axis travels [`MillOptions::rotary_tilt_range_deg`]. Needs a dialect
+    /// with rotary axes: LinuxCNC or Fanuc (grbl has none).
+    Rotary(RotaryAxes),
+}
+
+/// Options of [`mill`]. Every field has a documented default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MillOptions {
+    /// Units and action space. Default: [`Preset::Paper`].
+    pub preset: Preset,
+    /// Number of setups. Default: [`SetupCount::Auto`].
+    pub setups: SetupCount,
+    /// Voxels along the stock's longest axis in the simulation. Default 256 (the paper's).
+    pub resolution: usize,
+    /// Controller dialect of the programs. Default LinuxCNC.
+    pub dialect: Dialect,
+    /// One program per setup or one 3+2 program. Default: per setup.
+    pub layout: ProgramLayout,
+    /// Travel of the rotary layout's tilt axis (A for [`RotaryAxes::AC`], B for
+    /// [`RotaryAxes::BC`]) in degrees, `[min, max]`. A tool axis at angle θ from +Z is
+    /// reached with tilt θ (and C as [`rotary_angles`] solves it) or with tilt −θ and C
+    /// turned by 180°, whichever lies in the range first; a setup that neither reaches is
+    /// a [`MillError::Unreachable`]. Ignored by the per-setup layout. Default
+    /// `[-180, 180]`: every direction (real trunnions are narrower, e.g. `[-30, 110]`).
+    pub rotary_tilt_range_deg: [f64; 2],
+    /// Surface points for orientation selection. Default 16,384 (the paper's).
+    pub orient_points: usize,
+    /// Candidate directions for orientation selection. Default 512 (+ the six axes).
+    pub orient_candidates: usize,
+    /// Samples per mesh for Chamfer and normal consistency. Default 8,000 (the paper's).
+    pub metric_samples: usize,
+    /// Seed of every random choice. Default 0.
+    pub seed: u64,
+    /// Stock margin around the part's bounding box, as a fraction of its largest
+    /// extent (shop preset only; the paper preset's stock is the unit cube). Default 0.02.
+    pub stock_margin: f64,
+    /// Millimetres per normalised unit in the paper preset. Default 100.
+    pub paper_scale_mm: f64,
+    /// Clearing strategies the policy may choose from. Default: all three.
+    pub strategies: Vec<StrategyKind>,
+    /// Taubin smoothing iterations (lambda 0.5, mu -0.53) applied to the residual mesh
+    /// before scoring and writing. Marching cubes of a voxel occupancy puts every vertex on
+    /// an edge midpoint, so a wall that is not parallel to a grid plane comes out as a
+    /// staircase whose normals are off by up to 45 degrees; a few volume-preserving
+    /// low-pass steps recover the wall's direction while moving vertices by well under a
+    /// voxel. 0 keeps the raw staircase. Default 8.
+    pub residual_smoothing: usize,
+    /// How the simulator removes material. Default [`Carver::Exact`]; [`Carver::Dexel`]
+    /// falls back to exact for setups whose axis is not a grid axis; the paper's
+    /// Monte-Carlo carver is there to compare against.
+    pub carver: Carver,
+    /// Run the contour pass on every layer (the paper always does). Default true.
+    pub contour: bool,
+    /// Largest axial depth of a roughing cut, in tool diameters: each setup clears its
+    /// free region once per this depth and machines the layers in between with their
+    /// contour and the steps the roughing cut left along the walls
+    /// ([`PlanOptions::roughing_depth`]); the finished shape is the same as clearing every
+    /// layer. 0 clears every layer whole, as the paper does. Default 1 (a full-width
+    /// slot one diameter deep, a usual roughing limit for end mills).
+    pub roughing_depth_diameters: f64,
+    /// Count faces parallel to a tool axis as reachable from it (the tool's flank cuts
+    /// them), and faces overhanging by less than half a voxel over the stock's extent:
+    /// orientation selection then sees all four walls of a prismatic part from above, and
+    /// chooses axis-aligned setups where the paper's front-facing test (`n . v > 0`)
+    /// prefers oblique ones that see three faces each and terrace all of them. Default
+    /// true; false is the paper's test, on which the learning environment
+    /// ([`TrainOptions`](crate::TrainOptions)) and the shipped policy were trained.
+    pub flank_walls: bool,
+    /// Refuse a setup whose action would machine for longer than this, in hours, by an
+    /// upper estimate made before planning (every level cleared whole over the stock's
+    /// outline at the stepover, at the cutting feed): an action far too fine for its part
+    /// (a 4 µm end mill on 8 µm layers over a 100 mm block would write about 10^11 bytes of
+    /// G-code) stops at once with [`MillError::ActionTooLarge`] instead of writing for
+    /// days. Default 10,000 h (the shipped policy's bunny estimates at about 140 h).
+    pub max_estimated_hours: f64,
+}
+
+impl MillOptions {
+    /// The action space these options mill with, in planning units: the paper's scaled to
+    /// [`paper_scale_mm`](Self::paper_scale_mm), or the shop's, limited to
+    /// [`strategies`](Self::strategies).
+    pub fn action_space(&self) -> ActionSpace {
+        let mut space = match self.preset {
+            Preset::Paper => ActionSpace::paper().scaled(self.paper_scale_mm),
+            Preset::Shop => ActionSpace::shop(),
+        };
+        space.strategies.retain(|s| self.strategies.contains(s));
+        space
+    }
+}
+
+impl Default for MillOptions {
+    fn default() -> Self {
+        Self {
+            preset: Preset::Paper,
+            setups: SetupCount::Auto,
+            resolution: 256,
+            dialect: Dialect::LinuxCnc,
+            layout: ProgramLayout::PerSetup,
+            rotary_tilt_range_deg: [-180.0, 180.0],
+            orient_points: 16384,
+            orient_candidates: 512,
+            metric_samples: 8000,
+            seed: 0,
+            stock_margin: 0.02,
+            paper_scale_mm: 100.0,
+            strategies: StrategyKind::ALL.to_vec(),
+            residual_smoothing: 8,
+            carver: Carver::Exact,
+            contour: true,
+            roughing_depth_diameters: 1.0,
+            flank_walls: true,
+            max_estimated_hours: 10_000.0,
+        }
+    }
+}
+
+/// Everything [`mill`] can fail with.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MillError {
+    /// The mesh or a geometric step failed.
+    #[error(transparent)]
+    Geom(#[from] crate::geom::GeomError),
+    /// Orientation selection failed.
+    #[error("orientation selection: {0}")]
+    Orient(#[from] crate::orient::OrientError),
+    /// Planning a setup failed.
+    #[error("planning setup {setup}: {message}")]
+    Plan {
+        /// 1-based setup.
+        setup: usize,
+        /// What went wrong.
+        message: String,
+    },
+    /// Writing or re-reading a program failed.
+    #[error("program of setup {setup}: {message}")]
+    Program {
+        /// 1-based setup.
+        setup: usize,
+        /// What went wrong.
+        message: String,
+    },
+    /// The simulation failed.
+    #[error("simulation: {0}")]
+    Simulation(String),
+    /// An option is out of range.
+    #[error("invalid option: {0}")]
+    InvalidOption(String),
+    /// The part fills no voxel of the simulation grid: nothing to machine toward.
+    #[error(
+        "the mesh encloses no voxel of the {resolution}^3 grid (an open surface, or thinner than a voxel): there is no part to machine"
+    )]
+    NoVolume {
+        /// The grid's voxels along the stock's longest axis.
+        resolution: usize,
+    },
+    /// A setup's action would machine for longer than [`MillOptions::max_estimated_hours`].
+    #[error(
+        "setup {setup}: the action (tool radius {tool_radius}, layer height {layer_height}) would machine for up to {hours:.3e} h ({length_mm:.3e} mm of toolpath), beyond the limit of {limit_hours} h: choose a larger tool or layer height, or raise the limit"
+    )]
+    ActionTooLarge {
+        /// 1-based setup.
+        setup: usize,
+        /// The action's tool radius and layer height, planning units.
+        tool_radius: f64,
+        /// See `tool_radius`.
+        layer_height: f64,
+        /// The upper estimate of the toolpath's length and of its machining time.
+        length_mm: f64,
+        /// See `length_mm`.
+        hours: f64,
+        /// [`MillOptions::max_estimated_hours`].
+        limit_hours: f64,
+    },
+    /// The run passed its time limit ([`MillRun::time_limit`]); nothing it made is kept.
+    #[error("time limit of {limit_s} s reached while {stage}")]
+    TimeLimit {
+        /// What the run was doing.
+        stage: String,
+        /// The limit, seconds.
+        limit_s: f64,
+    },
+    /// The rotary layout's machine cannot tilt the part to a setup's tool axis.
+    #[error(
+        "setup {setup}: tool axis {tool_axis:?} needs a {letter} tilt of +/-{tilt_deg:.4} degrees, outside the machine's {letter} range {range_deg:?} (widen the tilt range or use the per-setup layout)"
+    )]
+    Unreachable {
+        /// 1-based setup.
+        setup: usize,
+        /// Its tool axis in the part frame.
+        tool_axis: [f64; 3],
+        /// The tilt axis: `'A'` or `'B'`.
+        letter: char,
+        /// The tilt it needs (either sign would do), in degrees.
+        tilt_deg: f64,
+        /// The machine's tilt range, in degrees.
+        range_deg: [f64; 2],
+    },
+}
+
+/// A stage of the pipeline, for progress reports and timings (seed 000 Table A1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Orientation selection.
+    Orientation,
+    /// Features and the policy's choice.
+    ActionSelection,
+    /// Planning and writing G-code of one setup (in the per-setup layout, parsed back and
+    /// simulated as it is written).
+    GcodeTranslation {
+        /// The setup, 1-based.
+        setup: usize,
+        /// Number of setups.
+        setups: usize,
+    },
+    /// Parsing one setup's program back and simulating it (in the per-setup layout, what
+    /// is left of it once the planner is done).
+    Simulation {
+        /// The setup, 1-based.
+        setup: usize,
+        /// Number of setups.
+        setups: usize,
+    },
+    /// Within a setup's planning and simulation (per-setup layout), every few thousand
+    /// moves simulated: how far the planner and the simulator have come.
+    Layers {
+        /// The setup, 1-based.
+        setup: usize,
+        /// Number of setups.
+        setups: usize,
+        /// Levels the planner has emitted (or found empty).
+        done: usize,
+        /// The setup's number of levels (0 until it is sliced).
+        levels: usize,
+        /// Moves parsed back and simulated.
+        moves: u64,
+    },
+    /// Metrics.
+    Scoring,
+}
+
+/// Seconds per stage.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StageSeconds {
+    /// Orientation selection.
+    pub orientation: f64,
+    /// Action selection (features + policy).
+    pub action_selection: f64,
+    /// Toolpath planning and G-code writing. In the per-setup layout the planner writes
+    /// each program while the simulator reads it, so this and `simulation` overlap: each
+    /// counts the time its side was busy (not waiting for the other), and the stages may
+    /// add up to more than the wall time.
+    pub gcode_translation: f64,
+    /// Parsing back and simulating.
+    pub simulation: f64,
+    /// Marching cubes and metrics.
+    pub scoring: f64,
+}
+
+/// One setup's program and what went into it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SetupProgram {
+    /// The setup (frame: program coordinates to part coordinates, in part units). In the
+    /// rotary layout this is the kinematic frame its rotary words realise
+    /// ([`rotary_frame`] of `rotary_deg`): the same tool axis as orientation selection's
+    /// setup, turned about it.
+    pub setup: Setup,
+    /// The action the policy chose.
+    pub action: Action,
+    /// The planner's summary.
+    pub plan: PlanSummary,
+    /// The G-code text: this setup's program, or in the rotary layout this setup's section
+    /// of the one program (from the safe retract before its rotation to the next
+    /// section; the first holds the header, the last the footer), so that the sections
+    /// joined are the program.
+    pub text: String,
+    /// Rotary layout: the angles `[A, B, C]` in degrees this setup's rotary words state
+    /// (the unused tilt letter is 0). `None` in the per-setup layout.
+    pub rotary_deg: Option<[f64; 3]>,
+    /// Lines of this setup's program (or section), whether or not its text is kept.
+    pub lines: u64,
+    /// Target voxels this setup's program (or section) removed.
+    pub gouge_voxels: u64,
+    /// Lines of this setup's program where a rapid move removed material (in the rotary
+    /// layout: lines of the one program, within this setup's section).
+    pub rapid_collision_lines: Vec<u64>,
+    /// The paper's preservation `R_s` (Eq. 10) after this setup: the fraction of the part's
+    /// voxels still there.
+    pub preservation: f64,
+}
+
+/// The outcome of [`mill`].
+#[derive(Debug, Clone)]
+pub struct Milled {
+    /// The preset the run used.
+    pub preset: Preset,
+    /// The policy's name.
+    pub policy: String,
+    /// The programs: one per setup, or one 3+2 program (then `programs.len() == 1`
+    /// and `setups` still lists every setup).
+    pub programs: Vec<String>,
+    /// Per setup: frame, action, plan summary (its text is in `programs`).
+    pub setups: Vec<SetupProgram>,
+    /// Orientation selection (coverage, baselines).
+    pub orientation: OrientationResult,
+    /// The simulator's report over all setups.
+    pub simulation: SimReport,
+    /// The paper's rewards (Eq. 10-13).
+    pub rewards: Rewards,
+    /// IoU, F1, Chamfer x1000 and normal consistency of the residual stock against
+    /// the part, both normalised into the unit cube.
+    pub metrics: ShapeMetrics,
+    /// The residual stock as a mesh, in part units (the input mesh's frame).
+    pub residual: Mesh,
+    /// The stock box, in part units.
+    pub stock: Aabb,
+    /// The first setup's toolpath in part units, for rendering.
+    pub trace: PathTrace,
+    /// The first setup's tool axis in the part frame.
+    pub trace_axis: Vector3,
+    /// Wall time per stage (not part of anything compared byte for byte).
+    pub stage_seconds: StageSeconds,
+}
+
+impl Milled {
+    /// Program lines, over all setups, where a rapid move removed material.
+    pub fn rapid_collisions(&self) -> usize {
+        self.setups.iter().map(|s| s.rapid_collision_lines.len()).sum()
+    }
+
+    /// The paper's total reward (Eq. 13) of the run with `weights`:
+    /// `λ_s Σ_s R_s + λ_f R_f + λ_MRR R_MRR`, one `R_s` per setup, `R_MRR` in cm³ of
+    /// material removed per minute of machining (the machined part's units).
+    pub fn total_reward(&self, weights: &RewardWeights) -> f64 {
+        weights.lambda_s * self.setups.iter().map(|s| s.preservation).sum::<f64>()
+            + weights.lambda_f * self.rewards.final_iou
+            + weights.lambda_mrr * self.simulation.mrr_mm3_per_min / 1000.0
+    }
+
+    /// Whether the programs are safe: no gouge into the part and no rapid through material.
+    pub fn is_safe(&self) -> bool {
+        self.simulation.gouge_voxels == 0 && self.rapid_collisions() == 0
+    }
+}

@@ -1,0 +1,154 @@
+//! What a setup is planned with: a policy's action mapped to a tool, feeds and plan
+//! options, and the features the policy sees.
+
+use super::api::{MillOptions, Preset};
+use super::run::stock_in_setup;
+use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
+use crate::policy::{Action, ActionSpace, SetupFeatures, StrategyKind};
+use crate::toolpath::{PlanOptions, Strategy, Tool, ToolKind};
+
+/// What one setup is planned with.
+#[derive(Clone)]
+pub(super) struct Job {
+    pub(super) setup: Setup,
+    pub(super) action: Action,
+    pub(super) tool: Tool,
+    pub(super) popts: PlanOptions,
+}
+
+impl Job {
+    #[allow(clippy::too_many_arguments)] // Private: the run's constants, passed once per setup.
+    pub(super) fn new(
+        setup: &Setup,
+        action: &Action,
+        number: u32,
+        stock: &Aabb,
+        diag: f64,
+        feed: f64,
+        rapid: f64,
+        clearance: f64,
+        opts: &MillOptions,
+    ) -> Self {
+        let tool = Tool {
+            radius: action.tool_radius,
+            kind: ToolKind::Flat,
+            flute_length: diag,
+            feed,
+            plunge_feed: feed / 3.0,
+            spindle_rpm: 12000.0,
+            number,
+        };
+        let popts = PlanOptions {
+            layer_height: action.layer_height,
+            strategy: match action.strategy {
+                StrategyKind::Zigzag => Strategy::Zigzag { angle_deg: 0.0 },
+                StrategyKind::Periphery => Strategy::Periphery,
+                StrategyKind::Spiral => Strategy::Spiral,
+            },
+            contour: opts.contour,
+            roughing_depth: (opts.roughing_depth_diameters > 0.0)
+                .then(|| opts.roughing_depth_diameters * tool.diameter()),
+            clearance_height: clearance,
+            stock: Some(stock_in_setup(stock, setup)),
+            rapid_feed: rapid,
+            ..PlanOptions::default()
+        };
+        Self { setup: *setup, action: *action, tool, popts }
+    }
+
+    /// An upper estimate of the setup's toolpath length and machining time (hours): every
+    /// level cleared whole over the stock's outline at the stepover, at the cutting feed.
+    pub(super) fn estimate(&self) -> (f64, f64) {
+        let stock = self.popts.stock.unwrap_or_else(Aabb::empty).extent();
+        let depth = stock.z.min(self.tool.flute_length);
+        let levels = (depth / self.popts.layer_height).ceil().max(1.0);
+        let stepover = self.popts.stepover * self.tool.diameter();
+        let length =
+            levels * (stock.x + 2.0 * self.tool.radius) * (stock.y + 2.0 * self.tool.radius) / stepover;
+        (length, length / self.tool.feed / 60.0)
+    }
+}
+
+/// Feed and rapid rates (per minute, in planning units) of a preset.
+pub(super) fn feeds(_preset: Preset) -> (f64, f64) {
+    // Both presets plan in millimetres: 600 mm/min cutting, 5000 mm/min rapids.
+    (600.0, 5000.0)
+}
+
+/// Tool numbers follow the action space's radii: T1 is the smallest.
+/// Features of one setup: for each radius, the fraction of the surface samples visible
+/// from the setup that a ball of that radius touches without entering the part.
+pub(super) fn setup_features(
+    index: &MeshIndex,
+    samples: &crate::geom::SurfaceSamples,
+    setup: &Setup,
+    space: &ActionSpace,
+    diag: f64,
+    stock: &Aabb,
+    voxel: f64,
+) -> SetupFeatures {
+    use rayon::prelude::*;
+    let axis = setup.tool_axis().into_inner();
+    let eps = 1e-6 * diag;
+    let visible: Vec<(Point3, Vector3)> = samples
+        .points
+        .par_iter()
+        .zip(samples.normals.par_iter())
+        .filter(|(p, n)| n.dot(&axis) > 0.0 && !index.ray_hits_any(&(*p + *n * eps), &axis, diag))
+        .map(|(p, n)| (*p, *n))
+        .collect();
+    // Per radius: at how many visible samples the ball touching there (centre one radius
+    // out along the normal) is clear of the part, all but 2 % of its radius; and all but
+    // half a voxel, if that is more.
+    let (reach_by_radius, reach_at_resolution) = space
+        .radii
+        .iter()
+        .map(|&r| {
+            if visible.is_empty() {
+                return (0.0, 0.0);
+            }
+            let (clear, within_voxel) = visible
+                .par_iter()
+                .map(|(p, n)| {
+                    let d = index.signed_distance(&(*p + *n * r));
+                    (usize::from(d >= r * 0.98), usize::from(d >= r - (0.02 * r).max(0.5 * voxel)))
+                })
+                .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+            let n = visible.len() as f64;
+            (clear as f64 / n, within_voxel as f64 / n)
+        })
+        .unzip();
+    // The stock's extent along the tool axis: its top and bottom.
+    let zs: Vec<f64> = stock.corners().iter().map(|c| c.coords.dot(&axis)).collect();
+    let top = zs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let depth = top - zs.iter().copied().fold(f64::INFINITY, f64::min);
+    let bins = SetupFeatures::DEPTH_BINS;
+    let mut depth_histogram = vec![0.0; bins];
+    if !visible.is_empty() && depth > 0.0 {
+        for (p, _) in &visible {
+            let h = ((top - p.coords.dot(&axis)) / depth).clamp(0.0, 1.0);
+            depth_histogram[((h * bins as f64) as usize).min(bins - 1)] += 1.0;
+        }
+        depth_histogram.iter_mut().for_each(|b| *b /= visible.len() as f64);
+    }
+    let scale = 1.0 / stock.extent().max().max(f64::MIN_POSITIVE);
+    let step = visible.len().div_ceil(SetupFeatures::MAX_POINTS).max(1);
+    let points = visible
+        .iter()
+        .step_by(step)
+        .map(|(p, _)| {
+            let q = setup.to_setup(p);
+            [(q.x * scale) as f32, (q.y * scale) as f32, (q.z * scale) as f32]
+        })
+        .collect();
+    SetupFeatures {
+        reach_by_radius,
+        reach_at_resolution,
+        depth,
+        removal_fraction: 0.0,
+        voxel,
+        visible_fraction: visible.len() as f64 / samples.points.len().max(1) as f64,
+        depth_histogram,
+        points,
+    }
+}

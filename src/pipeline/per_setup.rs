@@ -1,0 +1,260 @@
+//! The per-setup layout: each setup planned, written, parsed back and simulated as its own
+//! 3-axis program; the sink that feeds the simulator and records the path.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::api::{MillError, SetupProgram, Stage, StageSeconds};
+use super::job::Job;
+use super::pipe::chunk_channel;
+use crate::gcode::{Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, WriterOptions, parse_reader};
+use crate::geom::{Mesh, Point3, Setup, VoxelGrid};
+use crate::toolpath::{PlanProgress, VoxelMaterial, plan_setup_watched};
+use crate::trace::PathTrace;
+use crate::voxsim::Simulator;
+
+/// What both layouts share.
+pub(super) struct Ctx<'a> {
+    pub(super) part: &'a Mesh,
+    /// The part's voxels on the simulation grid.
+    pub(super) target: &'a VoxelGrid,
+    pub(super) jobs: &'a [Job],
+    pub(super) sim: &'a RefCell<Simulator>,
+    /// Number of setups of the run (`jobs` may hold only those chosen so far).
+    pub(super) setups: usize,
+    pub(super) dialect: Dialect,
+    pub(super) wopts: &'a WriterOptions,
+    /// Keep the per-setup programs' text ([`MillRun::keep_programs`]).
+    pub(super) keep_programs: bool,
+    /// Where the per-setup programs are written ([`MillRun::stream_programs`]).
+    pub(super) outputs: Option<&'a ProgramOutputs>,
+    /// When the run must have finished, and its limit in seconds.
+    pub(super) deadline: Option<(Instant, f64)>,
+}
+
+/// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
+pub(super) type ProgramOutputs =
+    Arc<dyn Fn(usize) -> std::io::Result<Box<dyn std::io::Write + Send>> + Send + Sync>;
+
+impl Ctx<'_> {
+    /// The material still to cut: the simulated stock less the part. The part is never
+    /// cut, so counting it as material would make later setups trace the finished walls
+    /// again in air (rest machining skips what is gone, not what must stay).
+    pub(super) fn excess(&self) -> Result<VoxelGrid, MillError> {
+        let mut g = self.sim.borrow_mut().residual_grid();
+        g.andnot(self.target).map_err(|e| MillError::Simulation(e.to_string()))?;
+        Ok(g)
+    }
+}
+
+pub(super) fn sim_error(e: crate::voxsim::SimError) -> MillError {
+    MillError::Simulation(e.to_string())
+}
+
+/// Setup `i` as its own 3-axis program: plans it against `remaining`, writes it, parses the
+/// text back into the simulator. Returns the setup's program and the material left after it.
+pub(super) fn machine_setup(
+    ctx: &Ctx<'_>,
+    i: usize,
+    remaining: &VoxelGrid,
+    trace: Option<&mut PathTrace>,
+    times: &mut StageSeconds,
+    progress: &mut dyn FnMut(Stage),
+) -> Result<(SetupProgram, VoxelGrid), MillError> {
+    let job = &ctx.jobs[i];
+    let setups = ctx.setups;
+    progress(Stage::GcodeTranslation { setup: i + 1, setups });
+    let t = Instant::now();
+    // The simulator was flushed at the end of the previous setup: its counts so far
+    // belong to earlier programs.
+    let (gouges_before, rapids_before) = {
+        let sim = ctx.sim.borrow();
+        let r = sim.report();
+        (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>())
+    };
+    let mut tee = Tee::new(ctx.sim, trace);
+    // A 3-axis program per setup: the fixture rotation is in its header comment,
+    // so the simulator is told the frame here.
+    tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
+    // The planner writes the program on its own thread while this one parses it back
+    // and simulates it, chunk by chunk: planning and simulation overlap, and the text is
+    // held whole only when it is kept.
+    let (part, dialect, wopts, keep) = (ctx.part, ctx.dialect, ctx.wopts.clone(), ctx.keep_programs);
+    let copy = match ctx.outputs {
+        Some(open) => Some(open(i).map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?),
+        None => None,
+    };
+    let watch = PlanProgress::default();
+    let mut tee = tee.watching(&mut *progress, &watch, i + 1, setups);
+    let (planned, parsed, waited) = std::thread::scope(|scope| {
+        let (mut out, mut reader) = chunk_channel(keep);
+        out.copy = copy;
+        reader.deadline = ctx.deadline.map(|(at, _)| at);
+        let watch = &watch;
+        let planner = scope.spawn(move || {
+            let t = Instant::now();
+            let rest = VoxelMaterial::new(remaining, job.setup);
+            let mut writer = GcodeWriter::new(out, dialect, wopts);
+            let plan =
+                plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
+                    .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() });
+            plan.and_then(|plan| {
+                writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+                let (text, blocked) = writer
+                    .into_inner()
+                    .finish()
+                    .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+                Ok((plan, text, t.elapsed().saturating_sub(blocked)))
+            })
+        });
+        let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
+        if parsed.is_ok() {
+            // The parser stops at the program end; the writer may still send what follows.
+            while reader.rx.recv().is_ok() {}
+        }
+        let waited = reader.waited;
+        // Hanging up stops a planner whose program is no longer read, and cancelling
+        // stops one that is still planning a batch of layers.
+        drop(reader);
+        watch.cancel();
+        let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (planned, parsed, waited)
+    });
+    if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
+        && Instant::now() >= at
+    {
+        return Err(MillError::TimeLimit {
+            stage: format!("planning and simulating setup {} of {setups}", i + 1),
+            limit_s,
+        });
+    }
+    let (plan, text, planning) = match (planned, &parsed) {
+        (Ok(done), _) => done,
+        // A parser that stopped hung up on the planner: its error is the cause.
+        (Err(_), Err(e)) => {
+            return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") });
+        }
+        (Err(e), Ok(_)) => return Err(e),
+    };
+    let text =
+        String::from_utf8(text).map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+    // Planning ran beside the simulation: each stage counts the time its side was busy.
+    times.gcode_translation += planning.as_secs_f64();
+    progress(Stage::Simulation { setup: i + 1, setups });
+    let summary = parsed
+        .map_err(|e| MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") })?;
+    if let Some(err) = summary.errors.first() {
+        return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {err}") });
+    }
+    // Flushes the simulator, so its report is complete for this setup.
+    let remaining = ctx.excess()?;
+    let sim = ctx.sim.borrow();
+    let report = sim.report();
+    let gouge_voxels = report.gouge_voxels - gouges_before;
+    // The simulator keeps one set of lines over all programs; this setup's are the new
+    // ones (a line number that already collided in an earlier program is not repeated).
+    let rapid_collision_lines =
+        report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
+    times.simulation += t.elapsed().saturating_sub(waited).as_secs_f64();
+    let program = SetupProgram {
+        setup: job.setup,
+        action: job.action,
+        plan,
+        text,
+        rotary_deg: None,
+        lines: summary.lines,
+        gouge_voxels,
+        rapid_collision_lines,
+        preservation: 1.0,
+    };
+    Ok((program, remaining))
+}
+
+/// Forwards motions to the simulator and records the first setup's path in part units.
+pub(super) struct Tee<'a> {
+    pub(super) sim: &'a RefCell<Simulator>,
+    pub(super) trace: Option<&'a mut PathTrace>,
+    /// The current frame and how many setups have begun.
+    pub(super) frame: Setup,
+    pub(super) setups: usize,
+    /// The last point, in the part frame and the program's (setup) frame.
+    pub(super) last: Option<(Point3, Point3)>,
+    /// Where to report [`Stage::Layers`] ([`Tee::watching`]).
+    pub(super) watch: Option<Watch<'a>>,
+}
+
+/// What a [`Tee`] reports progress with.
+pub(super) struct Watch<'a> {
+    pub(super) progress: &'a mut dyn FnMut(Stage),
+    pub(super) planner: &'a PlanProgress,
+    pub(super) setup: usize,
+    pub(super) setups: usize,
+    pub(super) moves: u64,
+}
+
+impl<'a> Tee<'a> {
+    pub(super) fn new(sim: &'a RefCell<Simulator>, trace: Option<&'a mut PathTrace>) -> Self {
+        Self { sim, trace, frame: Setup::top(), setups: 0, last: None, watch: None }
+    }
+
+    /// Reports [`Stage::Layers`] of setup `setup` (1-based) of `setups` to `progress`
+    /// every few thousand moves, with the levels `planner` has emitted.
+    pub(super) fn watching<'b>(
+        self,
+        progress: &'b mut dyn FnMut(Stage),
+        planner: &'b PlanProgress,
+        setup: usize,
+        setups: usize,
+    ) -> Tee<'b>
+    where
+        'a: 'b,
+    {
+        Tee {
+            sim: self.sim,
+            trace: self.trace,
+            frame: self.frame,
+            setups: self.setups,
+            last: self.last,
+            watch: Some(Watch { progress, planner, setup, setups, moves: 0 }),
+        }
+    }
+}
+
+impl MotionSink for Tee<'_> {
+    type Error = crate::voxsim::SimError;
+    fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
+        if let Motion::Setup { frame, .. } = m {
+            self.frame = Setup { frame: *frame };
+            self.setups += 1;
+            self.last = None;
+        } else if let (Some(trace), Some(at), 1) = (self.trace.as_deref_mut(), m.end_point(), self.setups) {
+            let to = self.frame.to_part(&at);
+            if let Some((from, was)) = self.last {
+                // Program coordinates of one level are written alike.
+                trace.push(from, to, !matches!(m, Motion::Rapid { .. }), [was.z, at.z], 1e-9);
+            }
+            self.last = Some((to, at));
+        }
+        if let Some(w) = &mut self.watch {
+            w.moves += 1;
+            if w.moves % (1 << 14) == 0 {
+                let (done, levels) = w.planner.levels();
+                (w.progress)(Stage::Layers {
+                    setup: w.setup,
+                    setups: w.setups,
+                    done,
+                    levels,
+                    moves: w.moves,
+                });
+            }
+        }
+        self.sim.borrow_mut().motion(m)
+    }
+    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
+        self.sim.borrow_mut().source_line(line)
+    }
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        self.sim.borrow_mut().finish()
+    }
+}

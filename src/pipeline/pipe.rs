@@ -1,0 +1,186 @@
+//! The writer-to-parser pipe: a bounded channel of text chunks between the planner's thread
+//! and the parser, so no setup's program is ever held whole.
+
+use super::rotary::read_from_buffer;
+use std::io::{BufRead, Read, Write};
+use std::time::Instant;
+
+/// Bytes per chunk of [`chunk_channel`], and chunks in flight.
+pub(super) const CHUNK_BYTES: usize = 1 << 18;
+pub(super) const CHUNKS_IN_FLIGHT: usize = 8;
+
+/// A bounded byte stream from a writer on one thread to a [`BufRead`] on another, in
+/// chunks of [`CHUNK_BYTES`], at most [`CHUNKS_IN_FLIGHT`] of them waiting: memory stays
+/// bounded whatever the program's size. With `keep`, the writer also keeps every byte
+/// and [`ChunkWriter::finish`] returns them.
+pub(super) fn chunk_channel(keep: bool) -> (ChunkWriter, ChunkReader) {
+    let (tx, rx) = std::sync::mpsc::sync_channel(CHUNKS_IN_FLIGHT);
+    let writer = ChunkWriter {
+        buf: Vec::with_capacity(CHUNK_BYTES),
+        tx,
+        kept: keep.then(Vec::new),
+        copy: None,
+        blocked: std::time::Duration::ZERO,
+    };
+    (writer, ChunkReader { rx, chunk: Vec::new(), pos: 0, waited: std::time::Duration::ZERO, deadline: None })
+}
+
+/// The writing end of [`chunk_channel`]. A write fails once the reader has hung up.
+pub(super) struct ChunkWriter {
+    pub(super) buf: Vec<u8>,
+    pub(super) tx: std::sync::mpsc::SyncSender<Vec<u8>>,
+    pub(super) kept: Option<Vec<u8>>,
+    /// Where every byte is also written.
+    pub(super) copy: Option<Box<dyn std::io::Write + Send>>,
+    /// Time spent waiting for the reader.
+    pub(super) blocked: std::time::Duration,
+}
+
+impl ChunkWriter {
+    pub(super) fn send(&mut self) -> std::io::Result<()> {
+        if self.buf.is_empty() {
+            return Ok(());
+        }
+        let chunk = std::mem::replace(&mut self.buf, Vec::with_capacity(CHUNK_BYTES));
+        if let Some(kept) = &mut self.kept {
+            kept.extend_from_slice(&chunk);
+        }
+        if let Some(copy) = &mut self.copy {
+            copy.write_all(&chunk)?;
+        }
+        let t = Instant::now();
+        let sent = self.tx.send(chunk);
+        self.blocked += t.elapsed();
+        sent.map_err(|_| std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the program's reader stopped"))
+    }
+
+    /// Sends what is buffered and closes the stream; returns the kept bytes (empty
+    /// without `keep`) and the time spent waiting for the reader.
+    pub(super) fn finish(mut self) -> std::io::Result<(Vec<u8>, std::time::Duration)> {
+        self.send()?;
+        if let Some(copy) = &mut self.copy {
+            copy.flush()?;
+        }
+        Ok((self.kept.take().unwrap_or_default(), self.blocked))
+    }
+}
+
+impl std::io::Write for ChunkWriter {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(bytes);
+        if self.buf.len() >= CHUNK_BYTES {
+            self.send()?;
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.send()
+    }
+}
+
+/// The reading end of [`chunk_channel`]: ends when the writer is dropped.
+pub(super) struct ChunkReader {
+    pub(super) rx: std::sync::mpsc::Receiver<Vec<u8>>,
+    pub(super) chunk: Vec<u8>,
+    pub(super) pos: usize,
+    /// Time spent waiting for the writer.
+    pub(super) waited: std::time::Duration,
+    /// Reading fails with [`std::io::ErrorKind::TimedOut`] from this time on.
+    pub(super) deadline: Option<Instant>,
+}
+
+impl Read for ChunkReader {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        read_from_buffer(self, buf)
+    }
+}
+
+impl BufRead for ChunkReader {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        while self.pos == self.chunk.len() {
+            let t = Instant::now();
+            let next = match self.deadline {
+                Some(at) => loop {
+                    if Instant::now() >= at {
+                        return Err(std::io::Error::new(
+                            std::io::ErrorKind::TimedOut,
+                            "the time limit passed",
+                        ));
+                    }
+                    match self.rx.recv_timeout(std::time::Duration::from_millis(100)) {
+                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                        Ok(chunk) => break Ok(chunk),
+                        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => break Err(()),
+                    }
+                },
+                None => self.rx.recv().map_err(|_| ()),
+            };
+            self.waited += t.elapsed();
+            match next {
+                Ok(chunk) => (self.chunk, self.pos) = (chunk, 0),
+                // The writer is gone: the end of the program.
+                Err(()) => return Ok(&[]),
+            }
+        }
+        Ok(&self.chunk[self.pos..])
+    }
+
+    fn consume(&mut self, n: usize) {
+        self.pos = (self.pos + n).min(self.chunk.len());
+    }
+}
+#[cfg(test)]
+mod tests {
+    use std::io::{BufRead, Read, Write};
+
+    use super::{CHUNK_BYTES, CHUNKS_IN_FLIGHT, chunk_channel};
+
+    /// Bytes written on one thread arrive in order on the other, across many chunks, and
+    /// the kept copy is the same bytes.
+    #[test]
+    fn a_chunk_channel_delivers_every_byte_in_order() {
+        let data: Vec<u8> = (0..3 * CHUNK_BYTES + 12_345).map(|i| (i * 7 % 251) as u8).collect();
+        let (mut w, mut r) = chunk_channel(true);
+        let (kept, read) = std::thread::scope(|s| {
+            let writer = s.spawn(|| {
+                for piece in data.chunks(1000) {
+                    w.write_all(piece).unwrap();
+                }
+                w.finish().unwrap().0
+            });
+            let mut read = Vec::new();
+            r.read_to_end(&mut read).unwrap();
+            (writer.join().unwrap(), read)
+        });
+        assert_eq!(read.len(), data.len());
+        assert!(read == data, "bytes differ");
+        assert!(kept == data, "kept bytes differ");
+        assert!(r.fill_buf().unwrap().is_empty(), "the stream ended");
+    }
+
+    /// Without `keep` nothing is kept; a writer dropped part way ends the stream there.
+    #[test]
+    fn a_dropped_writer_ends_the_stream() {
+        let (mut w, mut r) = chunk_channel(false);
+        w.write_all(b"G0 X1\n").unwrap();
+        w.flush().unwrap();
+        drop(w);
+        let mut text = String::new();
+        r.read_to_string(&mut text).unwrap();
+        assert_eq!(text, "G0 X1\n");
+        let (w, _r) = chunk_channel(false);
+        assert!(w.finish().unwrap().0.is_empty());
+    }
+
+    /// A reader that hangs up makes the writer fail instead of blocking for ever.
+    #[test]
+    fn a_writer_fails_once_the_reader_hangs_up() {
+        let (mut w, r) = chunk_channel(false);
+        drop(r);
+        let piece = vec![b'x'; CHUNK_BYTES];
+        let failed = (0..=CHUNKS_IN_FLIGHT).find_map(|_| w.write_all(&piece).err());
+        let e = failed.expect("writing into a closed stream failed");
+        assert_eq!(e.kind(), std::io::ErrorKind::BrokenPipe);
+    }
+}

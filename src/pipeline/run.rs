@@ -1,0 +1,559 @@
+//! [`MillRun`]: the run one setup at a time, from the mesh to the scored result.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::api::{
+    MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
+};
+use super::job::{Job, feeds, setup_features};
+use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
+use super::rotary::{Placement, mill_rotary};
+use crate::gcode::{Dialect, FooterRetract, WriterOptions};
+use crate::geom::{
+    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Setup, TAUBIN_LAMBDA, TAUBIN_MU,
+    Vector3, VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth,
+    unit_cube_normalization, voxelize,
+};
+use crate::orient::{OrientOptions, OrientationResult, select_orientations};
+use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
+use crate::trace::PathTrace;
+use crate::voxsim::{Cutter, RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
+
+/// A milling run one setup at a time: what [`mill`](super::mill) does, opened up so that a caller (the
+/// learning environment, an interactive tool) picks each setup's [`Action`] after seeing
+/// what the earlier setups left.
+///
+/// [`MillRun::new`] normalises the part, selects the orientations and prepares the
+/// simulator; then, while [`next_setup`](Self::next_setup) is `Some`, read
+/// [`features`](Self::features) and [`machine`](Self::machine) an action; then
+/// [`finish`](Self::finish) scores the result. In the per-setup layout `machine` plans,
+/// writes, parses back and simulates the setup at once, so [`rewards`](Self::rewards) is
+/// up to date after each setup. The rotary layout's one program is parsed in one pass, so
+/// its setups are cut in `finish`, and until then `rewards` and the features' removal
+/// fraction describe the uncut stock.
+///
+/// A run is `Clone`: a copy continues independently from the same state (the learning
+/// environment keeps copies at the action prefixes it has simulated).
+#[derive(Clone)]
+pub struct MillRun {
+    opts: MillOptions,
+    /// The input mesh in the unit cube, for scoring.
+    unit_part: Mesh,
+    unit: Normalization,
+    /// The part in planning units.
+    part: Mesh,
+    space: ActionSpace,
+    /// The radius of each tool the simulator knows, tool `i + 1` at `i`: the action
+    /// space's radii, then those of actions outside it, in the order first used.
+    tool_radii: Vec<f64>,
+    stock: Aabb,
+    to_input: Normalization,
+    orientation: OrientationResult,
+    placements: Option<Vec<Placement>>,
+    /// The geometric features of each setup (the removal fraction is filled in later).
+    features: Vec<SetupFeatures>,
+    target: VoxelGrid,
+    sim: RefCell<Simulator>,
+    jobs: Vec<Job>,
+    setups: Vec<SetupProgram>,
+    /// The material still to cut after the setups machined so far.
+    remaining: VoxelGrid,
+    trace: PathTrace,
+    times: StageSeconds,
+    wopts: WriterOptions,
+    /// Whether the per-setup programs' text and trace are kept (see
+    /// [`keep_programs`](Self::keep_programs)).
+    keep_programs: bool,
+    /// Whether the first setup's toolpath is kept for rendering ([`Self::keep_trace`]).
+    keep_trace: bool,
+    /// Where each per-setup program is written as it is made ([`Self::stream_programs`]).
+    outputs: Option<ProgramOutputs>,
+    /// When the run must have finished, and its limit ([`Self::time_limit`]).
+    deadline: Option<(Instant, f64)>,
+    diag: f64,
+    feed: f64,
+    rapid: f64,
+    clearance: f64,
+}
+
+impl MillRun {
+    /// Loads `mesh` into a run: checks the options, normalises the part, selects the
+    /// setups (stage [`Stage::Orientation`]), computes every setup's features (stage
+    /// [`Stage::ActionSelection`]) and prepares the simulation grid and the part's voxels.
+    pub fn new(mesh: &Mesh, opts: &MillOptions, progress: &mut dyn FnMut(Stage)) -> Result<Self, MillError> {
+        if opts.resolution < 8 || opts.resolution > 2048 {
+            return Err(MillError::InvalidOption(format!(
+                "resolution must be 8..=2048, got {}",
+                opts.resolution
+            )));
+        }
+        if mesh.is_empty() {
+            return Err(crate::geom::GeomError::EmptyMesh.into());
+        }
+        let d = opts.roughing_depth_diameters;
+        if !(d.is_finite() && d >= 0.0) {
+            return Err(MillError::InvalidOption(format!(
+                "roughing depth must be finite and >= 0 diameters, got {d}"
+            )));
+        }
+        if let ProgramLayout::Rotary(_) = opts.layout {
+            if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
+                return Err(MillError::InvalidOption(format!(
+                    "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
+                    opts.dialect
+                )));
+            }
+            let [lo, hi] = opts.rotary_tilt_range_deg;
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(MillError::InvalidOption(format!(
+                    "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
+                )));
+            }
+        }
+        let mut times = StageSeconds::default();
+        let decimals = 4;
+
+        // Units: the paper plans in the unit cube; the shop in part units. `to_input`
+        // maps planning units back to the input mesh's units.
+        let unit: Normalization = unit_cube_normalization(mesh)?;
+        let (part, stock, to_input) = match opts.preset {
+            Preset::Paper => {
+                let k = opts.paper_scale_mm;
+                if !(k.is_finite() && k > 0.0) {
+                    return Err(MillError::InvalidOption(format!(
+                        "paper_scale_mm must be positive, got {k}"
+                    )));
+                }
+                let norm = Normalization { scale: unit.scale * k, translation: unit.translation * k };
+                let part = mesh.transformed(&norm.as_similarity());
+                let half = 0.5 * k;
+                let stock = Aabb::new(Point3::new(-half, -half, -half), Point3::new(half, half, half));
+                (part, stock, norm)
+            }
+            Preset::Shop => {
+                let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
+                let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
+                (mesh.clone(), bbox.inflated(margin), Normalization::identity())
+            }
+        };
+        let space = opts.action_space();
+        if space.strategies.is_empty() {
+            return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
+        }
+
+        // Orientation selection.
+        progress(Stage::Orientation);
+        let t = Instant::now();
+        let mut oopts = OrientOptions {
+            points: opts.orient_points,
+            candidates: opts.orient_candidates,
+            seed: opts.seed,
+            // A wall overhanging by less than half a voxel over the stock hides nothing the
+            // grid can show.
+            min_cos: if opts.flank_walls { -0.5 / opts.resolution as f64 } else { 0.0 },
+            ..OrientOptions::default()
+        };
+        if let SetupCount::Exactly(n) = opts.setups {
+            oopts.max_setups = n.max(1);
+            oopts.coverage_target = 1.0;
+        }
+        // What does not depend on the setups (the part's voxels on the simulation grid, its
+        // index and the samples the features read) is computed beside the orientation
+        // search, whose serial steps leave a core idle.
+        let spec = GridSpec::cubic(&stock, opts.resolution)?;
+        let (orientation, (target, index, samples, beside)) = rayon::join(
+            || select_orientations(&part, &oopts),
+            || {
+                let t = Instant::now();
+                let target = voxelize(&part, &spec);
+                let voxelized = t.elapsed();
+                let index = MeshIndex::new(&part);
+                let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed);
+                (target, index, samples, [voxelized, t.elapsed() - voxelized])
+            },
+        );
+        let orientation = orientation?;
+        let (target, index, samples) = (target?, index?, samples?);
+        // Every setup would cut the whole stock away, and the scores have no part to compare.
+        if target.count() == 0 {
+            return Err(MillError::NoVolume { resolution: opts.resolution });
+        }
+        // The rotary layout fails here, before any planning, on a setup its machine cannot reach.
+        let placements = match opts.layout {
+            ProgramLayout::PerSetup => None,
+            ProgramLayout::Rotary(axes) => Some(
+                orientation
+                    .setups
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| Placement::new(axes, s, opts.rotary_tilt_range_deg, decimals, i))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+        };
+        times.orientation = t.elapsed().as_secs_f64();
+
+        // What the policy will look at.
+        progress(Stage::ActionSelection);
+        let t = Instant::now();
+        let diag = stock.extent().norm();
+        let voxel = stock.extent().max() / opts.resolution as f64;
+        let features = orientation
+            .setups
+            .iter()
+            .map(|setup| setup_features(&index, &samples, setup, &space, diag, &stock, voxel))
+            .collect();
+        times.action_selection = (t.elapsed() + beside[1]).as_secs_f64();
+
+        // The simulator knows every tool of the action space: T1 is the smallest radius.
+        let (feed, rapid) = feeds(opts.preset);
+        let t = Instant::now();
+        let mut tools = ToolTable::single(Cutter::flat(space.radii.first().copied().unwrap_or(1.0), diag));
+        for (i, &r) in space.radii.iter().enumerate() {
+            tools = tools.with(i as u32 + 1, Cutter::flat(r, diag));
+        }
+        let sim_opts =
+            SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
+        let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
+            .map_err(sim_error)?
+            .with_target(&target)
+            .map_err(sim_error)?;
+        let mut remaining = sim.residual_grid();
+        remaining.andnot(&target).map_err(|e| MillError::Simulation(e.to_string()))?;
+        times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
+
+        Ok(Self {
+            opts: opts.clone(),
+            unit_part: mesh.transformed(&unit.as_similarity()),
+            unit,
+            part,
+            tool_radii: space.radii.clone(),
+            space,
+            stock,
+            to_input,
+            orientation,
+            placements,
+            features,
+            target,
+            sim: RefCell::new(sim),
+            jobs: Vec::new(),
+            setups: Vec::new(),
+            remaining,
+            trace: PathTrace::default(),
+            times,
+            // Every program ends with the planner's retract to the clearance plane. No
+            // `G53 G0 Z0` after it: the program sets no work offset, so a reader (the
+            // simulator, `rs274`) takes machine Z0 for work Z0, and where the last pass ends
+            // over the part that is a rapid plunge into it.
+            wopts: WriterOptions { decimals, retract: FooterRetract::None, ..WriterOptions::default() },
+            keep_programs: true,
+            keep_trace: true,
+            outputs: None,
+            deadline: None,
+            diag,
+            feed,
+            rapid,
+            // Appendix A.1: start 0.1 (of the normalised part) above the top.
+            clearance: 0.1 * stock.extent().max(),
+        })
+    }
+
+    /// What both layouts' machining reads.
+    fn ctx(&self) -> Ctx<'_> {
+        Ctx {
+            part: &self.part,
+            target: &self.target,
+            jobs: &self.jobs,
+            sim: &self.sim,
+            setups: self.orientation.setups.len(),
+            dialect: self.opts.dialect,
+            wopts: &self.wopts,
+            keep_programs: self.keep_programs,
+            outputs: self.outputs.as_ref(),
+            deadline: self.deadline,
+        }
+    }
+
+    /// Stops the run with [`MillError::TimeLimit`] once `limit` has passed since `started`:
+    /// before each setup, within a setup's planning and simulation (the planner stops
+    /// before its next layer), and before scoring.
+    pub fn time_limit(&mut self, started: Instant, limit: std::time::Duration) {
+        self.deadline = Some((started + limit, limit.as_secs_f64()));
+    }
+
+    fn check_deadline(&self, stage: impl FnOnce() -> String) -> Result<(), MillError> {
+        match self.deadline {
+            Some((at, limit_s)) if Instant::now() >= at => {
+                Err(MillError::TimeLimit { stage: stage(), limit_s })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Whether the per-setup programs are kept (the default): their text in
+    /// [`SetupProgram::text`] and [`Milled::programs`], the first setup's toolpath in
+    /// [`Milled::trace`] for the rendering. A caller that only wants the simulated outcome
+    /// (the learning environment) turns it off: each program is then streamed from the
+    /// planner to the parser and simulator and never held whole, which matters for the
+    /// finest actions (a 0.1 mm tool clearing rings on 1/512 layers writes over a gigabyte
+    /// and tens of millions of moves for one setup). The rotary layout always keeps its
+    /// program.
+    pub fn keep_programs(&mut self, keep: bool) {
+        self.keep_programs = keep;
+        self.keep_trace = keep;
+    }
+
+    /// Whether the first setup's toolpath is kept in [`Milled::trace`] for the rendering
+    /// (default: as [`keep_programs`](Self::keep_programs)). The trace keeps one level in
+    /// two, four, ... as needed to stay within [`PathTrace::CAPACITY`] segments.
+    pub fn keep_trace(&mut self, keep: bool) {
+        self.keep_trace = keep;
+    }
+
+    /// Writes each per-setup program into `open(setup)` (setup counted from 0) as it is
+    /// planned, instead of keeping its text ([`keep_programs`](Self::keep_programs) is
+    /// turned off): memory then stays bounded by the simulation grid whatever the
+    /// program's size. A writer that fails stops the run with [`MillError::Program`]; the
+    /// caller decides what becomes of what was written (the CLI writes to temporary files
+    /// and renames them only when the whole run succeeds). The rotary layout's one
+    /// program is always kept whole, as before.
+    pub fn stream_programs(
+        &mut self,
+        open: impl Fn(usize) -> std::io::Result<Box<dyn std::io::Write + Send>> + Send + Sync + 'static,
+    ) {
+        let keep_trace = self.keep_trace;
+        self.keep_programs(false);
+        self.keep_trace = keep_trace;
+        self.outputs = Some(Arc::new(open));
+    }
+
+    /// The action space, in planning units.
+    pub fn space(&self) -> &ActionSpace {
+        &self.space
+    }
+
+    /// Orientation selection's result: the setups in machining order.
+    pub fn orientation(&self) -> &OrientationResult {
+        &self.orientation
+    }
+
+    /// Number of setups.
+    pub fn setup_count(&self) -> usize {
+        self.orientation.setups.len()
+    }
+
+    /// The 0-based setup [`machine`](Self::machine) cuts next; `None` once every setup has
+    /// its action.
+    pub fn next_setup(&self) -> Option<usize> {
+        let i = self.jobs.len();
+        (i < self.setup_count()).then_some(i)
+    }
+
+    /// The features of the next setup (those of the last one once all are machined), with
+    /// the removal fraction of the material left now.
+    pub fn features(&self) -> SetupFeatures {
+        let i = self.jobs.len().min(self.features.len().saturating_sub(1));
+        let mut f = self.features.get(i).cloned().unwrap_or_default();
+        let stock = self.target.spec().len() as f64;
+        f.removal_fraction = if stock > 0.0 { self.remaining.count() as f64 / stock } else { 0.0 };
+        f
+    }
+
+    /// The policy's view of the next setup, given its `features`.
+    pub fn context<'a>(&'a self, features: &'a SetupFeatures) -> SetupContext<'a> {
+        SetupContext { index: self.jobs.len(), setups: self.setup_count(), space: &self.space, features }
+    }
+
+    /// The paper's rewards (Eq. 10-12 and the one-step total of Eq. 13, default weights)
+    /// of the stock as simulated so far against the part.
+    pub fn rewards(&self, weights: &RewardWeights) -> Result<Rewards, MillError> {
+        let residual = self.sim.borrow_mut().residual_grid();
+        let report = self.sim.borrow().report().clone();
+        crate::voxsim::rewards(&residual, &self.target, &report, weights).map_err(sim_error)
+    }
+
+    /// The simulator's report so far (complete for the setups machined in the per-setup
+    /// layout).
+    pub fn report(&self) -> SimReport {
+        self.sim.borrow().report().clone()
+    }
+
+    /// The setups machined so far (per-setup layout; empty for the rotary layout until
+    /// [`finish`](Self::finish)).
+    pub fn machined(&self) -> &[SetupProgram] {
+        &self.setups
+    }
+
+    /// The tool number of `radius`. A radius outside the action space (a fixed action's)
+    /// gets a tool of its own, added to the simulator's table, so that the simulation cuts
+    /// with the radius the planner planned for.
+    fn tool_number(&mut self, radius: f64) -> Result<u32, MillError> {
+        if let Some(i) = self.tool_radii.iter().position(|&r| r == radius) {
+            return Ok(i as u32 + 1);
+        }
+        let number = self.tool_radii.len() as u32 + 1;
+        self.sim.get_mut().add_tool(number, Cutter::flat(radius, self.diag)).map_err(sim_error)?;
+        self.tool_radii.push(radius);
+        Ok(number)
+    }
+
+    /// Cuts the next setup with `action`: plans it against the material left, writes its
+    /// program, parses the text back and simulates it (per-setup layout), or records the
+    /// action for [`finish`](Self::finish) (rotary layout). Errors when every setup already
+    /// has its action.
+    pub fn machine(&mut self, action: Action, progress: &mut dyn FnMut(Stage)) -> Result<(), MillError> {
+        let Some(i) = self.next_setup() else {
+            return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
+        };
+        self.check_deadline(|| format!("starting setup {} of {}", i + 1, self.setup_count()))?;
+        let number = self.tool_number(action.tool_radius)?;
+        let o = &self.opts;
+        let job = Job::new(
+            &self.orientation.setups[i],
+            &action,
+            number,
+            &self.stock,
+            self.diag,
+            self.feed,
+            self.rapid,
+            self.clearance,
+            o,
+        );
+        let (length_mm, hours) = job.estimate();
+        if hours.is_nan() || hours > o.max_estimated_hours {
+            return Err(MillError::ActionTooLarge {
+                setup: i + 1,
+                tool_radius: action.tool_radius,
+                layer_height: action.layer_height,
+                length_mm,
+                hours,
+                limit_hours: o.max_estimated_hours,
+            });
+        }
+        self.jobs.push(job);
+        if self.placements.is_some() {
+            return Ok(());
+        }
+        let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
+        let result = machine_setup(
+            &self.ctx(),
+            i,
+            &self.remaining,
+            (i == 0 && self.keep_trace).then_some(&mut trace),
+            &mut times,
+            progress,
+        );
+        (self.trace, self.times) = (trace, times);
+        let (program, remaining) = result?;
+        self.setups.push(program);
+        self.remaining = remaining;
+        Ok(())
+    }
+
+    /// Machines every setup still without an action with `policy`'s choice, then
+    /// [`finish`](Self::finish)es: the rest of what [`mill`](super::mill) does.
+    pub fn complete(
+        mut self,
+        policy: &mut dyn Policy,
+        progress: &mut dyn FnMut(Stage),
+    ) -> Result<Milled, MillError> {
+        while self.next_setup().is_some() {
+            let t = Instant::now();
+            let features = self.features();
+            let action = policy.choose(&self.context(&features));
+            self.times.action_selection += t.elapsed().as_secs_f64();
+            self.machine(action, progress)?;
+        }
+        self.finish(&policy.name(), progress)
+    }
+
+    /// Finishes the run: the rotary layout's program is written and simulated now, then
+    /// the residual stock is meshed and scored (stage [`Stage::Scoring`]). `policy` names
+    /// the policy in the result. Errors when a setup has no action yet.
+    pub fn finish(mut self, policy: &str, progress: &mut dyn FnMut(Stage)) -> Result<Milled, MillError> {
+        if let Some(i) = self.next_setup() {
+            return Err(MillError::InvalidOption(format!(
+                "setup {} of {} has no action yet",
+                i + 1,
+                self.setup_count()
+            )));
+        }
+        let opts = &self.opts;
+        if let (ProgramLayout::Rotary(axes), Some(placements)) = (opts.layout, &self.placements) {
+            // Above this height (program +Z, rotary centre at the origin) the tool clears
+            // every point of the stock in every orientation of the table.
+            let turn_z =
+                self.stock.corners().iter().map(|c| c.coords.norm()).fold(0.0, f64::max) + self.clearance;
+            let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
+            let setups = mill_rotary(&self.ctx(), axes, placements, turn_z, &mut trace, &mut times, progress);
+            (self.trace, self.times) = (trace, times);
+            self.setups = setups?;
+        }
+        let part_voxels = self.target.count() as f64;
+        let mut gouged = 0;
+        for s in &mut self.setups {
+            gouged += s.gouge_voxels;
+            s.preservation = if part_voxels > 0.0 { 1.0 - gouged as f64 / part_voxels } else { 1.0 };
+        }
+        let t = Instant::now();
+        self.check_deadline(|| "scoring the residual stock".into())?;
+        let simulated = self.sim.into_inner().into_simulation().map_err(sim_error)?;
+        let rewards = simulated.rewards(&self.target, &RewardWeights::default()).map_err(sim_error)?;
+        let simulation = simulated.report().clone();
+        let programs: Vec<String> = match opts.layout {
+            ProgramLayout::PerSetup => self.setups.iter().map(|s| s.text.clone()).collect(),
+            ProgramLayout::Rotary(_) => vec![self.setups.iter().map(|s| s.text.as_str()).collect()],
+        };
+        self.times.simulation += t.elapsed().as_secs_f64();
+
+        // Score in the unit cube.
+        progress(Stage::Scoring);
+        let t = Instant::now();
+        let mut residual_plan = marching_cubes_voxels(simulated.residual())?;
+        if opts.residual_smoothing > 0 {
+            residual_plan = taubin_smooth(&residual_plan, opts.residual_smoothing, TAUBIN_LAMBDA, TAUBIN_MU)?;
+        }
+        let to_input = self.to_input;
+        let residual = residual_plan.transformed(&to_input.inverse_similarity());
+        let metrics = compare(
+            &residual.transformed(&self.unit.as_similarity()),
+            &self.unit_part,
+            &MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() },
+        )?;
+        self.times.scoring = t.elapsed().as_secs_f64();
+
+        let stock = Aabb::new(to_input.from_unit(&self.stock.min), to_input.from_unit(&self.stock.max));
+        let trace_axis = self.orientation.setups.first().map_or(Vector3::z(), |s| s.tool_axis().into_inner());
+        let back = to_input.inverse_similarity();
+        let mut trace = self.trace;
+        trace.segments.iter_mut().for_each(|(a, b, _)| {
+            *a = back * *a;
+            *b = back * *b;
+        });
+        Ok(Milled {
+            preset: opts.preset,
+            policy: policy.to_owned(),
+            programs,
+            setups: self.setups,
+            orientation: self.orientation,
+            simulation,
+            rewards,
+            metrics,
+            residual,
+            stock,
+            trace,
+            trace_axis,
+            stage_seconds: self.times,
+        })
+    }
+}
+
+/// The stock box as seen in a setup's frame (the box around its rotated corners).
+pub(super) fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
+    let mut b = Aabb::empty();
+    for c in stock.corners() {
+        b.grow(&setup.to_setup(&c));
+    }
+    b
+}
