@@ -48,7 +48,7 @@ use s2g_toolpath::features::{
     Block, CuttingTool, Feature, FeatureJob, FeatureKind, FeatureOptions, FeaturePlan, HoleMethod,
     plan_features,
 };
-use s2g_voxsim::{Cutter, SimOptions, ToolTable};
+use s2g_voxsim::{Cutter, SimError, SimOptions, ToolTable};
 use serde::Deserialize;
 
 /// Errors of feature jobs.
@@ -77,9 +77,12 @@ pub enum FeatureError {
     /// The G-code writer failed.
     #[error("writing the program: {0}")]
     Write(#[from] WriteError),
-    /// The voxel check could not run.
+    /// The voxel check's options are impossible.
     #[error("voxel check: {0}")]
     Check(String),
+    /// The voxel check's simulation failed.
+    #[error("voxel check")]
+    Simulation(#[source] SimError),
 }
 
 /// A parsed job: what to machine and how.
@@ -389,7 +392,7 @@ impl FeatureProgram {
             return Err(FeatureError::Check(format!("{dims:?} voxels is too many: use a larger voxel")));
         }
         let bounds = Aabb::new(Point3::new(0.0, 0.0, -b.height), Point3::new(b.length, b.width, 0.0));
-        let spec = GridSpec::new(&bounds, dims).map_err(|e| FeatureError::Check(e.to_string()))?;
+        let spec = GridSpec::new(&bounds, dims).map_err(|e| FeatureError::Simulation(e.into()))?;
         let h = spec.voxel.max();
         let stock = VoxelGrid::full(spec);
         let mut target = VoxelGrid::new(spec);
@@ -402,11 +405,11 @@ impl FeatureProgram {
         }
         let mut simulator = s2g_voxsim::Simulator::new(stock, tools, SimOptions::default())
             .and_then(|s| s.with_target(&target))
-            .map_err(|e| FeatureError::Check(e.to_string()))?;
+            .map_err(FeatureError::Simulation)?;
         let popts = s2g_gcode::ParseOptions { stop_at_first_error: true, ..Default::default() };
         s2g_gcode::parse_str(program, &popts, &mut simulator)
-            .map_err(|e| FeatureError::Check(e.to_string()))?;
-        let sim = simulator.into_simulation().map_err(|e| FeatureError::Check(e.to_string()))?;
+            .map_err(|e| FeatureError::Simulation(e.into()))?;
+        let sim = simulator.into_simulation().map_err(FeatureError::Simulation)?;
         let report = sim.report();
         let residual = sim.residual();
         let mut features = Vec::with_capacity(job.features.len());

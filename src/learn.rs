@@ -415,18 +415,27 @@ impl MachiningEnv {
         let text = match std::fs::read_to_string(path) {
             Ok(t) => t,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
-            Err(e) => return Err(MillError::InvalidOption(format!("{}: {e}", path.display()))),
+            Err(source) => return Err(MillError::Io { path: path.to_owned(), source }),
         };
         let mut lines = text.lines();
         if lines.next() != Some(OUTCOME_MAGIC) {
-            return Err(MillError::InvalidOption(format!("{}: not an outcome file", path.display())));
+            return Err(MillError::BadFile {
+                path: path.to_owned(),
+                line: None,
+                what: "not an outcome file".into(),
+                source: None,
+            });
         }
         let index: HashMap<&str, usize> =
             self.fingerprints.iter().enumerate().map(|(i, f)| (f.as_str(), i)).collect();
         let mut taken = 0;
         for (n, line) in lines.enumerate() {
-            let entry: OutcomeLine = serde_json::from_str(line)
-                .map_err(|e| MillError::InvalidOption(format!("{}:{}: {e}", path.display(), n + 2)))?;
+            let entry: OutcomeLine = serde_json::from_str(line).map_err(|e| MillError::BadFile {
+                path: path.to_owned(),
+                line: Some(n + 2),
+                what: "not an outcome".into(),
+                source: Some(e.into()),
+            })?;
             let Some(&part) = index.get(entry.part.as_str()) else { continue };
             if entry.prefix.iter().any(|&a| a >= self.space.len()) {
                 continue;
@@ -447,8 +456,7 @@ impl MachiningEnv {
     /// order (one JSON line each after a magic line).
     pub fn save_outcomes(&self, path: &Path) -> Result<(), MillError> {
         let mut lines: Vec<(usize, Vec<usize>, String)> = Vec::new();
-        let json =
-            |e: &OutcomeLine| serde_json::to_string(e).map_err(|e| MillError::InvalidOption(e.to_string()));
+        let json = |e: &OutcomeLine| serde_json::to_string(e).map_err(|e| encode_error("an outcome", e));
         for (&part, view) in &self.first {
             let e = OutcomeLine {
                 part: self.fingerprints[part].clone(),
@@ -698,14 +706,17 @@ impl LearnedPolicy {
 
     /// Reads a policy file written by [`save`](Self::save).
     pub fn load(path: &Path) -> Result<Self, MillError> {
-        let bytes =
-            std::fs::read(path).map_err(|e| MillError::InvalidOption(format!("{}: {e}", path.display())))?;
+        let bytes = std::fs::read(path).map_err(|source| MillError::Io { path: path.to_owned(), source })?;
         Self::from_bytes(&bytes, path)
     }
 
     fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, MillError> {
-        let bad =
-            |why: String| MillError::InvalidOption(format!("{}: not a policy file: {why}", path.display()));
+        let bad = |why: String| MillError::BadFile {
+            path: path.to_owned(),
+            line: None,
+            what: format!("not a policy file: {why}"),
+            source: None,
+        };
         let rest = bytes.strip_prefix(POLICY_MAGIC.as_slice()).ok_or_else(|| bad("bad magic".into()))?;
         let eol = rest.iter().position(|&b| b == b'\n').ok_or_else(|| bad("no header line".into()))?;
         let info: PolicyInfo = serde_json::from_slice(&rest[..eol]).map_err(|e| bad(e.to_string()))?;
@@ -737,7 +748,7 @@ impl LearnedPolicy {
     /// Q-network's checkpoint.
     pub fn save(&self, path: &Path) -> Result<(), MillError> {
         let mut bytes = POLICY_MAGIC.to_vec();
-        bytes.extend(serde_json::to_vec(&self.info).map_err(|e| MillError::InvalidOption(e.to_string()))?);
+        bytes.extend(serde_json::to_vec(&self.info).map_err(|e| encode_error("a policy header", e))?);
         bytes.push(b'\n');
         bytes.extend(self.agent.to_bytes().map_err(rl_error)?);
         crate::geom::write_bytes_atomic(path, &bytes)?;
@@ -807,7 +818,11 @@ impl LearnedPolicy {
 }
 
 fn rl_error(e: RlError) -> MillError {
-    MillError::InvalidOption(format!("learning: {e}"))
+    MillError::Learning(e)
+}
+
+fn encode_error(what: &'static str, e: serde_json::Error) -> MillError {
+    MillError::Encode { what, source: Box::new(e) }
 }
 
 impl Policy for LearnedPolicy {

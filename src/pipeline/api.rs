@@ -167,12 +167,13 @@ pub enum MillError {
     #[error("orientation selection: {0}")]
     Orient(#[from] crate::orient::OrientError),
     /// Planning a setup failed.
-    #[error("planning setup {setup}: {message}")]
+    #[error("planning setup {setup}")]
     Plan {
         /// 1-based setup.
         setup: usize,
-        /// What went wrong.
-        message: String,
+        /// The planner's error.
+        #[source]
+        source: crate::toolpath::ToolpathError<crate::gcode::WriteError>,
     },
     /// Writing or re-reading a program failed.
     #[error("program of setup {setup}: {message}")]
@@ -183,8 +184,44 @@ pub enum MillError {
         message: String,
     },
     /// The simulation failed.
-    #[error("simulation: {0}")]
-    Simulation(String),
+    #[error("simulation")]
+    Simulation(#[source] crate::voxsim::SimError),
+    /// Reading or writing a file (an outcome or policy file) failed.
+    #[error("{}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file is not what it should be: an outcome file (`line` where one is at fault) or a
+    /// policy file.
+    #[error("{}{}: {what}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    BadFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The 1-based line at fault, where the file has lines.
+        line: Option<usize>,
+        /// What is wrong.
+        what: String,
+        /// The decoder's error, when one found it.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
+    },
+    /// Encoding a record (an outcome or a policy's header) as JSON failed.
+    #[error("encoding {what} as JSON")]
+    Encode {
+        /// What was being encoded.
+        what: &'static str,
+        /// The encoder's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The learning agent failed (training, a checkpoint's bytes).
+    #[cfg(feature = "learn")]
+    #[error("learning")]
+    Learning(#[source] crate::rl::RlError),
     /// An option is out of range.
     #[error("invalid option: {0}")]
     InvalidOption(String),

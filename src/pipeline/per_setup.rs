@@ -43,13 +43,13 @@ impl Ctx<'_> {
     /// again in air (rest machining skips what is gone, not what must stay).
     pub(super) fn excess(&self) -> Result<VoxelGrid, MillError> {
         let mut g = self.sim.borrow_mut().residual_grid();
-        g.andnot(self.target).map_err(|e| MillError::Simulation(e.to_string()))?;
+        g.andnot(self.target).map_err(|e| MillError::Simulation(e.into()))?;
         Ok(g)
     }
 }
 
 pub(super) fn sim_error(e: crate::voxsim::SimError) -> MillError {
-    MillError::Simulation(e.to_string())
+    MillError::Simulation(e)
 }
 
 /// Setup `i` as its own 3-axis program: plans it against `remaining`, writes it, parses the
@@ -98,7 +98,7 @@ pub(super) fn machine_setup(
             let mut writer = GcodeWriter::new(out, dialect, wopts);
             let plan =
                 plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
-                    .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() });
+                    .map_err(|source| MillError::Plan { setup: i + 1, source });
             plan.and_then(|plan| {
                 writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
                 let (text, blocked) = writer

@@ -151,7 +151,7 @@ impl RotarySource<'_, '_> {
         let rest = VoxelMaterial::new(&remaining, job.setup);
         let mut sink = ToProgram { inner: &mut writer, place, last_in: None, last_out: None };
         let plan = plan_setup_rest(self.ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut sink)
-            .map_err(|e| MillError::Plan { setup: i + 1, message: e.to_string() })?;
+            .map_err(|source| MillError::Plan { setup: i + 1, source })?;
         self.last = Some(sink.last_out.unwrap_or(up));
         writer.finish().map_err(|e| program_err(&e))?;
         let mut text = String::from_utf8(writer.into_inner()).map_err(|e| program_err(&e))?;

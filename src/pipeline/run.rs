@@ -220,7 +220,7 @@ impl MillRun {
             .with_target(&target)
             .map_err(sim_error)?;
         let mut remaining = sim.residual_grid();
-        remaining.andnot(&target).map_err(|e| MillError::Simulation(e.to_string()))?;
+        remaining.andnot(&target).map_err(|e| MillError::Simulation(e.into()))?;
         times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
         Ok(Self {

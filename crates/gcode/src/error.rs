@@ -141,3 +141,14 @@ pub enum ParseError<E> {
     #[error("motion sink error: {0}")]
     Sink(E),
 }
+
+impl<E> ParseError<E> {
+    /// The sink's error, or the parse error that is not one (which then holds no `E`).
+    pub fn into_sink(self) -> Result<E, ParseError<std::convert::Infallible>> {
+        match self {
+            ParseError::Sink(e) => Ok(e),
+            ParseError::Gcode(e) => Err(ParseError::Gcode(e)),
+            ParseError::Io { path, source } => Err(ParseError::Io { path, source }),
+        }
+    }
+}

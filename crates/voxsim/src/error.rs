@@ -25,9 +25,24 @@ pub enum SimError {
     /// A geometry operation failed.
     #[error(transparent)]
     Geom(#[from] s2g_geom::GeomError),
-    /// Parsing the program failed (the parser's message, with its line).
+    /// Reading the program failed: its first G-code error (with its line and column) or an
+    /// I/O error (whose message names its cause).
     #[error("{0}")]
-    Parse(String),
+    Parse(s2g_gcode::ParseError<std::convert::Infallible>),
+    /// The simulator refused a motion of the program; parsing stopped there.
+    #[error("simulation stopped")]
+    Stopped(#[source] Box<SimError>),
+}
+
+impl From<s2g_gcode::ParseError<SimError>> for SimError {
+    /// A parse into the simulator that stopped: [`SimError::Stopped`] when the simulator
+    /// refused a motion, [`SimError::Parse`] otherwise.
+    fn from(e: s2g_gcode::ParseError<SimError>) -> Self {
+        match e.into_sink() {
+            Ok(e) => SimError::Stopped(Box::new(e)),
+            Err(e) => SimError::Parse(e),
+        }
+    }
 }
 
 /// Shorthand for simulator results.

@@ -725,11 +725,8 @@ impl Simulation {
     }
 }
 
-fn parse_error<E: std::fmt::Display>(e: s2g_gcode::ParseError<E>) -> SimError {
-    match e {
-        s2g_gcode::ParseError::Sink(e) => SimError::Parse(format!("simulation stopped: {e}")),
-        other => SimError::Parse(other.to_string()),
-    }
+fn parse_error(e: s2g_gcode::ParseError<SimError>) -> SimError {
+    e.into()
 }
 
 /// Parses `program` (G-code text, stopping at the first G-code error) and simulates it on
