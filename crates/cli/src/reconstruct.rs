@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use shape2gcode::geom::{save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    BeadShape, Deposition, FdmOptions, FdmOutput, reconstruct_file, render_layer, render_result, save_step,
+    BeadShape, Deposition, FdmOptions, FdmOutput, reconstruct_file, render_layer, render_result,
 };
 
 /// Bead cross-section.
@@ -123,12 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let _ = args.solid;
     let rec = reconstruct_file(&args.program, &opts)
         .with_context(|| format!("reconstructing {}", args.program.display()))?;
-    if matches!(ext.as_deref(), Some("step" | "stp")) {
-        save_step(&args.output, &rec.mesh)
-    } else {
-        save_mesh(&args.output, &rec.mesh)
-    }
-    .with_context(|| format!("writing {}", args.output.display()))?;
+    save_mesh(&args.output, &rec.mesh).with_context(|| format!("writing {}", args.output.display()))?;
     if let Some(p) = &args.png {
         let img = render_result(&rec.mesh, 512).context("empty mesh: nothing to render")?;
         write_bytes_atomic(p, &img.to_png()).with_context(|| format!("writing {}", p.display()))?;

@@ -22,6 +22,7 @@ mod sample;
 mod sdf;
 mod setup;
 mod smooth;
+mod sweep;
 mod voxel;
 mod voxelize;
 mod winding;
@@ -35,8 +36,8 @@ pub use crate::cutter::{Cutter, CutterShape, Holder};
 pub use crate::error::{GeomError, Result};
 pub use crate::io::{
     LoadOptions, MeshFormat, detect_format, load_mesh, load_mesh_with, read_3mf, read_gltf, read_mesh,
-    read_obj, read_ply, read_stl, read_stl_with, save_mesh, save_mesh_as, write_3mf, write_obj, write_ply,
-    write_stl,
+    read_obj, read_ply, read_stl, read_stl_with, save_mesh, save_mesh_as, save_step, write_3mf, write_obj,
+    write_ply, write_step, write_stl,
 };
 pub use crate::marching_cubes::{
     McOptions, marching_cubes, marching_cubes_opt, marching_cubes_samples, marching_cubes_samples_opt,
@@ -51,5 +52,6 @@ pub use crate::sample::{SurfaceSamples, sample_surface};
 pub use crate::sdf::{BoxShape, SignedDistance, Sphere};
 pub use crate::setup::Setup;
 pub use crate::smooth::{TAUBIN_LAMBDA, TAUBIN_MU, laplacian_smooth, taubin_smooth};
+pub use crate::sweep::{SweepOptions, sweep_profile};
 pub use crate::voxel::{BRICK, Brick, GridSpec, VoxelGrid};
 pub use crate::voxelize::{VoxelizeOptions, voxelize, voxelize_opt};

@@ -11,6 +11,7 @@
 mod gltf;
 mod obj;
 mod ply;
+mod step;
 mod stl;
 mod threemf;
 
@@ -19,6 +20,7 @@ use std::path::Path;
 pub use self::gltf::read_gltf;
 pub use self::obj::{read_obj, write_obj};
 pub use self::ply::{read_ply, write_ply};
+pub use self::step::{save_step, write_step};
 pub use self::stl::{read_stl, read_stl_with, write_stl};
 pub use self::threemf::{read_3mf, write_3mf};
 
@@ -39,6 +41,8 @@ pub enum MeshFormat {
     Ply,
     /// 3MF (core specification): a ZIP package holding an XML model.
     ThreeMf,
+    /// Faceted STEP (ISO 10303-21, AP214): written, not read.
+    Step,
 }
 
 impl MeshFormat {
@@ -51,6 +55,7 @@ impl MeshFormat {
             "gltf" | "glb" => Self::Gltf,
             "ply" => Self::Ply,
             "3mf" => Self::ThreeMf,
+            "step" | "stp" => Self::Step,
             _ => return None,
         })
     }
@@ -136,6 +141,12 @@ pub fn read_mesh(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Mes
         MeshFormat::Gltf => read_gltf(bytes, path)?,
         MeshFormat::Ply => read_ply(bytes, path)?,
         MeshFormat::ThreeMf => read_3mf(bytes, path)?,
+        MeshFormat::Step => {
+            return Err(GeomError::UnsupportedFormat {
+                path: path.to_path_buf(),
+                reason: "STEP is written, not read; read STL, OBJ, glTF/GLB, PLY or 3MF".into(),
+            });
+        }
     };
     if mesh.is_empty() && !options.allow_empty {
         return Err(parse_error(path, None, "the file holds no triangles"));
@@ -167,12 +178,14 @@ pub fn detect_format(bytes: &[u8], path: &Path) -> Result<MeshFormat> {
 /// Saves a mesh by extension: `.stl` binary STL (f32 coordinates), `.obj` OBJ
 /// (shortest exact decimal of every f64), `.ply` binary little-endian PLY (f64
 /// coordinates, exact), `.3mf` 3MF in millimetres (shortest exact decimals, one
-/// object, deterministic bytes). The file is written atomically.
+/// object, deterministic bytes), `.step`/`.stp` faceted STEP (AP214, one faceted B-rep
+/// per closed component, voids as `BREP_WITH_VOIDS`, named after the file's stem). The
+/// file is written atomically.
 pub fn save_mesh(path: impl AsRef<Path>, mesh: &Mesh) -> Result<()> {
     let path = path.as_ref();
     let format = MeshFormat::from_extension(path).ok_or_else(|| GeomError::UnsupportedFormat {
         path: path.to_path_buf(),
-        reason: "saving needs a .stl, .obj, .ply or .3mf extension".into(),
+        reason: "saving needs a .stl, .obj, .ply, .3mf or .step extension".into(),
     })?;
     save_mesh_as(path, mesh, format)
 }
@@ -185,9 +198,10 @@ pub fn save_mesh_as(path: impl AsRef<Path>, mesh: &Mesh, format: MeshFormat) -> 
         MeshFormat::Obj => write_atomic(path, |w| write_obj(w, mesh)),
         MeshFormat::Ply => write_atomic(path, |w| write_ply(w, mesh)),
         MeshFormat::ThreeMf => write_atomic(path, |w| write_3mf(w, mesh)),
+        MeshFormat::Step => save_step(path, mesh),
         MeshFormat::Gltf => Err(GeomError::UnsupportedFormat {
             path: path.to_path_buf(),
-            reason: "glTF is read but not written; save as .stl, .obj, .ply or .3mf".into(),
+            reason: "glTF is read but not written; save as .stl, .obj, .ply, .3mf or .step".into(),
         }),
     }
 }

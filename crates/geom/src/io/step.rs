@@ -9,7 +9,8 @@
 use std::io::Write;
 use std::path::Path;
 
-use crate::geom::{Mesh, write_atomic};
+use crate::atomic::write_atomic;
+use crate::mesh::Mesh;
 
 /// Connected components of the triangles through shared vertices, numbered in order of
 /// their first triangle.
@@ -100,16 +101,15 @@ pub fn write_step(w: &mut impl Write, mesh: &Mesh, name: &str) -> std::io::Resul
         vol[l as usize] += a.dot(&b.cross(&c)) / 6.0;
     }
     // Each void goes to the positive body of smallest box that contains the void's box.
-    let mut boxes = vec![crate::geom::Aabb::empty(); n];
+    let mut boxes = vec![crate::Aabb::empty(); n];
     for (t, &l) in mesh.triangles().iter().zip(&label) {
         for &i in t {
             boxes[l as usize].grow(&v[i as usize]);
         }
     }
-    let size = |b: &crate::geom::Aabb| b.extent().iter().product::<f64>();
-    let inside = |a: &crate::geom::Aabb, b: &crate::geom::Aabb| {
-        (0..3).all(|k| b.min[k] <= a.min[k] && a.max[k] <= b.max[k])
-    };
+    let size = |b: &crate::Aabb| b.extent().iter().product::<f64>();
+    let inside =
+        |a: &crate::Aabb, b: &crate::Aabb| (0..3).all(|k| b.min[k] <= a.min[k] && a.max[k] <= b.max[k]);
     let owner: Vec<Option<usize>> = (0..n)
         .map(|c| {
             if vol[c] > 0.0 {
@@ -134,7 +134,7 @@ pub fn write_step(w: &mut impl Write, mesh: &Mesh, name: &str) -> std::io::Resul
         let (nrm, x) = if nrm.norm() > 0.0 && e.norm() > 0.0 {
             (nrm.normalize(), e.normalize())
         } else {
-            (crate::geom::Vector3::z(), crate::geom::Vector3::x())
+            (crate::Vector3::z(), crate::Vector3::x())
         };
         writeln!(w, "#{id}=POLY_LOOP('',(#{a},#{b},#{c}));")?;
         writeln!(w, "#{}=FACE_OUTER_BOUND('',#{id},.T.);", id + 1)?;
@@ -190,7 +190,7 @@ pub fn write_step(w: &mut impl Write, mesh: &Mesh, name: &str) -> std::io::Resul
 /// component of positive volume is a `FACETED_BREP`; components of negative volume (void
 /// surfaces) become voids (`BREP_WITH_VOIDS`) of the positive body with the smallest
 /// bounding box containing theirs.
-pub fn save_step(path: impl AsRef<Path>, mesh: &Mesh) -> Result<(), crate::geom::GeomError> {
+pub fn save_step(path: impl AsRef<Path>, mesh: &Mesh) -> crate::error::Result<()> {
     let path = path.as_ref();
     let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("part").to_string();
     write_atomic(path, |w| write_step(w, mesh, &name))
