@@ -2,7 +2,6 @@
 //! options, and the features the policy sees.
 
 use super::api::{MillOptions, Preset};
-use super::run::stock_in_setup;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
 use crate::policy::{Action, ActionSpace, SetupFeatures, StrategyKind};
 use crate::toolpath::{PlanOptions, Strategy, Tool, ToolKind};
@@ -151,4 +150,13 @@ pub(super) fn setup_features(
         depth_histogram,
         points,
     }
+}
+
+/// The stock box as seen in a setup's frame (the box around its rotated corners).
+pub(super) fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
+    let mut b = Aabb::empty();
+    for c in stock.corners() {
+        b.grow(&setup.to_setup(&c));
+    }
+    b
 }

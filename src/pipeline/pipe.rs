@@ -1,7 +1,6 @@
 //! The writer-to-parser pipe: a bounded channel of text chunks between the planner's thread
 //! and the parser, so no setup's program is ever held whole.
 
-use super::rotary::read_from_buffer;
 use std::io::{BufRead, Read, Write};
 use std::time::Instant;
 
@@ -130,6 +129,15 @@ impl BufRead for ChunkReader {
         self.pos = (self.pos + n).min(self.chunk.len());
     }
 }
+/// [`Read::read`] of a source that is a [`BufRead`] at heart.
+pub(super) fn read_from_buffer(source: &mut impl BufRead, buf: &mut [u8]) -> std::io::Result<usize> {
+    let avail = source.fill_buf()?;
+    let n = avail.len().min(buf.len());
+    buf[..n].copy_from_slice(&avail[..n]);
+    source.consume(n);
+    Ok(n)
+}
+
 #[cfg(test)]
 mod tests {
     use std::io::{BufRead, Read, Write};

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use super::api::{MillError, SetupProgram, Stage, StageSeconds};
 use super::per_setup::{Ctx, Tee};
+use super::pipe::read_from_buffer;
 use crate::gcode::{
     GcodeWriter, Motion, MotionSink, ParseOptions, Plane, RotaryAxes, WriterOptions, linearize_arc,
     parse_reader, rotary_angles, rotary_frame,
@@ -80,15 +81,6 @@ impl Placement {
         let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), x.y.atan2(x.x));
         Ok(Self { frame, angles, to_program: Isometry3::from_parts(d.translation, turn) })
     }
-}
-
-/// [`Read::read`] of a source that is a [`BufRead`] at heart.
-pub(super) fn read_from_buffer(source: &mut impl BufRead, buf: &mut [u8]) -> std::io::Result<usize> {
-    let avail = source.fill_buf()?;
-    let n = avail.len().min(buf.len());
-    buf[..n].copy_from_slice(&avail[..n]);
-    source.consume(n);
-    Ok(n)
 }
 
 /// One section of the rotary program, as written.

@@ -12,9 +12,9 @@ use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use crate::gcode::{Dialect, FooterRetract, WriterOptions};
 use crate::geom::{
-    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, Setup, TAUBIN_LAMBDA, TAUBIN_MU,
-    Vector3, VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth,
-    unit_cube_normalization, voxelize,
+    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
+    VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
+    voxelize,
 };
 use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
@@ -547,13 +547,4 @@ impl MillRun {
             stage_seconds: self.times,
         })
     }
-}
-
-/// The stock box as seen in a setup's frame (the box around its rotated corners).
-pub(super) fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
-    let mut b = Aabb::empty();
-    for c in stock.corners() {
-        b.grow(&setup.to_setup(&c));
-    }
-    b
 }

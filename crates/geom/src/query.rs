@@ -174,6 +174,28 @@ impl MeshIndex {
         }
     }
 
+    /// Generalised winding number of the surface at `p`: ~1 inside and ~0 outside a closed,
+    /// outward-wound mesh, and a smooth, robust in-between for meshes with small holes
+    /// (inside means `>= 0.5`). NaN for a non-finite `p`. See the module docs for the method.
+    pub fn winding_number(&self, p: &Point3) -> Real {
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+            return Real::NAN;
+        }
+        let q = self.bvh.to_local([p.x, p.y, p.z]);
+        self.winding_local(q)
+    }
+
+    /// The exact winding number (every triangle's solid angle summed, no approximation);
+    /// O(triangles) per query, for checks.
+    pub fn winding_number_exact(&self, p: &Point3) -> Real {
+        crate::winding::exact_winding(&self.bvh, p)
+    }
+
+    /// The winding number at a point in the BVH's local frame.
+    pub(crate) fn winding_local(&self, q: [f64; 3]) -> f64 {
+        self.winding.winding_local(&self.bvh, q)
+    }
+
     /// Signed distance to the surface: negative inside (winding number `>= 0.5`), positive
     /// outside. NaN for a non-finite `p`.
     pub fn signed_distance(&self, p: &Point3) -> Real {

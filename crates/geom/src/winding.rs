@@ -18,7 +18,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::math::{Point3, Real};
-use crate::query::MeshIndex;
 use crate::query::bvh::{Bvh, add, cross, dot, scale, sub};
 
 /// A cluster is approximated when its distance exceeds `BETA` times its radius.
@@ -150,22 +149,11 @@ pub(crate) fn solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
     2.0 * num.atan2(den)
 }
 
-impl MeshIndex {
-    /// Generalised winding number of the surface at `p`: ~1 inside and ~0 outside a closed,
-    /// outward-wound mesh, and a smooth, robust in-between for meshes with small holes
-    /// (inside means `>= 0.5`). NaN for a non-finite `p`. See the module docs for the method.
-    pub fn winding_number(&self, p: &Point3) -> Real {
-        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-            return Real::NAN;
-        }
-        let q = self.bvh.to_local([p.x, p.y, p.z]);
-        self.winding_local(q)
-    }
-
-    /// The winding number at a point in the BVH's local frame.
-    pub(crate) fn winding_local(&self, q: [f64; 3]) -> f64 {
-        let bvh = &self.bvh;
-        let moments = &self.winding.moments;
+impl WindingTree {
+    /// The winding number at a point in the local frame of `bvh`, the tree this one was
+    /// built from.
+    pub(crate) fn winding_local(&self, bvh: &Bvh, q: [f64; 3]) -> f64 {
+        let moments = &self.moments;
         let mut sum = 0.0f64;
         let mut stack = [0u32; 128];
         let mut sp = 1usize;
@@ -212,28 +200,28 @@ impl MeshIndex {
         }
         sum * INV_4PI
     }
+}
 
-    /// The exact winding number (every triangle's solid angle summed, no approximation);
-    /// O(triangles) per query, for checks.
-    pub fn winding_number_exact(&self, p: &Point3) -> Real {
-        let q = self.bvh.to_local([p.x, p.y, p.z]);
-        let s: f64 = self
-            .bvh
-            .tris
-            .iter()
-            .map(|tri| {
-                let a = sub(tri.v0, q);
-                solid_angle(a, add(a, tri.e1), add(a, tri.e2))
-            })
-            .sum();
-        s * INV_4PI
-    }
+/// The exact winding number of the triangles of `bvh` at `p` (every triangle's solid angle
+/// summed, no approximation).
+pub(crate) fn exact_winding(bvh: &Bvh, p: &Point3) -> Real {
+    let q = bvh.to_local([p.x, p.y, p.z]);
+    let s: f64 = bvh
+        .tris
+        .iter()
+        .map(|tri| {
+            let a = sub(tri.v0, q);
+            solid_angle(a, add(a, tri.e1), add(a, tri.e2))
+        })
+        .sum();
+    s * INV_4PI
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use crate::query::MeshIndex;
 
     #[test]
     fn expansion_error_decays_at_third_order() {
