@@ -7,10 +7,10 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
-use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
+use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    LearnedPolicy, MillOptions, MillRun, Policy, Preset, ProgramLayout, SetupCount, Stage, TrainOptions,
-    policy_by_name, render_machining,
+    LearnedPolicy, MillOptions, MillRun, Milled, Policy, Preset, ProgramLayout, SetupCount, Stage,
+    TrainOptions, policy_by_name, render_machining,
 };
 
 /// The bundled sample mesh.
@@ -156,76 +156,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let started = std::time::Instant::now();
     let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
     let mesh = load_mesh(&mesh_path)?;
-    let preset = match args.preset.as_str() {
-        "paper" => Preset::Paper,
-        "shop" => Preset::Shop,
-        p => bail!("unknown preset {p:?} (paper or shop)"),
-    };
-    let setups = parse_setups(&args.setups)?;
-    let dialect = match args.dialect.as_str() {
-        "linuxcnc" => Dialect::LinuxCnc,
-        "grbl" => Dialect::Grbl,
-        "fanuc" => Dialect::Fanuc,
-        d => bail!("unknown dialect {d:?} (linuxcnc, grbl or fanuc)"),
-    };
-    let layout = match args.layout.as_str() {
-        "per-setup" => ProgramLayout::PerSetup,
-        "ac" => ProgramLayout::Rotary(RotaryAxes::AC),
-        "bc" => ProgramLayout::Rotary(RotaryAxes::BC),
-        l => bail!("unknown layout {l:?} (per-setup, ac or bc)"),
-    };
-    let tilt_range = parse_range(&args.tilt_range)?;
-    let opts = MillOptions {
-        preset,
-        setups,
-        dialect,
-        layout,
-        rotary_tilt_range_deg: tilt_range,
-        resolution: args.res,
-        seed: args.seed,
-        orient_points: args.points,
-        roughing_depth_diameters: args.roughing_depth,
-        flank_walls: !args.front_facing,
-        max_estimated_hours: args.max_hours,
-        ..MillOptions::default()
-    };
-
-    let mut policy: Box<dyn Policy> = if args.finetune > 0 {
-        let mut learned = LearnedPolicy::named(&args.policy).with_context(|| {
-            format!("--finetune needs `learned` or a policy file as --policy, got {:?}", args.policy)
-        })?;
-        // Fine-tuning episodes mill the part as this run will, on the training grid.
-        let resolution = args.finetune_res.unwrap_or(learned.info().resolution);
-        let train = TrainOptions {
-            seed: args.seed,
-            mill: MillOptions { resolution, ..opts.clone() },
-            ..TrainOptions::default()
-        };
-        let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let returns = learned.finetune(&mesh, &stem, args.finetune, &train, &mut |e| {
-            eprintln!(
-                "s2g mill: fine-tuning episode {} of {}: return {:.4}",
-                e.episode + 1,
-                args.finetune,
-                e.total_reward
-            )
-        })?;
-        eprintln!(
-            "s2g mill: fine-tuned for {} episodes, last return {:.4}",
-            returns.len(),
-            returns.last().copied().unwrap_or(0.0)
-        );
-        Box::new(learned)
-    } else {
-        policy_by_name(&args.policy, &opts.action_space(), args.seed).with_context(|| {
-            format!(
-                "unknown policy {:?} (learned, heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
-                args.policy
-            )
-        })?
-    };
-    // Steps: orientation, action selection, then planning and simulation per setup, then
-    // scoring; the number of setups is known once planning starts.
+    let opts = mill_options(&args)?;
+    let mut policy = choose_policy(&args, &mesh, &mesh_path, &opts)?;
     let limit = match args.time_limit {
         Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
         Some(s) => bail!("--time-limit must be a positive number of seconds, got {s}"),
@@ -242,49 +174,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     past_limit("loading the mesh and the policy")?;
-    // On stderr, only for a person at a terminal (indicatif draws nothing otherwise).
-    let bar = if args.json { ProgressBar::hidden() } else { ProgressBar::new(3) };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed} [{bar:24}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.enable_steady_tick(Duration::from_millis(120));
-    // When the current setup's planning began, for its estimate of the time left.
-    let mut setup_started = started;
-    let mut progress = |stage: Stage| {
-        let (pos, msg) = match stage {
-            Stage::Orientation => (0, "choosing tool orientations".to_string()),
-            Stage::ActionSelection => (1, "choosing tool, layer height and strategy".to_string()),
-            Stage::GcodeTranslation { setup, setups } => {
-                setup_started = std::time::Instant::now();
-                bar.set_length(3 + 2 * setups as u64);
-                (
-                    2 * setup as u64,
-                    format!("setup {setup}/{setups}: planning toolpaths, writing and simulating G-code"),
-                )
-            }
-            Stage::Layers { setup, setups, done, levels, moves } => {
-                let eta = (done > 0 && levels > done).then(|| {
-                    let left = setup_started.elapsed().as_secs_f64() * (levels - done) as f64 / done as f64;
-                    format!(", about {} left in this setup", human_duration(left))
-                });
-                (
-                    2 * setup as u64,
-                    format!(
-                        "setup {setup}/{setups}: layer {done}/{levels} planned, {} moves simulated{}",
-                        human_count(moves),
-                        eta.unwrap_or_default()
-                    ),
-                )
-            }
-            Stage::Simulation { setup, setups } => {
-                (1 + 2 * setup as u64, format!("setup {setup}/{setups}: simulating the G-code"))
-            }
-            Stage::Scoring => (bar.length().unwrap_or(3) - 1, "scoring the residual stock".to_string()),
-        };
-        bar.set_position(pos);
-        bar.set_message(msg);
-    };
+    let mut bar = Progress::new(args.json, started);
+    let mut progress = |stage: Stage| bar.stage(stage);
     let stem =
         mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "part".into());
     let output = args.output.clone().unwrap_or_else(|| PathBuf::from("out").join(format!("{stem}.ngc")));
@@ -301,7 +192,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         run.time_limit(started, limit);
     }
     run.keep_trace(args.render.is_some());
-    let streamed = matches!(layout, ProgramLayout::PerSetup);
+    let streamed = matches!(opts.layout, ProgramLayout::PerSetup);
     let paths = program_paths(&output, if streamed { run.setup_count() } else { 1 });
     let partial: Vec<PathBuf> = paths.iter().map(|p| partial_path(p)).collect();
     if streamed {
@@ -320,7 +211,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             return Err(e).with_context(|| format!("milling {}", mesh_path.display()));
         }
     };
-    bar.finish_and_clear();
+    bar.finish();
 
     if streamed {
         for (from, to) in partial.iter().zip(&paths) {
@@ -331,6 +222,170 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             write_bytes_atomic(path, text.as_bytes())?;
         }
     }
+    let text = write_report(&args, &milled, &mesh_path, &paths)?;
+    if args.json {
+        print!("{text}");
+    } else {
+        print_summary(&milled, &mesh_path, &paths, opts.layout);
+    }
+    // An open mesh has no inside of its own: the simulation's part is a vote of voxel
+    // columns (and the winding number), while the planner keeps the tool off the surfaces
+    // alone, so it may reach into the part where the mesh is open. (After the run, so that
+    // a run that fails says one line.)
+    let check = shape2gcode::geom::report(&mesh);
+    if !check.closed {
+        eprintln!(
+            "s2g mill: warning: {} is not closed ({} boundary edges): the tool may enter the part where it is open, and the simulation counts that as gouges",
+            mesh_path.display(),
+            check.boundary_edges
+        );
+    }
+    Ok(if milled.is_safe() { ExitCode::SUCCESS } else { ExitCode::from(2) })
+}
+
+/// The library's options from the command line.
+fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
+    let preset = match args.preset.as_str() {
+        "paper" => Preset::Paper,
+        "shop" => Preset::Shop,
+        p => bail!("unknown preset {p:?} (paper or shop)"),
+    };
+    let dialect = match args.dialect.as_str() {
+        "linuxcnc" => Dialect::LinuxCnc,
+        "grbl" => Dialect::Grbl,
+        "fanuc" => Dialect::Fanuc,
+        d => bail!("unknown dialect {d:?} (linuxcnc, grbl or fanuc)"),
+    };
+    let layout = match args.layout.as_str() {
+        "per-setup" => ProgramLayout::PerSetup,
+        "ac" => ProgramLayout::Rotary(RotaryAxes::AC),
+        "bc" => ProgramLayout::Rotary(RotaryAxes::BC),
+        l => bail!("unknown layout {l:?} (per-setup, ac or bc)"),
+    };
+    Ok(MillOptions {
+        preset,
+        setups: parse_setups(&args.setups)?,
+        dialect,
+        layout,
+        rotary_tilt_range_deg: parse_range(&args.tilt_range)?,
+        resolution: args.res,
+        seed: args.seed,
+        orient_points: args.points,
+        roughing_depth_diameters: args.roughing_depth,
+        flank_walls: !args.front_facing,
+        max_estimated_hours: args.max_hours,
+        ..MillOptions::default()
+    })
+}
+
+/// The policy `--policy` names, fine-tuned on the mesh first when `--finetune` asks.
+fn choose_policy(
+    args: &Args,
+    mesh: &Mesh,
+    mesh_path: &Path,
+    opts: &MillOptions,
+) -> anyhow::Result<Box<dyn Policy>> {
+    if args.finetune == 0 {
+        return policy_by_name(&args.policy, &opts.action_space(), args.seed).with_context(|| {
+            format!(
+                "unknown policy {:?} (learned, heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
+                args.policy
+            )
+        });
+    }
+    let mut learned = LearnedPolicy::named(&args.policy).with_context(|| {
+        format!("--finetune needs `learned` or a policy file as --policy, got {:?}", args.policy)
+    })?;
+    // Fine-tuning episodes mill the part as this run will, on the training grid.
+    let resolution = args.finetune_res.unwrap_or(learned.info().resolution);
+    let train = TrainOptions {
+        seed: args.seed,
+        mill: MillOptions { resolution, ..opts.clone() },
+        ..TrainOptions::default()
+    };
+    let stem = mesh_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let returns = learned.finetune(mesh, &stem, args.finetune, &train, &mut |e| {
+        eprintln!(
+            "s2g mill: fine-tuning episode {} of {}: return {:.4}",
+            e.episode + 1,
+            args.finetune,
+            e.total_reward
+        )
+    })?;
+    eprintln!(
+        "s2g mill: fine-tuned for {} episodes, last return {:.4}",
+        returns.len(),
+        returns.last().copied().unwrap_or(0.0)
+    );
+    Ok(Box::new(learned))
+}
+
+/// The progress line on stderr: steps are orientation, action selection, then planning and
+/// simulation per setup, then scoring; the number of setups is known once planning starts.
+/// Only for a person at a terminal (indicatif draws nothing otherwise), and never with
+/// `--json`.
+struct Progress {
+    bar: ProgressBar,
+    /// When the current setup's planning began, for its estimate of the time left.
+    setup_started: std::time::Instant,
+}
+
+impl Progress {
+    fn new(hidden: bool, started: std::time::Instant) -> Self {
+        let bar = if hidden { ProgressBar::hidden() } else { ProgressBar::new(3) };
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {elapsed} [{bar:24}] {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.enable_steady_tick(Duration::from_millis(120));
+        Self { bar, setup_started: started }
+    }
+
+    fn stage(&mut self, stage: Stage) {
+        let bar = &self.bar;
+        let (pos, msg) = match stage {
+            Stage::Orientation => (0, "choosing tool orientations".to_string()),
+            Stage::ActionSelection => (1, "choosing tool, layer height and strategy".to_string()),
+            Stage::GcodeTranslation { setup, setups } => {
+                self.setup_started = std::time::Instant::now();
+                bar.set_length(3 + 2 * setups as u64);
+                (
+                    2 * setup as u64,
+                    format!("setup {setup}/{setups}: planning toolpaths, writing and simulating G-code"),
+                )
+            }
+            Stage::Layers { setup, setups, done, levels, moves } => {
+                let eta = (done > 0 && levels > done).then(|| {
+                    let left =
+                        self.setup_started.elapsed().as_secs_f64() * (levels - done) as f64 / done as f64;
+                    format!(", about {} left in this setup", human_duration(left))
+                });
+                (
+                    2 * setup as u64,
+                    format!(
+                        "setup {setup}/{setups}: layer {done}/{levels} planned, {} moves simulated{}",
+                        human_count(moves),
+                        eta.unwrap_or_default()
+                    ),
+                )
+            }
+            Stage::Simulation { setup, setups } => {
+                (1 + 2 * setup as u64, format!("setup {setup}/{setups}: simulating the G-code"))
+            }
+            Stage::Scoring => (bar.length().unwrap_or(3) - 1, "scoring the residual stock".to_string()),
+        };
+        bar.set_position(pos);
+        bar.set_message(msg);
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+/// The JSON report, with the files written beside it (`--residual`, `--render`, and
+/// `--report` itself); returns its text.
+fn write_report(args: &Args, milled: &Milled, mesh_path: &Path, paths: &[PathBuf]) -> anyhow::Result<String> {
     let mut report = milled.report_json(!args.reproducible);
     report["input"] = serde_json::json!(mesh_path.display().to_string());
     report["programs"] = serde_json::json!(paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>());
@@ -356,54 +411,42 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     if let Some(p) = &args.report {
         write_bytes_atomic(p, text.as_bytes())?;
     }
-    if args.json {
-        print!("{text}");
-    } else {
-        let m = &milled.metrics;
-        let s = &milled.simulation;
-        println!("{}: {} setup(s), policy {}", mesh_path.display(), milled.setups.len(), milled.policy);
-        for (i, sp) in milled.setups.iter().enumerate() {
-            let a = sp.setup.tool_axis();
-            let rotary = match (sp.rotary_deg, layout) {
-                (Some([a, _, c]), ProgramLayout::Rotary(RotaryAxes::AC)) => format!(" at A{a} C{c}"),
-                (Some([_, b, c]), ProgramLayout::Rotary(RotaryAxes::BC)) => format!(" at B{b} C{c}"),
-                _ => String::new(),
-            };
-            println!(
-                "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}){rotary}, radius {}, layer {:.6}, {}, {} layers -> {}",
-                i + 1,
-                a.x,
-                a.y,
-                a.z,
-                sp.action.tool_radius,
-                sp.action.layer_height,
-                sp.action.strategy.name(),
-                sp.plan.layers,
-                paths.get(i).unwrap_or(&paths[0]).display()
-            );
-        }
+    Ok(text)
+}
+
+/// The summary on stdout: setups, metrics, safety and stage times.
+fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: ProgramLayout) {
+    let m = &milled.metrics;
+    let s = &milled.simulation;
+    println!("{}: {} setup(s), policy {}", mesh_path.display(), milled.setups.len(), milled.policy);
+    for (i, sp) in milled.setups.iter().enumerate() {
+        let a = sp.setup.tool_axis();
+        let rotary = match (sp.rotary_deg, layout) {
+            (Some([a, _, c]), ProgramLayout::Rotary(RotaryAxes::AC)) => format!(" at A{a} C{c}"),
+            (Some([_, b, c]), ProgramLayout::Rotary(RotaryAxes::BC)) => format!(" at B{b} C{c}"),
+            _ => String::new(),
+        };
         println!(
-            "IoU {:.4}  F1 {:.4}  CD x1000 {:.4}  NC {:.4}  time {:.1} s",
-            m.iou, m.f1, m.chamfer_x1000, m.normal_consistency, s.machining_time_s
-        );
-        println!("gouges {} voxels, rapid collisions {}", s.gouge_voxels, milled.rapid_collisions());
-        let t = &milled.stage_seconds;
-        println!(
-            "stages: orientation {:.2} s, actions {:.3} s, G-code {:.2} s, simulation {:.2} s, scoring {:.2} s",
-            t.orientation, t.action_selection, t.gcode_translation, t.simulation, t.scoring
+            "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}){rotary}, radius {}, layer {:.6}, {}, {} layers -> {}",
+            i + 1,
+            a.x,
+            a.y,
+            a.z,
+            sp.action.tool_radius,
+            sp.action.layer_height,
+            sp.action.strategy.name(),
+            sp.plan.layers,
+            paths.get(i).unwrap_or(&paths[0]).display()
         );
     }
-    // An open mesh has no inside of its own: the simulation's part is a vote of voxel
-    // columns (and the winding number), while the planner keeps the tool off the surfaces
-    // alone, so it may reach into the part where the mesh is open. (After the run, so that
-    // a run that fails says one line.)
-    let check = shape2gcode::geom::report(&mesh);
-    if !check.closed {
-        eprintln!(
-            "s2g mill: warning: {} is not closed ({} boundary edges): the tool may enter the part where it is open, and the simulation counts that as gouges",
-            mesh_path.display(),
-            check.boundary_edges
-        );
-    }
-    Ok(if milled.is_safe() { ExitCode::SUCCESS } else { ExitCode::from(2) })
+    println!(
+        "IoU {:.4}  F1 {:.4}  CD x1000 {:.4}  NC {:.4}  time {:.1} s",
+        m.iou, m.f1, m.chamfer_x1000, m.normal_consistency, s.machining_time_s
+    );
+    println!("gouges {} voxels, rapid collisions {}", s.gouge_voxels, milled.rapid_collisions());
+    let t = &milled.stage_seconds;
+    println!(
+        "stages: orientation {:.2} s, actions {:.3} s, G-code {:.2} s, simulation {:.2} s, scoring {:.2} s",
+        t.orientation, t.action_selection, t.gcode_translation, t.simulation, t.scoring
+    );
 }
