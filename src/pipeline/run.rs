@@ -83,61 +83,11 @@ impl MillRun {
     /// setups (stage [`Stage::Orientation`]), computes every setup's features (stage
     /// [`Stage::ActionSelection`]) and prepares the simulation grid and the part's voxels.
     pub fn new(mesh: &Mesh, opts: &MillOptions, progress: &mut dyn FnMut(Stage)) -> Result<Self, MillError> {
-        if opts.resolution < 8 || opts.resolution > 2048 {
-            return Err(MillError::InvalidOption(format!(
-                "resolution must be 8..=2048, got {}",
-                opts.resolution
-            )));
-        }
-        if mesh.is_empty() {
-            return Err(crate::geom::GeomError::EmptyMesh.into());
-        }
-        let d = opts.roughing_depth_diameters;
-        if !(d.is_finite() && d >= 0.0) {
-            return Err(MillError::InvalidOption(format!(
-                "roughing depth must be finite and >= 0 diameters, got {d}"
-            )));
-        }
-        if let ProgramLayout::Rotary(_) = opts.layout {
-            if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
-                return Err(MillError::InvalidOption(format!(
-                    "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
-                    opts.dialect
-                )));
-            }
-            let [lo, hi] = opts.rotary_tilt_range_deg;
-            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-                return Err(MillError::InvalidOption(format!(
-                    "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
-                )));
-            }
-        }
+        check_options(mesh, opts)?;
         let mut times = StageSeconds::default();
         let decimals = 4;
 
-        // Units: the paper plans in the unit cube; the shop in part units. `to_input`
-        // maps planning units back to the input mesh's units.
-        let unit: Normalization = unit_cube_normalization(mesh)?;
-        let (part, stock, to_input) = match opts.preset {
-            Preset::Paper => {
-                let k = opts.paper_scale_mm;
-                if !(k.is_finite() && k > 0.0) {
-                    return Err(MillError::InvalidOption(format!(
-                        "paper_scale_mm must be positive, got {k}"
-                    )));
-                }
-                let norm = Normalization { scale: unit.scale * k, translation: unit.translation * k };
-                let part = mesh.transformed(&norm.as_similarity());
-                let half = 0.5 * k;
-                let stock = Aabb::new(Point3::new(-half, -half, -half), Point3::new(half, half, half));
-                (part, stock, norm)
-            }
-            Preset::Shop => {
-                let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
-                let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
-                (mesh.clone(), bbox.inflated(margin), Normalization::identity())
-            }
-        };
+        let (unit, part, stock, to_input) = part_and_stock(mesh, opts)?;
         let space = opts.action_space();
         if space.strategies.is_empty() {
             return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
@@ -547,4 +497,68 @@ impl MillRun {
             stage_seconds: self.times,
         })
     }
+}
+
+/// Refuses options no run can use, before any work.
+fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
+    if opts.resolution < 8 || opts.resolution > 2048 {
+        return Err(MillError::InvalidOption(format!(
+            "resolution must be 8..=2048, got {}",
+            opts.resolution
+        )));
+    }
+    if mesh.is_empty() {
+        return Err(crate::geom::GeomError::EmptyMesh.into());
+    }
+    let d = opts.roughing_depth_diameters;
+    if !(d.is_finite() && d >= 0.0) {
+        return Err(MillError::InvalidOption(format!(
+            "roughing depth must be finite and >= 0 diameters, got {d}"
+        )));
+    }
+    if let ProgramLayout::Rotary(_) = opts.layout {
+        if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
+            return Err(MillError::InvalidOption(format!(
+                "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
+                opts.dialect
+            )));
+        }
+        let [lo, hi] = opts.rotary_tilt_range_deg;
+        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            return Err(MillError::InvalidOption(format!(
+                "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The part in planning units, its stock, and the maps from the input mesh: into the unit
+/// cube (for scoring) and from planning units back to the input's.
+fn part_and_stock(
+    mesh: &Mesh,
+    opts: &MillOptions,
+) -> Result<(Normalization, Mesh, Aabb, Normalization), MillError> {
+    // Units: the paper plans in the unit cube; the shop in part units. `to_input`
+    // maps planning units back to the input mesh's units.
+    let unit: Normalization = unit_cube_normalization(mesh)?;
+    let (part, stock, to_input) = match opts.preset {
+        Preset::Paper => {
+            let k = opts.paper_scale_mm;
+            if !(k.is_finite() && k > 0.0) {
+                return Err(MillError::InvalidOption(format!("paper_scale_mm must be positive, got {k}")));
+            }
+            let norm = Normalization { scale: unit.scale * k, translation: unit.translation * k };
+            let part = mesh.transformed(&norm.as_similarity());
+            let half = 0.5 * k;
+            let stock = Aabb::new(Point3::new(-half, -half, -half), Point3::new(half, half, half));
+            (part, stock, norm)
+        }
+        Preset::Shop => {
+            let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
+            let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
+            (mesh.clone(), bbox.inflated(margin), Normalization::identity())
+        }
+    };
+    Ok((unit, part, stock, to_input))
 }
