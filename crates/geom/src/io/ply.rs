@@ -152,12 +152,10 @@ impl Body<'_> {
     }
 }
 
-/// Parses a PLY file (see the module docs).
-pub fn read_ply(bytes: &[u8], path: &Path) -> Result<Mesh> {
+/// Reads the header: ASCII lines up to and including `end_header`. Returns the encoding,
+/// the elements, where the body starts and the header's last line number.
+fn read_header(bytes: &[u8], path: &Path) -> Result<(Encoding, Vec<Element>, usize, u64)> {
     let err = |line: Option<u64>, msg: String| parse_error(path, line, msg);
-    if !bytes.starts_with(b"ply") {
-        return Err(err(Some(1), "not a PLY file (it does not start with 'ply')".into()));
-    }
     // The header is ASCII lines up to and including `end_header`.
     let mut pos = 0usize;
     let mut line_no = 0u64;
@@ -231,7 +229,16 @@ pub fn read_ply(bytes: &[u8], path: &Path) -> Result<Mesh> {
         }
     }
     let encoding = encoding.ok_or_else(|| err(None, "the header has no 'format' line".into()))?;
+    Ok((encoding, elements, pos, line_no))
+}
 
+/// Parses a PLY file (see the module docs).
+pub fn read_ply(bytes: &[u8], path: &Path) -> Result<Mesh> {
+    let err = |line: Option<u64>, msg: String| parse_error(path, line, msg);
+    if !bytes.starts_with(b"ply") {
+        return Err(err(Some(1), "not a PLY file (it does not start with 'ply')".into()));
+    }
+    let (encoding, elements, pos, line_no) = read_header(bytes, path)?;
     let body_bytes = &bytes[pos..];
     let mut body = match encoding {
         Encoding::Ascii => {
