@@ -59,8 +59,7 @@ use nalgebra::Point3;
 use crate::error::{GcodeError, GcodeErrorKind, ParseError};
 use crate::expr::{Cursor, ParamKey, Params};
 use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
-use crate::rotary::rotary_frame;
-use crate::writer::RotaryAxes;
+use crate::rotary::{RotaryAxes, rotary_frame};
 
 mod pipeline;
 
