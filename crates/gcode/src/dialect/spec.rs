@@ -6,7 +6,7 @@
 #[non_exhaustive]
 pub struct DialectSpec {
     /// Canonical lower-case name (`linuxcnc`): what [`FromStr`](std::str::FromStr) accepts (any case) and
-    /// [`fmt::Display`] prints.
+    /// [`Display`](std::fmt::Display) prints.
     pub name: &'static str,
     /// Name in the generated-by header comment (`LinuxCNC`).
     pub display_name: &'static str,
