@@ -10,6 +10,7 @@
 //! kinematic frames.
 
 mod arc;
+mod dialect;
 mod error;
 mod expr;
 mod motion;
@@ -23,6 +24,10 @@ pub use crate::arc::{
     ArcError, ArcFitOptions, ArcFitter, ArcSpec, MAX_ARC_SEGMENTS, arc_length, linearize_arc, plane_axes,
     sweep_angle,
 };
+pub use crate::dialect::{
+    AutoRetract, CommentStyle, Dialect, DialectSpec, DrillCycles, DwellDecimals, DwellFormat, NoRotaryAxes,
+    TimeUnit, ToolChange, UnknownDialect,
+};
 pub use crate::error::{GcodeError, GcodeErrorKind, ParseError};
 pub use crate::motion::{
     ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionRecorder, MotionSink,
@@ -31,9 +36,9 @@ pub use crate::motion::{
 #[doc(hidden)]
 pub use crate::parser::parse_str_two_stage;
 pub use crate::parser::{ParseDialect, ParseOptions, ParseSummary, parse_file, parse_reader, parse_str};
-pub use crate::rotary::{rotary_angles, rotary_frame, rotary_twist};
+pub use crate::rotary::{RotaryAxes, rotary_angles, rotary_frame, rotary_twist};
 pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};
 pub use crate::stats::{Stats, StatsOptions};
 pub use crate::writer::{
-    Dialect, ExtrusionMode, FooterRetract, GcodeWriter, RotaryAxes, WriteError, WriterOptions, write_program,
+    ExtrusionMode, FooterRetract, GcodeWriter, WriteError, WriterOptions, write_program,
 };

@@ -5,7 +5,14 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-use crate::writer::RotaryAxes;
+/// Rotary table kinematics for 3+2 programs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RotaryAxes {
+    /// Table-table A (about X) then C (about Z).
+    AC,
+    /// Table-table B (about Y) then C (about Z).
+    BC,
+}
 
 /// Horizontal tool-axis component below which the axis counts as vertical (C is then 0).
 const VERTICAL: f64 = 1e-12;

@@ -1093,3 +1093,84 @@ fn rotary_setups_read_back_as_kinematic_frames() {
     assert_eq!(rot, [[Some(30.0), None, Some(10.0)], [Some(45.0), None, Some(-10.0)]]);
     assert_eq!(rec.motions.iter().filter(|(_, m)| m.end_point().is_some()).count(), 1);
 }
+
+// ---------------------------------------------------------------------------
+// Drill cycles and tool changes through the writer (and back through the parser).
+
+mod cycles_and_tools {
+    use nalgebra::Point3;
+    use s2g_gcode::{
+        CycleKind, Dialect, DrillCycle, Motion, MotionRecorder, ParseOptions, WriterOptions, parse_str,
+        write_program,
+    };
+
+    fn moves(ms: &[(u64, Motion<'static>)]) -> Vec<Motion<'static>> {
+        ms.iter()
+            .map(|(_, m)| m.clone())
+            .filter(|m| matches!(m, Motion::Rapid { .. } | Motion::Linear { .. } | Motion::Dwell { .. }))
+            .collect()
+    }
+
+    /// LinuxCNC text of each cycle, read back by the parser (its own cycle expansion), moves
+    /// like `DrillCycle::expand`; grbl gets the expansion itself.
+    #[test]
+    fn written_cycles_parse_back_as_their_expansion() {
+        for kind in [CycleKind::Drill, CycleKind::Dwell { seconds: 0.75 }, CycleKind::Peck { peck: 1.5 }] {
+            let start = Point3::new(0.0, 0.0, 5.0);
+            let cycle =
+                DrillCycle { kind, x: 10.0, y: 4.0, clearance: 5.0, r_plane: 1.0, bottom: -4.0, feed: 100.0 };
+            let program =
+                [Motion::Rapid { to: start }, Motion::Cycle(cycle), Motion::Stop { optional: true }];
+            let mut expected = vec![Motion::Rapid { to: start }];
+            cycle.expand(Some(start), |m| expected.push(m));
+            // Dedupe zero-length rapids the parser would not produce.
+            expected.dedup_by(
+                |b, a| matches!((a, b), (Motion::Rapid { to: p }, Motion::Rapid { to: q }) if p == q),
+            );
+            for dialect in [Dialect::LinuxCnc, Dialect::Grbl] {
+                let opts = WriterOptions { line_numbers: true, footer: false, ..Default::default() };
+                let text = write_program(dialect, opts, &program).expect("writes");
+                assert_eq!(text.contains("G98"), dialect == Dialect::LinuxCnc, "{dialect:?}: {text}");
+                assert!(text.contains("M1\n"), "{dialect:?}: optional stop in {text}");
+                if dialect == Dialect::LinuxCnc {
+                    assert!(text.contains("G80"), "cycle cancelled before the end: {text}");
+                }
+                let mut rec = MotionRecorder::default();
+                parse_str(&text, &ParseOptions { stop_at_first_error: true, ..Default::default() }, &mut rec)
+                    .expect("parses");
+                let got = moves(&rec.motions);
+                let mut got = got;
+                got.dedup_by(
+                    |b, a| matches!((a, b), (Motion::Rapid { to: p }, Motion::Rapid { to: q }) if p == q),
+                );
+                assert_eq!(
+                    got.len(),
+                    expected.len(),
+                    "{kind:?} {dialect:?}: {got:?} vs {expected:?}\n{text}"
+                );
+                for (g, e) in got.iter().zip(&expected) {
+                    let close = match (g, e) {
+                        (Motion::Rapid { to: a }, Motion::Rapid { to: b })
+                        | (Motion::Linear { to: a, .. }, Motion::Linear { to: b, .. }) => {
+                            (a - b).norm() < 1e-3
+                        }
+                        (Motion::Dwell { seconds: a }, Motion::Dwell { seconds: b }) => (a - b).abs() < 1e-6,
+                        _ => false,
+                    };
+                    assert!(close, "{kind:?} {dialect:?}: {g:?} vs {e:?}\n{text}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tool_length_offset_follows_tool_changes() {
+        let program = [Motion::ToolChange { tool: 3 }, Motion::Rapid { to: Point3::new(1.0, 2.0, 3.0) }];
+        let opts =
+            WriterOptions { tool_length_offset: true, header: false, footer: false, ..Default::default() };
+        let text = write_program(Dialect::LinuxCnc, opts.clone(), &program).expect("writes");
+        assert_eq!(text, "T3 M6\nG43 H3\nG0 X1 Y2 Z3\n");
+        let text = write_program(Dialect::Grbl, opts, &program).expect("writes");
+        assert!(!text.contains("G43"), "grbl has no G43 H: {text}");
+    }
+}

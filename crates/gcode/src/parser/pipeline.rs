@@ -14,10 +14,12 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc;
 
-use super::{
-    Interp, MotionSink, ParseError, ParseOptions, ParseSummary, find_eol, plain_code, starts_plain_number,
-};
+use super::interp::Interp;
+use super::options::{ParseOptions, ParseSummary};
+use super::words::{Pre, Word, find_eol, plain_code, starts_plain_number};
+use crate::error::ParseError;
 use crate::expr::{Cursor, plain_number};
+use crate::motion::MotionSink;
 
 /// Inputs at least this long are parsed in two stages when two cores are available.
 pub(super) const MIN_BYTES: usize = 1 << 20;
@@ -27,15 +29,6 @@ pub(super) const CHUNK_BYTES: usize = 128 << 10;
 
 /// Lexed chunks the second thread may hold ready before it waits for the interpreter.
 const AHEAD: usize = 4;
-
-/// One pre-lexed word: a G or M code (`code`, G × 10) or a letter with its value.
-#[derive(Clone, Copy)]
-pub(super) struct Word {
-    pub letter: u8,
-    pub code: u16,
-    pub col: u32,
-    pub value: f64,
-}
 
 /// Where a line is and what the pre-lexer made of it.
 #[derive(Clone, Copy)]
@@ -58,12 +51,6 @@ enum Kind {
     Lexed,
     /// Left to the full lexer.
     Full,
-}
-
-/// The pre-lexed form of one line, as the interpreter takes it.
-pub(super) enum Pre<'c> {
-    Blank,
-    Lexed { words: &'c [Word], comments: &'c [(u32, u32)] },
 }
 
 #[derive(Default)]
@@ -295,7 +282,7 @@ pub(super) fn parse_two_stage<S: MotionSink>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::parser::tests::{assert_same_parse, dialects, sample_files, splitmix};
+    use crate::parser::testing::{assert_same_parse, dialects, sample_files, splitmix};
 
     /// The two-stage parser against the one-thread one, on the same bytes, with the real
     /// chunks and with chunks of a few lines.

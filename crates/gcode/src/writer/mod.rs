@@ -3,6 +3,9 @@
 //!
 //! # What each dialect gets
 //!
+//! Each row is data of the dialect's [`DialectSpec`] ([`Dialect::spec`], one file per
+//! dialect under `dialect/`); the writer branches on those fields, not on dialect names.
+//!
 //! | | LinuxCNC | grbl | Fanuc | Marlin |
 //! |---|---|---|---|---|
 //! | header | `G17 G21 G40 G49 G80 G90 G94` | same | `%`, `O0001`, same | `G21`, `G90`, `M82`/`M83`, `G92 E0`, optional `G28` |
@@ -53,33 +56,16 @@ use std::io::Write;
 use nalgebra::{Isometry3, Point3, Vector3};
 
 use crate::arc::{ArcError, ArcFitOptions, ArcFitter, ArcSpec, plane_axes};
+use crate::dialect::{
+    AutoRetract, CommentStyle, Dialect, DialectSpec, DrillCycles, DwellDecimals, DwellFormat, TimeUnit,
+    ToolChange,
+};
 use crate::motion::{
     ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionSink, Plane, SpindleDirection,
 };
+use crate::rotary::{RotaryAxes, rotary_angles};
 
 pub(crate) use format::{push_num, rounded};
-
-/// Target controller family.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Dialect {
-    /// LinuxCNC / RS274NGC.
-    LinuxCnc,
-    /// grbl 1.1 (hobby CNC): no tool changer, no multi-turn arcs.
-    Grbl,
-    /// Fanuc-style milling controls: `%` delimiters, O-number, points on whole numbers.
-    Fanuc,
-    /// Marlin (FDM printers): E axis, `;` comments, slicer markers.
-    Marlin,
-}
-
-/// Rotary table kinematics for 3+2 programs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum RotaryAxes {
-    /// Table-table A (about X) then C (about Z).
-    AC,
-    /// Table-table B (about Y) then C (about Z).
-    BC,
-}
 
 /// Marlin extrusion mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -315,6 +301,8 @@ pub fn write_program<'m, 'a: 'm>(
 struct Core<W: Write> {
     out: W,
     dialect: Dialect,
+    /// What `dialect` writes differently: every dialect decision reads this.
+    spec: &'static DialectSpec,
     opts: WriterOptions,
     /// Pending output.
     buf: String,
@@ -349,6 +337,7 @@ impl<W: Write> Core<W> {
         Core {
             out,
             dialect,
+            spec: dialect.spec(),
             opts,
             buf: String::with_capacity(1 << 16),
             block: String::with_capacity(128),
@@ -371,10 +360,6 @@ impl<W: Write> Core<W> {
         }
     }
 
-    fn keep_point(&self) -> bool {
-        self.dialect == Dialect::Fanuc
-    }
-
     fn check(&self, what: &'static str, v: f64) -> Result<f64, WriteError> {
         if v.is_finite() { Ok(v) } else { Err(WriteError::NonFinite { index: self.index, what, value: v }) }
     }
@@ -392,8 +377,7 @@ impl<W: Write> Core<W> {
             self.block.push(' ');
         }
         self.block.push(letter);
-        let kp = self.keep_point();
-        push_num(&mut self.block, v, decimals, kp);
+        push_num(&mut self.block, v, decimals, self.spec.keep_point);
     }
 
     fn raw(&mut self, text: &str) {
@@ -409,14 +393,14 @@ impl<W: Write> Core<W> {
             return Ok(());
         }
         let comment_only = self.block.starts_with(';') || self.block.starts_with('(');
-        let numbered = self.opts.line_numbers && !(self.dialect == Dialect::Marlin && comment_only);
+        let numbered = self.opts.line_numbers && (self.spec.number_comment_lines || !comment_only);
         let start = self.buf.len();
         if numbered {
             let _ = write!(self.buf, "N{} ", self.n);
             self.n += self.opts.line_number_step.max(1);
         }
         self.buf.push_str(&self.block);
-        if numbered && self.dialect == Dialect::Marlin {
+        if numbered && self.spec.checksums {
             // RepRap checksum: XOR of every byte before '*'.
             let cs = self.buf.as_bytes()[start..].iter().fold(0u8, |a, b| a ^ b);
             let _ = write!(self.buf, "*{cs}");
@@ -449,12 +433,13 @@ impl<W: Write> Core<W> {
     /// Appends a comment to the block in the dialect's syntax, sanitised so it
     /// cannot end early or be taken as a LinuxCNC command comment.
     fn push_comment(&mut self, text: &str) {
+        let parens = self.spec.comments == CommentStyle::Parens;
         let clean: String = text
             .chars()
             .map(|c| match c {
                 '\n' | '\r' => ' ',
-                '(' if self.dialect != Dialect::Marlin => '[',
-                ')' if self.dialect != Dialect::Marlin => ']',
+                '(' if parens => '[',
+                ')' if parens => ']',
                 c => c,
             })
             .collect();
@@ -475,16 +460,19 @@ impl<W: Write> Core<W> {
         if !self.block.is_empty() {
             self.block.push(' ');
         }
-        if self.dialect == Dialect::Marlin {
-            self.block.push(';');
-            self.block.push_str(&clean);
-        } else {
-            self.block.push('(');
-            if command {
-                self.block.push('_');
+        match self.spec.comments {
+            CommentStyle::Semicolon => {
+                self.block.push(';');
+                self.block.push_str(&clean);
             }
-            self.block.push_str(&clean);
-            self.block.push(')');
+            CommentStyle::Parens => {
+                self.block.push('(');
+                if command {
+                    self.block.push('_');
+                }
+                self.block.push_str(&clean);
+                self.block.push(')');
+            }
         }
     }
 
@@ -496,7 +484,8 @@ impl<W: Write> Core<W> {
         if !self.opts.header {
             return Ok(());
         }
-        if self.dialect == Dialect::Fanuc {
+        let spec = self.spec;
+        if spec.delimiters {
             if !(1..=9999).contains(&self.opts.program_number) {
                 return Err(WriteError::BadOption("Fanuc program_number must be in 1..=9999"));
             }
@@ -504,37 +493,28 @@ impl<W: Write> Core<W> {
             let o = format!("O{:04}", self.opts.program_number);
             self.bare_line(&o);
         }
-        let name = match self.dialect {
-            Dialect::LinuxCnc => "LinuxCNC",
-            Dialect::Grbl => "grbl",
-            Dialect::Fanuc => "Fanuc",
-            Dialect::Marlin => "Marlin",
-        };
-        self.comment_line(&format!("generated by s2g-gcode for {name}"))?;
-        match self.dialect {
-            Dialect::Marlin => {
-                for l in ["G21", "G90"] {
-                    self.raw(l);
-                    self.end_block()?;
-                }
-                self.raw(match self.opts.extrusion {
-                    ExtrusionMode::Absolute => "M82",
-                    ExtrusionMode::Relative => "M83",
-                });
-                self.end_block()?;
-                self.raw("G92 E0");
-                self.end_block()?;
-                if self.opts.home {
-                    self.raw("G28");
-                    self.end_block()?;
-                }
-            }
-            _ => {
-                self.raw("G17 G21 G40 G49 G80 G90 G94");
-                self.end_block()?;
-                self.plane = Some(Plane::XY);
-                self.motion_mode = None;
-            }
+        self.comment_line(&format!("generated by s2g-gcode for {}", spec.display_name))?;
+        for l in spec.header {
+            self.raw(l);
+            self.end_block()?;
+        }
+        if spec.extrusion {
+            self.raw(match self.opts.extrusion {
+                ExtrusionMode::Absolute => "M82",
+                ExtrusionMode::Relative => "M83",
+            });
+            self.end_block()?;
+            self.raw("G92 E0");
+            self.end_block()?;
+        }
+        if spec.homing && self.opts.home {
+            self.raw("G28");
+            self.end_block()?;
+        }
+        if spec.plane_select {
+            // The header's G17.
+            self.plane = Some(Plane::XY);
+            self.motion_mode = None;
         }
         Ok(())
     }
@@ -544,51 +524,41 @@ impl<W: Write> Core<W> {
         if !self.opts.footer {
             return Ok(());
         }
-        let lift = |l: f64, me: &Self| if me.max_z.is_finite() { me.max_z + l } else { l };
-        if self.dialect == Dialect::Marlin {
-            let z = match self.opts.retract {
-                FooterRetract::Auto => Some(lift(5.0, self)),
-                FooterRetract::Lift(l) => Some(lift(self.check("footer lift", l)?, self)),
-                FooterRetract::None => None,
+        let spec = self.spec;
+        // After an explicit program end only the closing delimiter follows.
+        if !(self.ended && spec.program_end.is_some()) {
+            for m in spec.footer_stops {
+                self.raw(m);
+                self.end_block()?;
+            }
+            let lift = match (self.opts.retract, spec.auto_retract) {
+                (FooterRetract::Auto, AutoRetract::Blocks(blocks)) => {
+                    for b in blocks {
+                        self.raw(b);
+                        self.end_block()?;
+                    }
+                    None
+                }
+                (FooterRetract::Auto, AutoRetract::Lift(l)) => Some(l),
+                (FooterRetract::Lift(l), _) => Some(self.check("footer lift", l)?),
+                (FooterRetract::None, _) => None,
             };
-            if let Some(z) = z {
+            if let Some(l) = lift {
+                let z = if self.max_z.is_finite() { self.max_z + l } else { l };
                 self.raw("G0");
                 self.word('Z', z, self.opts.decimals);
                 self.end_block()?;
             }
-            self.raw("M84");
-            return self.end_block();
-        }
-        if !self.ended {
-            for m in ["M5", "M9"] {
+            if let Some(end) = spec.program_end {
+                self.raw(end);
+                self.end_block()?;
+            }
+            for m in spec.footer_tail {
                 self.raw(m);
                 self.end_block()?;
             }
-            match self.opts.retract {
-                FooterRetract::Auto => {
-                    if self.dialect == Dialect::Fanuc {
-                        self.raw("G91 G28");
-                        self.word('Z', 0.0, 0);
-                        self.end_block()?;
-                        self.raw("G90");
-                        self.end_block()?;
-                    } else {
-                        self.raw("G53 G0 Z0");
-                        self.end_block()?;
-                    }
-                }
-                FooterRetract::Lift(l) => {
-                    let z = lift(self.check("footer lift", l)?, self);
-                    self.raw("G0");
-                    self.word('Z', z, self.opts.decimals);
-                    self.end_block()?;
-                }
-                FooterRetract::None => {}
-            }
-            self.raw("M30");
-            self.end_block()?;
         }
-        if self.dialect == Dialect::Fanuc && self.opts.header {
+        if spec.delimiters && self.opts.header {
             self.bare_line("%");
         }
         Ok(())
@@ -635,7 +605,7 @@ impl<W: Write> Core<W> {
     /// Appends the E word for `extrude` (Marlin only); returns whether one was written.
     fn e_word(&mut self, extrude: Option<f64>) -> Result<bool, WriteError> {
         let Some(e) = extrude else { return Ok(false) };
-        if self.dialect != Dialect::Marlin {
+        if !self.spec.extrusion {
             return Ok(false);
         }
         let e = self.check("extrusion", e)?;
@@ -662,8 +632,8 @@ impl<W: Write> Core<W> {
 
     /// Whether `extrude` would print a non-zero E word.
     fn e_nonzero(&self, extrude: Option<f64>) -> bool {
-        match (self.dialect, extrude) {
-            (Dialect::Marlin, Some(e)) => match self.opts.extrusion {
+        match extrude {
+            Some(e) if self.spec.extrusion => match self.opts.extrusion {
                 ExtrusionMode::Absolute => rounded(self.e_total + e, self.opts.e_decimals) != self.e_written,
                 ExtrusionMode::Relative => rounded(e, self.opts.e_decimals) != 0.0,
             },
@@ -742,11 +712,8 @@ impl<W: Write> Core<W> {
         };
         let exact_start = self.exact.unwrap_or(start);
         let spec = ArcSpec { start: exact_start, end: *to, center: *center, plane, direction, turns };
-        let cannot = match self.dialect {
-            Dialect::LinuxCnc => false,
-            Dialect::Grbl | Dialect::Fanuc => turns > 0,
-            Dialect::Marlin => turns > 0 || plane != Plane::XY,
-        };
+        let cannot =
+            (turns > 0 && !self.spec.multi_turn_arcs) || (plane != Plane::XY && !self.spec.plane_select);
         if cannot {
             return self.linearised(&spec, feed, extrude);
         }
@@ -778,8 +745,8 @@ impl<W: Write> Core<W> {
                 self.linearised(&spec, feed, extrude)
             };
         }
-        // Marlin only ever gets XY arcs and may lack plane support: no plane words.
-        if self.dialect != Dialect::Marlin && (!self.opts.modal || self.plane != Some(plane)) {
+        // Without plane selection only XY arcs get here: no plane words.
+        if self.spec.plane_select && (!self.opts.modal || self.plane != Some(plane)) {
             self.raw(match plane {
                 Plane::XY => "G17",
                 Plane::ZX => "G18",
@@ -823,7 +790,7 @@ impl<W: Write> Core<W> {
         Ok(())
     }
 
-    /// A canned drilling cycle: native on LinuxCNC and Fanuc, expanded elsewhere.
+    /// A canned drilling cycle: native or expanded per [`DialectSpec::drill_cycles`].
     fn cycle(&mut self, c: &DrillCycle) -> Result<(), WriteError> {
         for (what, v) in [("cycle X", c.x), ("cycle Y", c.y), ("cycle clearance", c.clearance)] {
             self.check(what, v)?;
@@ -843,32 +810,10 @@ impl<W: Write> Core<W> {
                 value: f64::NAN,
             });
         }
-        if !matches!(self.dialect, Dialect::LinuxCnc | Dialect::Fanuc) {
-            let from = match self.pos {
-                [Some(x), Some(y), Some(z)] => Some(Point3::new(x, y, z)),
-                _ => None,
-            };
-            let mut moves = Vec::new();
-            c.expand(from, |m| moves.push(m));
-            for m in &moves {
-                match m {
-                    Motion::Rapid { to } => self.rapid(to)?,
-                    Motion::Linear { to, feed, .. } => self.linear(to, *feed, None)?,
-                    Motion::Dwell { seconds } => {
-                        self.raw("G4");
-                        let (v, dec) = if self.dialect == Dialect::Marlin {
-                            (seconds * 1000.0, 0)
-                        } else {
-                            (*seconds, 3)
-                        };
-                        self.word('P', v, dec);
-                        self.end_block()?;
-                    }
-                    _ => {}
-                }
-            }
-            return Ok(());
-        }
+        let dwell = match self.spec.drill_cycles {
+            DrillCycles::Canned { dwell } => dwell,
+            DrillCycles::Expanded { dwell } => return self.expanded_cycle(c, dwell),
+        };
         let d = self.opts.decimals;
         let top = c.clearance.max(c.r_plane);
         // The initial level is where the cycle starts: go there first.
@@ -891,10 +836,7 @@ impl<W: Write> Core<W> {
         self.word('Z', c.bottom, d);
         self.word('R', c.r_plane, d);
         match extra {
-            Some(('P', s)) if self.dialect == Dialect::Fanuc => {
-                // Fanuc G82 P is an integer number of milliseconds.
-                self.raw(&format!("P{}", (s * 1000.0).round() as u64));
-            }
+            Some(('P', seconds)) => self.dwell_word(dwell, seconds),
             Some((letter, v)) => self.word(letter, v, d.max(3)),
             None => {}
         }
@@ -909,6 +851,42 @@ impl<W: Write> Core<W> {
         self.exact = Some(Point3::new(c.x, c.y, top));
         self.max_z = self.max_z.max(top);
         Ok(())
+    }
+
+    /// A drill cycle as `G0`/`G1` moves and `G4` dwells written with `dwell`.
+    fn expanded_cycle(&mut self, c: &DrillCycle, dwell: DwellFormat) -> Result<(), WriteError> {
+        let from = match self.pos {
+            [Some(x), Some(y), Some(z)] => Some(Point3::new(x, y, z)),
+            _ => None,
+        };
+        let mut moves = Vec::new();
+        c.expand(from, |m| moves.push(m));
+        for m in &moves {
+            match m {
+                Motion::Rapid { to } => self.rapid(to)?,
+                Motion::Linear { to, feed, .. } => self.linear(to, *feed, None)?,
+                Motion::Dwell { seconds } => {
+                    self.raw("G4");
+                    self.dwell_word(dwell, *seconds);
+                    self.end_block()?;
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Appends the dwell word for `seconds` in `format`.
+    fn dwell_word(&mut self, format: DwellFormat, seconds: f64) {
+        let v = match format.unit {
+            TimeUnit::Seconds => seconds,
+            TimeUnit::Milliseconds => seconds * 1000.0,
+        };
+        match format.decimals {
+            DwellDecimals::Fixed(n) => self.word(format.letter, v, n),
+            DwellDecimals::AtLeast(n) => self.word(format.letter, v, self.opts.decimals.max(n)),
+            DwellDecimals::Integer => self.raw(&format!("{}{}", format.letter, v.round() as u64)),
+        }
     }
 
     fn setup(&mut self, frame: &Isometry3<f64>, rotary: &[Option<f64>; 3]) -> Result<(), WriteError> {
@@ -947,7 +925,7 @@ impl<W: Write> Core<W> {
             }
             Some(axes) => {
                 // Shared with the parser: see crate::rotary.
-                let solved = crate::rotary::rotary_angles(axes, frame);
+                let solved = rotary_angles(axes, frame);
                 let (li, letter) = match axes {
                     RotaryAxes::AC => (0, 'A'),
                     RotaryAxes::BC => (1, 'B'),
@@ -989,19 +967,18 @@ impl<W: Write> MotionSink for Core<W> {
                 self.arc(to, center, *plane, *direction, *turns, *feed, *extrude)?
             }
             Motion::ToolChange { tool } => {
-                match self.dialect {
-                    Dialect::Grbl => {
+                match self.spec.tool_change {
+                    ToolChange::Pause => {
                         self.raw("M0");
                         if self.opts.comments {
                             self.push_comment(&format!("tool change T{tool}"));
                         }
                     }
-                    Dialect::Marlin => self.raw(&format!("T{tool}")),
-                    _ => self.raw(&format!("T{tool} M6")),
+                    ToolChange::Select => self.raw(&format!("T{tool}")),
+                    ToolChange::M6 => self.raw(&format!("T{tool} M6")),
                 }
                 self.end_block()?;
-                if self.opts.tool_length_offset && matches!(self.dialect, Dialect::LinuxCnc | Dialect::Fanuc)
-                {
+                if self.opts.tool_length_offset && self.spec.tool_length_offset {
                     self.raw("G43");
                     self.word('H', f64::from(*tool), 0);
                     self.end_block()?;
@@ -1013,8 +990,8 @@ impl<W: Write> MotionSink for Core<W> {
                     SpindleDirection::Off => self.raw("M5"),
                     dir => {
                         self.word('S', rpm, d);
-                        // Fanuc reads S as an integer: no point needed.
-                        if self.dialect == Dialect::Fanuc && self.block.ends_with('.') {
+                        // S is an integer: no point needed, even where whole numbers keep it.
+                        if self.spec.keep_point && self.block.ends_with('.') {
                             self.block.pop();
                         }
                         self.raw(if *dir == SpindleDirection::Clockwise { "M3" } else { "M4" });
@@ -1032,20 +1009,8 @@ impl<W: Write> MotionSink for Core<W> {
             }
             Motion::Dwell { seconds } => {
                 let s = self.check("dwell", *seconds)?.max(0.0);
-                match self.dialect {
-                    Dialect::Fanuc => {
-                        self.raw("G4");
-                        self.word('X', s, 3);
-                    }
-                    Dialect::Marlin => {
-                        self.raw("G4");
-                        self.word('P', s * 1000.0, 0);
-                    }
-                    _ => {
-                        self.raw("G4");
-                        self.word('P', s, d.max(3));
-                    }
-                }
+                self.raw("G4");
+                self.dwell_word(self.spec.dwell, s);
                 self.end_block()?;
             }
             Motion::Comment(text) => self.comment_line(text)?,
@@ -1068,18 +1033,18 @@ impl<W: Write> MotionSink for Core<W> {
             Motion::Marker(Marker::Type(t)) => self.comment_line(&format!("TYPE:{t}"))?,
             Motion::Setup { frame, rotary } => self.setup(frame, rotary)?,
             Motion::End => {
-                if self.dialect != Dialect::Marlin {
-                    self.raw("M30");
+                if let Some(end) = self.spec.program_end {
+                    self.raw(end);
                     self.end_block()?;
                 }
                 self.ended = true;
             }
             Motion::Cycle(c) => self.cycle(c)?,
             Motion::Stop { optional } => {
-                match (self.dialect, optional) {
-                    (Dialect::Marlin, true) => self.push_comment("optional stop"),
-                    (_, true) => self.raw("M1"),
-                    (_, false) => self.raw("M0"),
+                match (optional, self.spec.optional_stop) {
+                    (true, Some(m1)) => self.raw(m1),
+                    (true, None) => self.push_comment("optional stop"),
+                    (false, _) => self.raw("M0"),
                 }
                 self.end_block()?;
             }

@@ -1,0 +1,697 @@
+//! Executing a block: its words by modal group, in LinuxCNC's order of execution.
+
+use std::borrow::Cow;
+
+use super::interp::{Fail, Interp, Mode, Res, bit, fmt_code};
+use super::words::Pre;
+use crate::error::GcodeErrorKind;
+use crate::expr::ParamKey;
+use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+
+/// A block's G codes by modal group (index: group; 0 non-modal, 12 `G53`).
+struct Groups {
+    g: [Option<(u16, usize)>; 14],
+    g53: bool,
+}
+
+/// A block's M codes by modal group.
+#[derive(Clone, Copy)]
+struct MCodes {
+    spindle: Option<(u16, usize)>,
+    tool: Option<(u16, usize)>,
+    stop: Option<(u16, usize)>,
+    coolant: [Option<Coolant>; 2],
+    e_mode: Option<u16>,
+    retract_set: Option<usize>,
+}
+
+impl Interp<'_> {
+    pub(super) fn process<S: MotionSink>(
+        &mut self,
+        line: &[u8],
+        pre: Option<Pre<'_>>,
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        if self.skip_o.is_some() && self.skipped_o_line(line) {
+            return Ok(());
+        }
+        let lexed = match pre {
+            // Inside a skipped O-word block the full lexer decides.
+            Some(p) if self.skip_o.is_none() => Ok(self.load_pre(p)),
+            _ => self.lex(line),
+        };
+        let has = match lexed {
+            Ok(h) => h,
+            Err(Fail::Line(c, k)) => return Err(Fail::Line(c, k)),
+            Err(Fail::Sink(())) => return Ok(()),
+        };
+        if !has {
+            return Ok(());
+        }
+        self.comments_and_markers(line, sink)?;
+        if self.block.mask == 0 && self.block.ng == 0 && self.block.nm == 0 {
+            self.apply_assignments(line);
+            return Ok(());
+        }
+        self.execute(sink)?;
+        self.apply_assignments(line);
+        Ok(())
+    }
+
+    #[inline]
+    pub(super) fn apply_assignments(&mut self, line: &[u8]) {
+        if self.assigns.is_empty() {
+            return;
+        }
+        for k in 0..self.assigns.len() {
+            let (key, v) = self.assigns[k];
+            match key {
+                ParamKey::Num(n) => self.params.numbered[n] = v,
+                ParamKey::Named(s, e) => self.params.set_named(&line[s..e], v),
+            }
+        }
+    }
+
+    pub(super) fn comments_and_markers<S: MotionSink>(
+        &mut self,
+        line: &[u8],
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        let mut consumed_pending = false;
+        for k in 0..self.comments.len() {
+            let (s, e) = self.comments[k];
+            let text = String::from_utf8_lossy(&line[s..e]);
+            let t = text.trim();
+            let marker = if let Some(rest) = t.strip_prefix("LAYER:") {
+                Some(Marker::Layer { index: rest.trim().parse().ok(), z: None })
+            } else if t == "LAYER_CHANGE" {
+                if self.pending_layer {
+                    self.emit(sink, &Motion::Marker(Marker::Layer { index: None, z: None }))?;
+                }
+                self.pending_layer = true;
+                consumed_pending = true;
+                continue;
+            } else if let Some(rest) = t.strip_prefix("Z:") {
+                consumed_pending = true;
+                self.pending_layer = false;
+                Some(Marker::Layer { index: None, z: rest.trim().parse().ok() })
+            } else if let Some(rest) = t.strip_prefix("TYPE:") {
+                Some(Marker::Type(Cow::Borrowed(rest.trim())))
+            } else if let Some(rest) = t.strip_prefix("move to next layer (") {
+                let idx = rest.trim_end_matches(')').trim().parse().ok();
+                let z = self.block.get(b'z').filter(|_| self.block.novalue & bit(b'z') == 0).map(|z| {
+                    let z = z * self.scale();
+                    if self.absolute { z } else { self.work(2) + z }
+                });
+                Some(Marker::Layer { index: idx, z })
+            } else {
+                None
+            };
+            if self.pending_layer && !consumed_pending {
+                self.pending_layer = false;
+                self.emit(sink, &Motion::Marker(Marker::Layer { index: None, z: None }))?;
+            }
+            match marker {
+                Some(m) => self.emit(sink, &Motion::Marker(m))?,
+                None => self.emit(sink, &Motion::Comment(Cow::Borrowed(t)))?,
+            }
+        }
+        if self.pending_layer && !consumed_pending {
+            self.pending_layer = false;
+            self.emit(sink, &Motion::Marker(Marker::Layer { index: None, z: None }))?;
+        }
+        Ok(())
+    }
+
+    /// Executes one lexed block: the fast path when it applies, otherwise the words by
+    /// modal group in LinuxCNC's order (F, S, T, M6, spindle, coolant, dwell, plane,
+    /// units, distance modes, coordinate system, non-modal codes, motion, stop).
+    pub(super) fn execute<S: MotionSink>(&mut self, sink: &mut S) -> Res<(), S::Error> {
+        if self.fast_path && self.fast_straight(sink)? {
+            return Ok(());
+        }
+        let Some(Groups { g: groups, g53 }) = self.g_groups()? else { return Ok(()) };
+        let m = self.m_codes()?;
+        self.check_words(&groups)?;
+        let spindle_changed = self.feed_speed_tool()?;
+        self.m_actions(&m, spindle_changed, sink)?;
+        self.dwell(groups[0], sink)?;
+        self.modal_settings(&groups);
+        let axis_words_used = self.non_modal(groups[0], sink)?;
+        self.motion(&groups, g53, axis_words_used, m.stop, sink)
+    }
+
+    /// Classifies the block's G codes by modal group and checks conflicts. `None`: an
+    /// unknown code (lenient) skips the line.
+    fn g_groups<E>(&mut self) -> Res<Option<Groups>, E> {
+        let mut groups: [Option<(u16, usize)>; 14] = [None; 14];
+        let mut g53 = false;
+        let mut skip_line = false;
+        for k in 0..self.block.ng {
+            let (code, col) = self.block.g[k];
+            let col = col as usize;
+            let group = match code {
+                0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 | 331
+                | 382 => 1,
+                170 | 180 | 190 => 2,
+                900 | 910 => 3,
+                901 | 911 => 4,
+                930 | 940 | 950 => 5,
+                200 | 210 => 6,
+                400 | 410 | 420 | 411 | 421 => 7,
+                430 | 431 | 490 => 8,
+                980 | 990 => 9,
+                540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 10,
+                610 | 611 | 640 => 11,
+                110 if self.fdm || !self.strict => 0,
+                40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
+                530 => 12,
+                700 | 710 if !self.strict => 6,
+                _ => {
+                    let name = format!("G{}", fmt_code(code));
+                    if self.strict {
+                        return Err(Fail::Line(col, GcodeErrorKind::UnknownCode(name)));
+                    }
+                    self.warn(col, GcodeErrorKind::UnknownCode(format!("{name} (line skipped)")));
+                    skip_line = true;
+                    continue;
+                }
+            };
+            if code == 530 {
+                g53 = true;
+            }
+            if let Some((other, _)) = groups[group] {
+                // `G80` next to another motion code (common in preambles) is accepted by rs274.
+                if group == 1 && (code == 800 || other == 800) {
+                    if code != 800 {
+                        groups[1] = Some((code, col));
+                    }
+                    continue;
+                }
+                return Err(Fail::Line(
+                    col,
+                    GcodeErrorKind::ModalConflict(format!(
+                        "G{} and G{} are in the same modal group",
+                        fmt_code(other),
+                        fmt_code(code)
+                    )),
+                ));
+            }
+            groups[group] = Some((code, col));
+        }
+        if skip_line {
+            return Ok(None);
+        }
+        Ok(Some(Groups { g: groups, g53 }))
+    }
+
+    /// Classifies the block's M codes by modal group and checks conflicts; notes FDM evidence.
+    fn m_codes<E>(&mut self) -> Res<MCodes, E> {
+        let mut m_spindle: Option<(u16, usize)> = None;
+        let mut m_tool = None;
+        let mut m_stop = None;
+        let mut coolant: [Option<Coolant>; 2] = [None, None];
+        let mut m_e_mode = None;
+        let mut m_retract_set = None;
+        for k in 0..self.block.nm {
+            let (code, col) = self.block.m[k];
+            let col = col as usize;
+            let slot = match code {
+                3..=5 => &mut m_spindle,
+                6 | 61 => &mut m_tool,
+                0 | 1 | 2 | 30 | 60 => &mut m_stop,
+                7..=9 => {
+                    let c = match code {
+                        7 => Coolant::Mist,
+                        8 => Coolant::Flood,
+                        _ => Coolant::Off,
+                    };
+                    if coolant[0].is_none() {
+                        coolant[0] = Some(c);
+                    } else {
+                        coolant[1] = Some(c);
+                    }
+                    continue;
+                }
+                82 | 83 => {
+                    self.fdm_evidence();
+                    m_e_mode = Some(code);
+                    continue;
+                }
+                207 => {
+                    m_retract_set = Some(col);
+                    continue;
+                }
+                104 | 109 | 140 | 190 => {
+                    self.fdm_evidence();
+                    continue;
+                }
+                // LinuxCNC: overrides, I/O, spindle orient, modal state save/restore.
+                19 | 48..=53 | 62..=68 | 70..=73 => continue,
+                // Common printer codes with no motion meaning.
+                17
+                | 18
+                | 84
+                | 105
+                | 106
+                | 107
+                | 110
+                | 112
+                | 114
+                | 115
+                | 117
+                | 80
+                | 81
+                | 92
+                | 201..=206
+                | 220
+                | 221
+                | 400
+                | 420
+                | 500
+                | 501
+                | 503
+                | 851
+                | 900
+                    if !self.strict =>
+                {
+                    continue;
+                }
+                _ => {
+                    let k = GcodeErrorKind::UnknownCode(format!("M{code}"));
+                    if self.strict {
+                        return Err(Fail::Line(col, k));
+                    }
+                    self.warn(col, k);
+                    continue;
+                }
+            };
+            if let Some((other, _)) = *slot {
+                return Err(Fail::Line(
+                    col,
+                    GcodeErrorKind::ModalConflict(format!(
+                        "M{other} and M{code} are in the same modal group"
+                    )),
+                ));
+            }
+            *slot = Some((code, col));
+        }
+        Ok(MCodes {
+            spindle: m_spindle,
+            tool: m_tool,
+            stop: m_stop,
+            coolant,
+            e_mode: m_e_mode,
+            retract_set: m_retract_set,
+        })
+    }
+
+    /// Word sanity: line number, value-less words, unsupported feed modes.
+    fn check_words<E>(&mut self, groups: &[Option<(u16, usize)>; 14]) -> Res<(), E> {
+        if self.block.has(b'e') {
+            self.fdm_evidence();
+        }
+        if let Some(n) = self.block.get(b'n') {
+            // LinuxCNC accepts fractional line numbers (`N4567.789`); only negative ones are refused.
+            if n < 0.0 {
+                return Err(Fail::Line(
+                    self.block.col(b'n'),
+                    GcodeErrorKind::BadValue(format!("line number N{n}")),
+                ));
+            }
+        }
+        let non_modal = groups[0];
+        // Marlin style `G28 X Y` and `M84 X Y E`.
+        let novalue_allowed = (matches!(non_modal, Some((280 | 300, _))) && self.fdm)
+            || (self.block.nm > 0 && self.block.ng == 0);
+        if self.block.novalue != 0 && !novalue_allowed {
+            let l = (b'a'..=b'z').find(|&l| self.block.novalue & bit(l) != 0).unwrap_or(b'x');
+            return Err(Fail::Line(
+                self.block.col(l),
+                GcodeErrorKind::NotGcode(format!(
+                    "expected a number after '{}'",
+                    l.to_ascii_uppercase() as char
+                )),
+            ));
+        }
+        if self.block.novalue != 0 && !matches!(non_modal, Some((280 | 300, _))) {
+            // `M84 X Y E`: the letters name axes, they are not moves.
+            self.block.mask &= !self.block.novalue;
+        }
+        if groups[5].is_some_and(|(c, _)| c == 930 || c == 950) {
+            let (c, col) = groups[5].unwrap_or((930, 0));
+            return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{} feed mode", fmt_code(c)))));
+        }
+
+        Ok(())
+    }
+
+    /// F, S and T words (in that order). Returns whether S changed the speed.
+    fn feed_speed_tool<E>(&mut self) -> Res<bool, E> {
+        if let Some(f) = self.block.get(b'f') {
+            if f < 0.0 {
+                return Err(Fail::Line(
+                    self.block.col(b'f'),
+                    GcodeErrorKind::BadValue("negative feed rate".into()),
+                ));
+            }
+            self.feed = f * self.scale();
+        }
+        let mut spindle_changed = false;
+        if let Some(s) = self.block.get(b's') {
+            if s < 0.0 {
+                return Err(Fail::Line(
+                    self.block.col(b's'),
+                    GcodeErrorKind::BadValue("negative spindle speed".into()),
+                ));
+            }
+            spindle_changed = s != self.rpm;
+            self.rpm = s;
+        }
+        if let Some(t) = self.block.get(b't') {
+            if t < 0.0 || t.fract() != 0.0 || t > u32::MAX as f64 {
+                return Err(Fail::Line(
+                    self.block.col(b't'),
+                    GcodeErrorKind::BadValue(format!("tool number T{t}")),
+                ));
+            }
+            self.tool = Some(t as u32);
+        }
+        Ok(spindle_changed)
+    }
+
+    /// Tool change (`M6`, `M61`), spindle (`M3`-`M5`, or a new S), coolant (`M7`-`M9`),
+    /// extrusion mode (`M82`/`M83`) and firmware-retract length (`M207`).
+    fn m_actions<S: MotionSink>(
+        &mut self,
+        m: &MCodes,
+        spindle_changed: bool,
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        let MCodes {
+            spindle: m_spindle,
+            tool: m_tool,
+            coolant,
+            e_mode: m_e_mode,
+            retract_set: m_retract_set,
+            ..
+        } = *m;
+        if let Some((code, col)) = m_tool {
+            let tool = if code == 61 {
+                match self.block.get(b'q') {
+                    Some(q) if q >= 0.0 && q.fract() == 0.0 && q <= u32::MAX as f64 => Some(q as u32),
+                    _ => {
+                        return Err(Fail::Line(
+                            col,
+                            GcodeErrorKind::MissingWord { code: "M61".into(), letter: 'Q' },
+                        ));
+                    }
+                }
+            } else {
+                self.tool
+            };
+            if let Some(tool) = tool {
+                self.tool = Some(tool);
+                self.emit(sink, &Motion::ToolChange { tool })?;
+            } else {
+                self.lenient(col, GcodeErrorKind::MissingWord { code: "M6".into(), letter: 'T' })?;
+            }
+        }
+        if let Some((code, _)) = m_spindle {
+            self.spindle = match code {
+                3 => SpindleDirection::Clockwise,
+                4 => SpindleDirection::CounterClockwise,
+                _ => SpindleDirection::Off,
+            };
+            self.emit(sink, &Motion::Spindle { rpm: self.rpm, direction: self.spindle })?;
+        } else if spindle_changed && self.spindle != SpindleDirection::Off {
+            self.emit(sink, &Motion::Spindle { rpm: self.rpm, direction: self.spindle })?;
+        }
+        for c in coolant.into_iter().flatten() {
+            self.emit(sink, &Motion::Coolant(c))?;
+        }
+        if let Some(code) = m_e_mode {
+            self.e_relative = code == 83;
+            self.e_axis = true;
+        }
+        if let Some(col) = m_retract_set
+            && let Some(s) = self.block.get(b's')
+        {
+            if s < 0.0 {
+                return Err(Fail::Line(col, GcodeErrorKind::BadValue("negative retract length".into())));
+            }
+            self.retract_len = s;
+        }
+        Ok(())
+    }
+
+    /// `G4`: dwell (milliseconds in FDM, Fanuc's `G4 X` when lenient).
+    fn dwell<S: MotionSink>(&mut self, non_modal: Option<(u16, usize)>, sink: &mut S) -> Res<(), S::Error> {
+        if let Some((40, col)) = non_modal {
+            let secs = if self.fdm {
+                match (self.block.get(b'p'), self.block.get(b's')) {
+                    (Some(p), _) => p / 1000.0,
+                    (None, Some(s)) => s,
+                    (None, None) => 0.0,
+                }
+            } else {
+                match (self.block.get(b'p'), self.block.get(b'x')) {
+                    (Some(p), _) => p,
+                    (None, Some(x)) if !self.strict => {
+                        // Fanuc `G4 X<seconds>`: the X word is the time, not a move.
+                        self.block.mask &= !bit(b'x');
+                        if !self.warned_fanuc_dwell {
+                            self.warned_fanuc_dwell = true;
+                            self.warn(
+                                col,
+                                GcodeErrorKind::Unsupported(
+                                    "G4 X read as a Fanuc dwell in seconds (warned once)".into(),
+                                ),
+                            );
+                        }
+                        x
+                    }
+                    _ => {
+                        return Err(Fail::Line(
+                            col,
+                            GcodeErrorKind::MissingWord { code: "G4".into(), letter: 'P' },
+                        ));
+                    }
+                }
+            };
+            if secs < 0.0 || !secs.is_finite() {
+                return Err(Fail::Line(col, GcodeErrorKind::BadValue("negative dwell time".into())));
+            }
+            self.emit(sink, &Motion::Dwell { seconds: secs })?;
+        }
+        Ok(())
+    }
+
+    /// Plane (group 2), units (6), distance modes (3, 4), cycle return (9) and
+    /// coordinate system (10).
+    fn modal_settings(&mut self, groups: &[Option<(u16, usize)>; 14]) {
+        if let Some((code, _)) = groups[2] {
+            self.plane = match code {
+                170 => Plane::XY,
+                180 => Plane::ZX,
+                _ => Plane::YZ,
+            };
+        }
+        if let Some((code, col)) = groups[6] {
+            if code == 700 || code == 710 {
+                self.warn(
+                    col,
+                    GcodeErrorKind::Unsupported(format!("G{} read as G{}", code / 10, code / 10 - 50)),
+                );
+            }
+            self.inch = code == 200 || code == 700;
+        }
+        if let Some((code, _)) = groups[3] {
+            self.absolute = code == 900;
+            if self.fdm {
+                self.e_relative = code == 910;
+            }
+        }
+        if let Some((code, _)) = groups[4] {
+            self.ijk_absolute = code == 901;
+        }
+        if let Some((code, _)) = groups[9] {
+            self.retract_r_plane = code == 990;
+        }
+        if let Some((code, _)) = groups[10] {
+            self.coord = match code {
+                540 => 1,
+                550 => 2,
+                560 => 3,
+                570 => 4,
+                580 => 5,
+                590 => 6,
+                591 => 7,
+                592 => 8,
+                _ => 9,
+            };
+            self.load_g5x();
+        }
+    }
+
+    /// Non-modal group 0 (`G10`, `G11`, `G28`, `G30`, `G28.1`, `G30.1`, `G92`..).
+    /// Returns whether the code used the axis words.
+    fn non_modal<S: MotionSink>(
+        &mut self,
+        non_modal: Option<(u16, usize)>,
+        sink: &mut S,
+    ) -> Res<bool, S::Error> {
+        let mut axis_words_used = false;
+        match non_modal {
+            Some((100, col)) => {
+                axis_words_used = true;
+                self.g10(col, sink)?;
+            }
+            Some((110, _)) => {
+                self.e_axis = true;
+                let to = self.work_pos();
+                self.emit(sink, &Motion::Linear { to, feed: self.feed, extrude: Some(self.retract_len) })?;
+            }
+            Some((code @ (280 | 300), col)) => {
+                axis_words_used = true;
+                self.home(code, col, sink)?;
+            }
+            Some((code @ (281 | 301), _)) => {
+                let base = if code == 281 { 5161 } else { 5181 };
+                for i in 0..3 {
+                    self.params.numbered[base + i] = self.mpos[i];
+                }
+            }
+            Some((code @ 920..=923, col)) => {
+                axis_words_used = true;
+                self.g92(code, col)?;
+            }
+            _ => {}
+        }
+        Ok(axis_words_used)
+    }
+
+    /// Motion group 1 (`G0`-`G3`, cycles, `G80`) with `G53`, then the block's stop.
+    fn motion<S: MotionSink>(
+        &mut self,
+        groups: &[Option<(u16, usize)>; 14],
+        mut g53: bool,
+        axis_words_used: bool,
+        m_stop: Option<(u16, usize)>,
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        let motion_g = groups[1];
+        if let Some((code, col)) = motion_g {
+            let m = match code {
+                0 => Mode::Rapid,
+                10 => Mode::Linear,
+                20 => Mode::Arc(ArcDirection::Clockwise),
+                30 => Mode::Arc(ArcDirection::CounterClockwise),
+                800 => {
+                    self.mode = None;
+                    self.cycle_il = None;
+                    return self.end_of_block(m_stop, sink);
+                }
+                730 | 810 | 820 | 830 => Mode::Cycle(code),
+                _ => {
+                    return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{}", fmt_code(code)))));
+                }
+            };
+            if !matches!(m, Mode::Cycle(_)) {
+                self.cycle_il = None;
+            }
+            if axis_words_used {
+                return Err(Fail::Line(
+                    col,
+                    GcodeErrorKind::ModalConflict(format!(
+                        "G{} and a G-code that uses axis words on one line",
+                        fmt_code(code)
+                    )),
+                ));
+            }
+        }
+        let axes = bit(b'x')
+            | bit(b'y')
+            | bit(b'z')
+            | bit(b'a')
+            | bit(b'b')
+            | bit(b'c')
+            | bit(b'u')
+            | bit(b'v')
+            | bit(b'w');
+        let has_axes = self.block.mask & axes != 0;
+        let has_e = self.block.has(b'e');
+        let effective = match motion_g {
+            Some((0, _)) => Some(Mode::Rapid),
+            Some((10, _)) => Some(Mode::Linear),
+            Some(_) => None,
+            None if has_axes => self.mode,
+            None => None,
+        };
+        if g53 && !matches!(effective, Some(Mode::Rapid | Mode::Linear)) {
+            let col = groups[12].map_or(0, |g| g.1);
+            if self.strict {
+                return Err(Fail::Line(col, GcodeErrorKind::ModalConflict("G53 needs G0 or G1".into())));
+            }
+            self.warn(col, GcodeErrorKind::ModalConflict("G53 without G0 or G1: ignored".into()));
+            g53 = false;
+        }
+        if !axis_words_used {
+            let explicit = motion_g;
+            let prev_mode = self.mode;
+            if let Some((code, _)) = explicit {
+                self.mode = Some(match code {
+                    0 => Mode::Rapid,
+                    10 => Mode::Linear,
+                    20 => Mode::Arc(ArcDirection::Clockwise),
+                    30 => Mode::Arc(ArcDirection::CounterClockwise),
+                    c => Mode::Cycle(c),
+                });
+            }
+            let run = explicit.is_some() || has_axes || (has_e && self.fdm);
+            if run {
+                match self.mode {
+                    None => {
+                        let col = (b'a'..=b'z')
+                            .filter(|&l| axes & bit(l) != 0 && self.block.has(l))
+                            .map(|l| self.block.col(l))
+                            .min()
+                            .unwrap_or(0);
+                        if self.strict || has_axes {
+                            self.lenient(col, GcodeErrorKind::AxisWordsWithoutMotion)?;
+                        }
+                    }
+                    Some(m @ (Mode::Rapid | Mode::Linear)) => {
+                        if !(self.opts.rotary.is_some() && self.rotary_setup(sink)?) {
+                            self.straight(m == Mode::Rapid, g53, sink)?;
+                        }
+                    }
+                    Some(Mode::Arc(dir)) => self.arc(dir, explicit.map(|e| e.1), sink)?,
+                    Some(Mode::Cycle(code)) => {
+                        if let Err(e) = self.cycle(code, prev_mode, sink) {
+                            // LinuxCNC discards a failing block, its motion mode included.
+                            self.mode = prev_mode;
+                            return Err(e);
+                        }
+                    }
+                }
+            }
+        }
+        self.end_of_block(m_stop, sink)
+    }
+
+    pub(super) fn end_of_block<S: MotionSink>(
+        &mut self,
+        m_stop: Option<(u16, usize)>,
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        if let Some((2 | 30, _)) = m_stop {
+            self.emit(sink, &Motion::End)?;
+            self.summary.program_end = Some(self.lineno);
+            if self.opts.stop_at_program_end {
+                self.done = true;
+            }
+        }
+        Ok(())
+    }
+}
