@@ -10,7 +10,7 @@ use super::api::{
 use super::job::{Job, feeds, setup_features};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
-use crate::gcode::{Dialect, FooterRetract, WriterOptions};
+use crate::gcode::{FooterRetract, WriterOptions};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
@@ -517,11 +517,8 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
         )));
     }
     if let ProgramLayout::Rotary(_) = opts.layout {
-        if matches!(opts.dialect, Dialect::Grbl | Dialect::Marlin) {
-            return Err(MillError::InvalidOption(format!(
-                "the rotary layout needs a dialect with rotary axes (linuxcnc or fanuc), not {:?}",
-                opts.dialect
-            )));
+        if let Err(e) = opts.dialect.require_rotary_axes() {
+            return Err(MillError::InvalidOption(format!("the rotary layout needs rotary axes: {e}")));
         }
         let [lo, hi] = opts.rotary_tilt_range_deg;
         if !(lo.is_finite() && hi.is_finite() && lo <= hi) {

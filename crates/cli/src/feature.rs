@@ -11,17 +11,6 @@ use serde_json::json;
 use shape2gcode::gcode::Dialect;
 use shape2gcode::{FeatureProgram, feature_program, load_job};
 
-/// Output dialect.
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-enum DialectArg {
-    /// LinuxCNC / RS274NGC.
-    Linuxcnc,
-    /// grbl 1.1 (drilling cycles expanded, no tool changer).
-    Grbl,
-    /// Fanuc-style.
-    Fanuc,
-}
-
 /// Arguments of `s2g feature`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -30,9 +19,9 @@ pub struct Args {
     /// Write the program here (atomically); default stdout unless --json.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// G-code dialect.
-    #[arg(long, value_enum, default_value_t = DialectArg::Linuxcnc)]
-    dialect: DialectArg,
+    /// G-code dialect: linuxcnc, grbl (drilling cycles expanded, no tool changer) or fanuc.
+    #[arg(long, default_value = "linuxcnc", value_parser = crate::milling_dialect)]
+    dialect: Dialect,
     /// Print per-feature rules and extents as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -79,11 +68,7 @@ fn summary_json(p: &FeatureProgram) -> serde_json::Value {
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let spec = load_job(&args.job)?;
     let program = feature_program(&spec)?;
-    let dialect = match args.dialect {
-        DialectArg::Linuxcnc => Dialect::LinuxCnc,
-        DialectArg::Grbl => Dialect::Grbl,
-        DialectArg::Fanuc => Dialect::Fanuc,
-    };
+    let dialect = args.dialect;
     let text = program.gcode(dialect)?;
     if let Some(out) = &args.output {
         write_atomic(out, &text)?;

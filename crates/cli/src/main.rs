@@ -50,6 +50,16 @@ enum Command {
     Train(train::Args),
 }
 
+/// `--dialect` of the milling commands: a dialect by name ([`Dialect`]'s `FromStr`), one
+/// that writes milling programs (not a printer's).
+fn milling_dialect(name: &str) -> Result<shape2gcode::gcode::Dialect, String> {
+    let dialect: shape2gcode::gcode::Dialect = name.parse().map_err(|e| format!("{e}"))?;
+    if dialect.spec().extrusion {
+        return Err(format!("{dialect} is a printer's dialect: use linuxcnc, grbl or fanuc"));
+    }
+    Ok(dialect)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {

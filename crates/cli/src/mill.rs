@@ -57,8 +57,8 @@ pub struct Args {
     #[arg(long)]
     finetune_res: Option<usize>,
     /// Controller dialect: linuxcnc, grbl or fanuc.
-    #[arg(long, default_value = "linuxcnc")]
-    dialect: String,
+    #[arg(long, default_value = "linuxcnc", value_parser = crate::milling_dialect)]
+    dialect: Dialect,
     /// Largest depth of a roughing cut, in tool diameters: the free region is cleared once
     /// per this depth and the layers between get their contour and the steps left along
     /// the walls. 0 clears every layer whole, as the paper does.
@@ -250,12 +250,6 @@ fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
         "shop" => Preset::Shop,
         p => bail!("unknown preset {p:?} (paper or shop)"),
     };
-    let dialect = match args.dialect.as_str() {
-        "linuxcnc" => Dialect::LinuxCnc,
-        "grbl" => Dialect::Grbl,
-        "fanuc" => Dialect::Fanuc,
-        d => bail!("unknown dialect {d:?} (linuxcnc, grbl or fanuc)"),
-    };
     let layout = match args.layout.as_str() {
         "per-setup" => ProgramLayout::PerSetup,
         "ac" => ProgramLayout::Rotary(RotaryAxes::AC),
@@ -265,7 +259,7 @@ fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
     Ok(MillOptions {
         preset,
         setups: parse_setups(&args.setups)?,
-        dialect,
+        dialect: args.dialect,
         layout,
         rotary_tilt_range_deg: parse_range(&args.tilt_range)?,
         resolution: args.res,
