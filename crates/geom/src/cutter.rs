@@ -92,7 +92,7 @@ impl Cutter {
     /// [`stickout`](Self::stickout), the holder's above it, and 0 outside the stack.
     pub fn radius_at(&self, h: f64) -> f64 {
         let rc = self.corner_radius();
-        if !(h >= 0.0) {
+        if h.is_nan() || h < 0.0 {
             0.0
         } else if h < rc {
             let d = rc - h;
