@@ -41,8 +41,8 @@ use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures, StrategyKind};
 use crate::render::PathTrace;
 use crate::toolpath::{
-    PlanOptions, PlanProgress, PlanSummary, Strategy, Tool, ToolKind, VoxelMaterial, plan_setup_rest,
-    plan_setup_watched,
+    PlanOptions, PlanProgress, PlanSummary, Tool, VoxelMaterial, plan_setup_rest, plan_setup_watched,
+    strategies,
 };
 use crate::voxsim::{Carver, Cutter, RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
 
@@ -627,9 +627,10 @@ impl MillRun {
         // The simulator knows every tool of the action space: T1 is the smallest radius.
         let (feed, rapid) = feeds(opts.preset);
         let t = Instant::now();
-        let mut tools = ToolTable::single(Cutter::flat(space.radii.first().copied().unwrap_or(1.0), diag));
+        let first = space.radii.first().copied().unwrap_or(1.0);
+        let mut tools = ToolTable::single(planned_tool(first, 1, diag, feed).cutter);
         for (i, &r) in space.radii.iter().enumerate() {
-            tools = tools.with(i as u32 + 1, Cutter::flat(r, diag));
+            tools = tools.with(i as u32 + 1, planned_tool(r, i as u32 + 1, diag, feed).cutter);
         }
         let sim_opts =
             SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
@@ -811,7 +812,8 @@ impl MillRun {
             return Ok(i as u32 + 1);
         }
         let number = self.tool_radii.len() as u32 + 1;
-        self.sim.get_mut().add_tool(number, Cutter::flat(radius, self.diag)).map_err(sim_error)?;
+        let cutter = planned_tool(radius, number, self.diag, self.feed).cutter;
+        self.sim.get_mut().add_tool(number, cutter).map_err(sim_error)?;
         self.tool_radii.push(radius);
         Ok(number)
     }
@@ -837,7 +839,7 @@ impl MillRun {
             self.rapid,
             self.clearance,
             o,
-        );
+        )?;
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
             return Err(MillError::ActionTooLarge {
@@ -976,6 +978,19 @@ fn stock_in_setup(stock: &Aabb, setup: &Setup) -> Aabb {
     b
 }
 
+/// The tool a setup is planned with, whose cutter the simulator cuts with (tool `number`
+/// of its table): a flat end mill of `radius` with flutes as long as the stock's diagonal
+/// `diag`, at the cutting `feed`, a third of it for plunges, and 12,000 rpm.
+fn planned_tool(radius: f64, number: u32, diag: f64, feed: f64) -> Tool {
+    Tool {
+        feed,
+        plunge_feed: feed / 3.0,
+        spindle_rpm: 12000.0,
+        number,
+        ..Tool::new(Cutter::flat(radius, diag))
+    }
+}
+
 /// What one setup is planned with.
 #[derive(Clone)]
 struct Job {
@@ -997,23 +1012,13 @@ impl Job {
         rapid: f64,
         clearance: f64,
         opts: &MillOptions,
-    ) -> Self {
-        let tool = Tool {
-            radius: action.tool_radius,
-            kind: ToolKind::Flat,
-            flute_length: diag,
-            feed,
-            plunge_feed: feed / 3.0,
-            spindle_rpm: 12000.0,
-            number,
-        };
+    ) -> Result<Self, MillError> {
+        let tool = planned_tool(action.tool_radius, number, diag, feed);
+        let strategy =
+            strategies().get(action.strategy.name()).map_err(|e| MillError::InvalidOption(e.to_string()))?;
         let popts = PlanOptions {
             layer_height: action.layer_height,
-            strategy: match action.strategy {
-                StrategyKind::Zigzag => Strategy::Zigzag { angle_deg: 0.0 },
-                StrategyKind::Periphery => Strategy::Periphery,
-                StrategyKind::Spiral => Strategy::Spiral,
-            },
+            strategy,
             contour: opts.contour,
             roughing_depth: (opts.roughing_depth_diameters > 0.0)
                 .then(|| opts.roughing_depth_diameters * tool.diameter()),
@@ -1022,18 +1027,18 @@ impl Job {
             rapid_feed: rapid,
             ..PlanOptions::default()
         };
-        Self { setup: *setup, action: *action, tool, popts }
+        Ok(Self { setup: *setup, action: *action, tool, popts })
     }
 
     /// An upper estimate of the setup's toolpath length and machining time (hours): every
     /// level cleared whole over the stock's outline at the stepover, at the cutting feed.
     fn estimate(&self) -> (f64, f64) {
         let stock = self.popts.stock.unwrap_or_else(Aabb::empty).extent();
-        let depth = stock.z.min(self.tool.flute_length);
+        let depth = stock.z.min(self.tool.flute_length());
         let levels = (depth / self.popts.layer_height).ceil().max(1.0);
         let stepover = self.popts.stepover * self.tool.diameter();
         let length =
-            levels * (stock.x + 2.0 * self.tool.radius) * (stock.y + 2.0 * self.tool.radius) / stepover;
+            levels * (stock.x + 2.0 * self.tool.radius()) * (stock.y + 2.0 * self.tool.radius()) / stepover;
         (length, length / self.tool.feed / 60.0)
     }
 }
