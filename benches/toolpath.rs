@@ -49,7 +49,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("ours_contour", |b| {
         b.iter(|| {
-            let off = keep.grown_safe(tool.radius, 1e-3 * tool.radius, opts.arc_step);
+            let off = keep.grown_safe(tool.radius(), 1e-3 * tool.radius(), opts.arc_step);
             black_box(off.loops().len())
         })
     });
@@ -62,7 +62,7 @@ fn bench(c: &mut Criterion) {
                     Point2::new(lo.x, lo.y),
                     Point2::new(hi.x, hi.y),
                     1.0 / 256.0,
-                    tool.radius,
+                    tool.radius(),
                     0.5 / 256.0,
                     Point2::new(lo.x, lo.y),
                 )

@@ -44,9 +44,9 @@ use std::path::Path;
 
 use s2g_gcode::{Dialect, GcodeWriter, WriteError, WriterOptions};
 use s2g_geom::{Aabb, GridSpec, Point3, VoxelGrid};
+use s2g_toolpath::Tool;
 use s2g_toolpath::features::{
-    Block, CuttingTool, Feature, FeatureJob, FeatureKind, FeatureOptions, FeaturePlan, HoleMethod,
-    plan_features,
+    Block, Feature, FeatureJob, FeatureKind, FeatureOptions, FeaturePlan, HoleMethod, plan_features,
 };
 use s2g_voxsim::{Cutter, SimError, SimOptions, ToolTable};
 use serde::Deserialize;
@@ -220,12 +220,12 @@ pub fn parse_job(text: &str, path: &str) -> Result<JobSpec, FeatureError> {
         .iter()
         .map(|t| {
             let _ = &t.name;
-            CuttingTool {
+            Tool {
                 number: t.number,
-                diameter: t.diameter * k,
-                rpm: t.rpm,
+                spindle_rpm: t.rpm,
                 feed: t.feed * k,
                 plunge_feed: t.plunge_feed.unwrap_or(t.feed) * k,
+                ..Tool::flat(0.5 * (t.diameter * k))
             }
         })
         .collect();
@@ -379,7 +379,8 @@ impl FeatureProgram {
     }
 
     /// Simulates `program` (G-code text of this job, e.g. from [`FeatureProgram::gcode`]) on
-    /// the block in voxels of edge about `voxel` mm, every job tool a flat cutter, with the
+    /// the block in voxels of edge about `voxel` mm, every job tool its own cutter (flat, as
+    /// the job file gives them) with flutes through the block, with the
     /// target "block minus feature volumes": gouges, rapid collisions and per-feature residuals.
     pub fn voxel_check(&self, program: &str, voxel: f64) -> Result<FeatureCheck, FeatureError> {
         let job = &self.spec.job;
@@ -398,10 +399,12 @@ impl FeatureProgram {
         let mut target = VoxelGrid::new(spec);
         target.set_where(|p| !job.removed(p));
         let flute = b.height + 10.0;
-        let first = job.tools.first().map_or(1.0, |t| 0.5 * t.diameter);
-        let mut tools = ToolTable::single(Cutter::flat(first, flute));
+        // Each job tool's own cutter, with flutes through the block.
+        let cutter = |t: &Tool| Cutter { flute_length: flute, stickout: 2.0 * flute, ..t.cutter };
+        let first = job.tools.first().map_or(Cutter::flat(1.0, flute), cutter);
+        let mut tools = ToolTable::single(first);
         for t in &job.tools {
-            tools = tools.with(t.number, Cutter::flat(0.5 * t.diameter, flute));
+            tools = tools.with(t.number, cutter(t));
         }
         let mut simulator = s2g_voxsim::Simulator::new(stock, tools, SimOptions::default())
             .and_then(|s| s.with_target(&target))

@@ -7,7 +7,9 @@
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
-/// The clearing strategies of seed 000 §3.3.2-3.3.4.
+/// The clearing strategies of seed 000 §3.3.2-3.3.4, as the policy's action vocabulary:
+/// each names a strategy of the toolpath registry ([`s2g_toolpath::strategies`]), which
+/// the pipeline plans with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum StrategyKind {
     /// Parallel back-and-forth passes.
@@ -277,6 +279,20 @@ impl Policy for HeuristicPolicy {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The policy's strategies are the toolpath registry's, by name and in its order, so
+    /// every action's strategy plans (the pipeline looks the name up there).
+    #[test]
+    fn strategy_kinds_are_the_registry_s_strategies_in_order() {
+        let names: Vec<&str> = StrategyKind::ALL.iter().map(|s| s.name()).collect();
+        assert_eq!(names, s2g_toolpath::strategies().names().collect::<Vec<_>>());
+        for s in StrategyKind::ALL {
+            assert_eq!(
+                s2g_toolpath::strategies().get(s.name()).map(|c| c.name().to_owned()),
+                Ok(s.name().into())
+            );
+        }
+    }
 
     #[test]
     fn action_indices_round_trip() {

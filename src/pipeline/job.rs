@@ -1,10 +1,24 @@
 //! What a setup is planned with: a policy's action mapped to a tool, feeds and plan
 //! options, and the features the policy sees.
 
-use super::api::{MillOptions, Preset};
+use super::api::{MillError, MillOptions, Preset};
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
-use crate::policy::{Action, ActionSpace, SetupFeatures, StrategyKind};
-use crate::toolpath::{PlanOptions, Strategy, Tool, ToolKind};
+use crate::policy::{Action, ActionSpace, SetupFeatures};
+use crate::toolpath::{PlanOptions, Tool, strategies};
+use crate::voxsim::Cutter;
+
+/// The tool a setup is planned with, whose cutter the simulator cuts with (tool `number`
+/// of its table): a flat end mill of `radius` with flutes as long as the stock's diagonal
+/// `diag`, at the cutting `feed`, a third of it for plunges, and 12,000 rpm.
+pub(super) fn planned_tool(radius: f64, number: u32, diag: f64, feed: f64) -> Tool {
+    Tool {
+        feed,
+        plunge_feed: feed / 3.0,
+        spindle_rpm: 12000.0,
+        number,
+        ..Tool::new(Cutter::flat(radius, diag))
+    }
+}
 
 /// What one setup is planned with.
 #[derive(Clone)]
@@ -27,23 +41,13 @@ impl Job {
         rapid: f64,
         clearance: f64,
         opts: &MillOptions,
-    ) -> Self {
-        let tool = Tool {
-            radius: action.tool_radius,
-            kind: ToolKind::Flat,
-            flute_length: diag,
-            feed,
-            plunge_feed: feed / 3.0,
-            spindle_rpm: 12000.0,
-            number,
-        };
+    ) -> Result<Self, MillError> {
+        let tool = planned_tool(action.tool_radius, number, diag, feed);
+        let strategy =
+            strategies().get(action.strategy.name()).map_err(|e| MillError::InvalidOption(e.to_string()))?;
         let popts = PlanOptions {
             layer_height: action.layer_height,
-            strategy: match action.strategy {
-                StrategyKind::Zigzag => Strategy::Zigzag { angle_deg: 0.0 },
-                StrategyKind::Periphery => Strategy::Periphery,
-                StrategyKind::Spiral => Strategy::Spiral,
-            },
+            strategy,
             contour: opts.contour,
             roughing_depth: (opts.roughing_depth_diameters > 0.0)
                 .then(|| opts.roughing_depth_diameters * tool.diameter()),
@@ -52,18 +56,18 @@ impl Job {
             rapid_feed: rapid,
             ..PlanOptions::default()
         };
-        Self { setup: *setup, action: *action, tool, popts }
+        Ok(Self { setup: *setup, action: *action, tool, popts })
     }
 
     /// An upper estimate of the setup's toolpath length and machining time (hours): every
     /// level cleared whole over the stock's outline at the stepover, at the cutting feed.
     pub(super) fn estimate(&self) -> (f64, f64) {
         let stock = self.popts.stock.unwrap_or_else(Aabb::empty).extent();
-        let depth = stock.z.min(self.tool.flute_length);
+        let depth = stock.z.min(self.tool.flute_length());
         let levels = (depth / self.popts.layer_height).ceil().max(1.0);
         let stepover = self.popts.stepover * self.tool.diameter();
         let length =
-            levels * (stock.x + 2.0 * self.tool.radius) * (stock.y + 2.0 * self.tool.radius) / stepover;
+            levels * (stock.x + 2.0 * self.tool.radius()) * (stock.y + 2.0 * self.tool.radius()) / stepover;
         (length, length / self.tool.feed / 60.0)
     }
 }

@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
 };
-use super::job::{Job, feeds, setup_features};
+use super::job::{Job, feeds, planned_tool, setup_features};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use crate::gcode::{FooterRetract, WriterOptions};
@@ -19,7 +19,7 @@ use crate::geom::{
 use crate::orient::{OrientOptions, OrientationResult, select_orientations};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
 use crate::trace::PathTrace;
-use crate::voxsim::{Cutter, RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
+use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
 
 /// A milling run one setup at a time: what [`mill`](super::mill) does, opened up so that a caller (the
 /// learning environment, an interactive tool) picks each setup's [`Action`] after seeing
@@ -159,9 +159,10 @@ impl MillRun {
         // The simulator knows every tool of the action space: T1 is the smallest radius.
         let (feed, rapid) = feeds(opts.preset);
         let t = Instant::now();
-        let mut tools = ToolTable::single(Cutter::flat(space.radii.first().copied().unwrap_or(1.0), diag));
+        let first = space.radii.first().copied().unwrap_or(1.0);
+        let mut tools = ToolTable::single(planned_tool(first, 1, diag, feed).cutter);
         for (i, &r) in space.radii.iter().enumerate() {
-            tools = tools.with(i as u32 + 1, Cutter::flat(r, diag));
+            tools = tools.with(i as u32 + 1, planned_tool(r, i as u32 + 1, diag, feed).cutter);
         }
         let sim_opts =
             SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
@@ -343,7 +344,8 @@ impl MillRun {
             return Ok(i as u32 + 1);
         }
         let number = self.tool_radii.len() as u32 + 1;
-        self.sim.get_mut().add_tool(number, Cutter::flat(radius, self.diag)).map_err(sim_error)?;
+        let cutter = planned_tool(radius, number, self.diag, self.feed).cutter;
+        self.sim.get_mut().add_tool(number, cutter).map_err(sim_error)?;
         self.tool_radii.push(radius);
         Ok(number)
     }
@@ -369,7 +371,7 @@ impl MillRun {
             self.rapid,
             self.clearance,
             o,
-        );
+        )?;
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
             return Err(MillError::ActionTooLarge {

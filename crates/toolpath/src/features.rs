@@ -75,6 +75,8 @@ use std::f64::consts::TAU;
 use nalgebra::Point3;
 use s2g_gcode::{ArcDirection, Coolant, CycleKind, DrillCycle, Motion, MotionSink, Plane, SpindleDirection};
 
+use crate::tool::Tool;
+
 /// Tolerance on lengths when comparing sizes (mm).
 const EPS: f64 = 1e-9;
 
@@ -130,21 +132,6 @@ pub struct Block {
     pub width: f64,
     /// Size along Z.
     pub height: f64,
-}
-
-/// A cutting tool of the job.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CuttingTool {
-    /// Tool number (`T`, and `H` for its length offset).
-    pub number: u32,
-    /// Cutting diameter (mm).
-    pub diameter: f64,
-    /// Spindle speed (rev/min).
-    pub rpm: f64,
-    /// Cutting feed (mm/min).
-    pub feed: f64,
-    /// Plunge (Z) feed (mm/min).
-    pub plunge_feed: f64,
 }
 
 /// How a hole is made.
@@ -226,8 +213,11 @@ pub struct FeatureJob {
     pub block: Block,
     /// Finishing allowance `S` left on pocket and slot walls by roughing (mm).
     pub allowance: f64,
-    /// Tools.
-    pub tools: Vec<CuttingTool>,
+    /// Tools: each a [`Tool`] whose number is the `T` word (and `H` for its length offset),
+    /// whose cutter's diameter is the cutting diameter (mm), with its spindle speed (rev/min),
+    /// cutting feed and plunge (Z) feed (mm/min). Planning reads only those: flute length,
+    /// shank and holder are the caller's to set for simulation.
+    pub tools: Vec<Tool>,
     /// Features.
     pub features: Vec<Feature>,
 }
@@ -363,7 +353,7 @@ impl FeatureJob {
         self.features.iter().any(|f| f.contains(p))
     }
 
-    fn tool(&self, feature: &Feature, number: u32) -> Result<&CuttingTool, FeatureError> {
+    fn tool(&self, feature: &Feature, number: u32) -> Result<&Tool, FeatureError> {
         self.tools.iter().find(|t| t.number == number).ok_or_else(|| FeatureError::Feature {
             feature: feature.name.clone(),
             reason: format!("tool T{number} is not in the job's tool list"),
@@ -403,9 +393,12 @@ impl FeatureJob {
             )));
         }
         for (i, t) in self.tools.iter().enumerate() {
-            for (what, v) in
-                [("diameter", t.diameter), ("rpm", t.rpm), ("feed", t.feed), ("plunge_feed", t.plunge_feed)]
-            {
+            for (what, v) in [
+                ("diameter", t.diameter()),
+                ("rpm", t.spindle_rpm),
+                ("feed", t.feed),
+                ("plunge_feed", t.plunge_feed),
+            ] {
                 if !(v > 0.0 && v.is_finite()) {
                     return Err(FeatureError::Job(format!(
                         "tool T{}: {what} must be positive, got {v}",
@@ -442,15 +435,13 @@ impl FeatureJob {
             return Err(bad(format!("depth {} is beyond the block (height {})", f.depth, b.height)));
         }
         let tool = self.tool(f, f.tool)?;
-        let r = 0.5 * tool.diameter;
+        let r = tool.radius();
         let finish = match f.finish_tool {
             Some(n) => Some(self.tool(f, n)?),
             None => None,
         };
-        let rf = finish.map_or(r, |t| 0.5 * t.diameter);
-        let inside = |x0: f64, y0: f64, x1: f64, y1: f64| {
-            x0 >= -EPS && y0 >= -EPS && x1 <= b.length + EPS && y1 <= b.width + EPS
-        };
+        let rf = finish.map_or(r, |t| t.radius());
+        let inside = |x0: f64, y0: f64, x1: f64, y1: f64| inside_block(b, [x0, y0, x1, y1]);
         let finite = |vs: &[f64]| vs.iter().all(|v| v.is_finite());
         match f.kind {
             FeatureKind::Pocket { x, y, length, width, corner_radius } => {
@@ -482,56 +473,7 @@ impl FeatureJob {
                 }
             }
             FeatureKind::Slot { start, end, width, through } => {
-                if !finite(&[start[0], start[1], end[0], end[1], width]) || !(width > 0.0) {
-                    return Err(bad("slot ends and width must be finite, width positive".into()));
-                }
-                let len = (end[0] - start[0]).hypot(end[1] - start[1]);
-                if !(len > EPS) {
-                    return Err(bad("slot start and end coincide".into()));
-                }
-                if 2.0 * r.max(rf) > width + EPS {
-                    return Err(bad(format!(
-                        "tool diameter {} is wider than the slot ({width})",
-                        2.0 * r.max(rf)
-                    )));
-                }
-                let h = 0.5 * width;
-                if through {
-                    let on_or_out = |p: [f64; 2]| {
-                        p[0] <= EPS || p[1] <= EPS || p[0] >= b.length - EPS || p[1] >= b.width - EPS
-                    };
-                    if !on_or_out(start) || !on_or_out(end) {
-                        return Err(bad(
-                            "a through slot's ends must lie on or outside the block's sides".into()
-                        ));
-                    }
-                    // The slot's band must cross the block: its centre line within the block
-                    // somewhere, and its sides inside the block where the slot is.
-                    let axis_x = (end[1] - start[1]).abs() < EPS;
-                    let axis_y = (end[0] - start[0]).abs() < EPS;
-                    let ok = if axis_x {
-                        start[1] - h >= -EPS && start[1] + h <= b.width + EPS
-                    } else if axis_y {
-                        start[0] - h >= -EPS && start[0] + h <= b.length + EPS
-                    } else {
-                        false
-                    };
-                    if !ok {
-                        return Err(bad(
-                            "a through slot must run parallel to X or Y with its width inside the block"
-                                .into(),
-                        ));
-                    }
-                } else {
-                    let (x0, x1) = (start[0].min(end[0]) - h, start[0].max(end[0]) + h);
-                    let (y0, y1) = (start[1].min(end[1]) - h, start[1].max(end[1]) + h);
-                    if !inside(x0, y0, x1, y1) {
-                        return Err(bad(format!(
-                            "slot X{x0}..{x1} Y{y0}..{y1} is outside the block ({} x {})",
-                            b.length, b.width
-                        )));
-                    }
-                }
+                check_slot(b, [start, end], width, through, r.max(rf)).map_err(bad)?;
             }
             FeatureKind::Hole { x, y, diameter, method } => {
                 if !finite(&[x, y, diameter]) || !(diameter > 0.0) {
@@ -544,38 +486,7 @@ impl FeatureJob {
                         b.length, b.width
                     )));
                 }
-                let same = (tool.diameter - diameter).abs() <= 1e-6;
-                match method {
-                    HoleMethod::Helical | HoleMethod::Auto if !same => {
-                        if tool.diameter > diameter {
-                            return Err(bad(format!(
-                                "tool diameter {} is wider than the hole ({diameter})",
-                                tool.diameter
-                            )));
-                        }
-                        if diameter - tool.diameter < 0.02 {
-                            return Err(bad(format!(
-                                "hole diameter {diameter} is within 0.02 mm of the tool's: drill it instead"
-                            )));
-                        }
-                    }
-                    HoleMethod::Helical => {
-                        return Err(bad("a helical hole needs a tool smaller than the hole".into()));
-                    }
-                    _ if !same => {
-                        return Err(bad(format!(
-                            "drilling needs a tool of the hole's diameter {diameter}, T{} is {}",
-                            tool.number, tool.diameter
-                        )));
-                    }
-                    HoleMethod::Dwell(Some(s)) if !(s >= 0.0 && s.is_finite()) => {
-                        return Err(bad(format!("dwell must be zero or positive, got {s}")));
-                    }
-                    HoleMethod::Peck(Some(q)) if !(q > 0.0 && q.is_finite()) || q * 1000.0 < f.depth => {
-                        return Err(bad(format!("peck must be positive and at least depth / 1000, got {q}")));
-                    }
-                    _ => {}
-                }
+                check_hole_method(tool, diameter, method, f.depth).map_err(bad)?;
             }
         }
         // Guard against absurd programs (a tiny tool in a huge feature): rows x cuts.
@@ -595,6 +506,100 @@ impl FeatureJob {
         }
         Ok(())
     }
+}
+
+/// Whether the box `[x0, y0, x1, y1]` lies in the block's top face.
+fn inside_block(b: &Block, [x0, y0, x1, y1]: [f64; 4]) -> bool {
+    x0 >= -EPS && y0 >= -EPS && x1 <= b.length + EPS && y1 <= b.width + EPS
+}
+
+/// Checks a slot along `[start, end]` of `width` against the block `b` and the larger of
+/// its tools' radii `r_max`; the reason when it is impossible.
+fn check_slot(
+    b: &Block,
+    [start, end]: [[f64; 2]; 2],
+    width: f64,
+    through: bool,
+    r_max: f64,
+) -> Result<(), String> {
+    if ![start[0], start[1], end[0], end[1], width].iter().all(|v| v.is_finite()) || !(width > 0.0) {
+        return Err("slot ends and width must be finite, width positive".into());
+    }
+    let len = (end[0] - start[0]).hypot(end[1] - start[1]);
+    if !(len > EPS) {
+        return Err("slot start and end coincide".into());
+    }
+    if 2.0 * r_max > width + EPS {
+        return Err(format!("tool diameter {} is wider than the slot ({width})", 2.0 * r_max));
+    }
+    let h = 0.5 * width;
+    if through {
+        let on_or_out =
+            |p: [f64; 2]| p[0] <= EPS || p[1] <= EPS || p[0] >= b.length - EPS || p[1] >= b.width - EPS;
+        if !on_or_out(start) || !on_or_out(end) {
+            return Err("a through slot's ends must lie on or outside the block's sides".into());
+        }
+        // The slot's band must cross the block: its centre line within the block
+        // somewhere, and its sides inside the block where the slot is.
+        let axis_x = (end[1] - start[1]).abs() < EPS;
+        let axis_y = (end[0] - start[0]).abs() < EPS;
+        let ok = if axis_x {
+            start[1] - h >= -EPS && start[1] + h <= b.width + EPS
+        } else if axis_y {
+            start[0] - h >= -EPS && start[0] + h <= b.length + EPS
+        } else {
+            false
+        };
+        if !ok {
+            return Err("a through slot must run parallel to X or Y with its width inside the block".into());
+        }
+    } else {
+        let (x0, x1) = (start[0].min(end[0]) - h, start[0].max(end[0]) + h);
+        let (y0, y1) = (start[1].min(end[1]) - h, start[1].max(end[1]) + h);
+        if !inside_block(b, [x0, y0, x1, y1]) {
+            return Err(format!(
+                "slot X{x0}..{x1} Y{y0}..{y1} is outside the block ({} x {})",
+                b.length, b.width
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that `tool` can make a hole of `diameter` and `depth` by `method`; the reason when
+/// it cannot.
+fn check_hole_method(tool: &Tool, diameter: f64, method: HoleMethod, depth: f64) -> Result<(), String> {
+    let same = (tool.diameter() - diameter).abs() <= 1e-6;
+    match method {
+        HoleMethod::Helical | HoleMethod::Auto if !same => {
+            if tool.diameter() > diameter {
+                return Err(format!("tool diameter {} is wider than the hole ({diameter})", tool.diameter()));
+            }
+            if diameter - tool.diameter() < 0.02 {
+                return Err(format!(
+                    "hole diameter {diameter} is within 0.02 mm of the tool's: drill it instead"
+                ));
+            }
+        }
+        HoleMethod::Helical => {
+            return Err("a helical hole needs a tool smaller than the hole".into());
+        }
+        _ if !same => {
+            return Err(format!(
+                "drilling needs a tool of the hole's diameter {diameter}, T{} is {}",
+                tool.number,
+                tool.diameter()
+            ));
+        }
+        HoleMethod::Dwell(Some(s)) if !(s >= 0.0 && s.is_finite()) => {
+            return Err(format!("dwell must be zero or positive, got {s}"));
+        }
+        HoleMethod::Peck(Some(q)) if !(q > 0.0 && q.is_finite()) || q * 1000.0 < depth => {
+            return Err(format!("peck must be positive and at least depth / 1000, got {q}"));
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Most passes x cuts a feature may need (guards against a tiny tool in a huge feature).
@@ -690,13 +695,13 @@ impl Builder<'_> {
 
     /// Tool change when `tool` is not active, then spindle and coolant; rapid to `(x, y)`
     /// at the clearance plane.
-    fn start_op(&mut self, tool: &CuttingTool, label: &str, x: f64, y: f64) {
+    fn start_op(&mut self, tool: &Tool, label: &str, x: f64, y: f64) {
         self.retract();
         let change = self.active_tool != Some(tool.number);
         if change {
-            self.comment(format!("{label} tool T{} D{}", tool.number, fmt(tool.diameter)));
+            self.comment(format!("{label} tool T{} D{}", tool.number, fmt(tool.diameter())));
             self.out.push(Motion::ToolChange { tool: tool.number });
-            self.out.push(Motion::Spindle { rpm: tool.rpm, direction: SpindleDirection::Clockwise });
+            self.out.push(Motion::Spindle { rpm: tool.spindle_rpm, direction: SpindleDirection::Clockwise });
             self.active_tool = Some(tool.number);
         }
         self.rapid(Point3::new(x, y, self.clearance()));
@@ -714,7 +719,7 @@ fn fmt(v: f64) -> String {
 }
 
 /// Zigzag rows, each `(a, b)` from `a` to `b` (already alternating), cut at `z`.
-fn zigzag(bld: &mut Builder<'_>, rows: &[([f64; 2], [f64; 2])], z: f64, tool: &CuttingTool, cut: usize) {
+fn zigzag(bld: &mut Builder<'_>, rows: &[([f64; 2], [f64; 2])], z: f64, tool: &Tool, cut: usize) {
     let Some(first) = rows.first() else { return };
     bld.rapid(Point3::new(first.0[0], first.0[1], bld.clearance()));
     bld.comment(format!("cut {cut}: depth {}", fmt(-z)));
@@ -761,6 +766,58 @@ fn corner_inset(dv: f64, c: f64) -> f64 {
     if dv <= 0.0 || c <= 0.0 { 0.0 } else { c - (c * c - dv.min(c) * dv.min(c)).max(0.0).sqrt() }
 }
 
+/// What the operations of one feature share: its tools, the depth rule's cuts and the
+/// finishing allowance.
+struct Cuts<'a> {
+    feature: &'a Feature,
+    /// Roughing (or only) tool and its radius `R`.
+    tool: &'a Tool,
+    r: f64,
+    /// Finishing tool and its radius `R_f`.
+    ftool: &'a Tool,
+    rf: f64,
+    /// Depth of cut `d` and number of cuts `m` (Eqs. 1-2).
+    d: f64,
+    m: usize,
+    /// The cuts' levels, `-j d` down to the feature's depth.
+    levels: Vec<f64>,
+    /// Finishing allowance `S`.
+    allowance: f64,
+}
+
+impl<'a> Cuts<'a> {
+    fn new(job: &'a FeatureJob, f: &'a Feature, opts: &FeatureOptions) -> Result<Self, FeatureError> {
+        let tool = job.tool(f, f.tool)?;
+        let r = tool.radius();
+        let ftool = match f.finish_tool {
+            Some(n) => job.tool(f, n)?,
+            None => tool,
+        };
+        let rf = ftool.radius();
+        let (d, m) = depth_rule(f.depth, r, opts.max_depth_ratio);
+        let levels: Vec<f64> = (1..=m).map(|j| if j == m { -f.depth } else { -(j as f64) * d }).collect();
+        Ok(Cuts { feature: f, tool, r, ftool, rf, d, m, levels, allowance: job.allowance })
+    }
+
+    /// The summary before the operation fills in its part (a pocket's, by default).
+    fn summary(&self) -> FeatureSummary {
+        FeatureSummary {
+            name: self.feature.name.clone(),
+            kind: "pocket",
+            operation: String::new(),
+            depth_of_cut: self.d,
+            cuts: self.m,
+            stepover: 0.0,
+            passes: 1,
+            pass_length: 0.0,
+            tool: self.tool.number,
+            finish_tool: None,
+            min: [0.0; 3],
+            max: [0.0; 3],
+        }
+    }
+}
+
 /// Builds the program for `job`: validation, rules, motions and summaries.
 pub fn plan_features(job: &FeatureJob, opts: &FeatureOptions) -> Result<FeaturePlan, FeatureError> {
     job.validate(opts)?;
@@ -773,301 +830,26 @@ pub fn plan_features(job: &FeatureJob, opts: &FeatureOptions) -> Result<FeatureP
         max: [f64::NEG_INFINITY; 3],
     };
     let mut summaries = Vec::with_capacity(job.features.len());
-    let s = job.allowance;
-    let top_clear = opts.clearance;
     for f in &job.features {
         bld.min = [f64::INFINITY; 3];
         bld.max = [f64::NEG_INFINITY; 3];
-        let tool = job.tool(f, f.tool)?;
-        let r = 0.5 * tool.diameter;
-        let ftool = match f.finish_tool {
-            Some(n) => job.tool(f, n)?,
-            None => tool,
-        };
-        let rf = 0.5 * ftool.diameter;
-        let (d, m) = depth_rule(f.depth, r, opts.max_depth_ratio);
-        let levels: Vec<f64> = (1..=m).map(|j| if j == m { -f.depth } else { -(j as f64) * d }).collect();
-        let mut summary = FeatureSummary {
-            name: f.name.clone(),
-            kind: "pocket",
-            operation: String::new(),
-            depth_of_cut: d,
-            cuts: m,
-            stepover: 0.0,
-            passes: 1,
-            pass_length: 0.0,
-            tool: tool.number,
-            finish_tool: None,
-            min: [0.0; 3],
-            max: [0.0; 3],
-        };
+        let cuts = Cuts::new(job, f, opts)?;
+        let mut summary = cuts.summary();
         match f.kind {
             FeatureKind::Pocket { x, y, length, width, corner_radius } => {
-                let (q, n) = stepover_rule(width, s, r, opts.max_stepover_ratio);
-                let off = r + s;
-                // Tool-centre region for roughing: the pocket inset by R + S.
-                let (u0, u1) = (x + off, x + length - off);
-                let (v0, v1) = (y + off, y + width - off);
-                // A pocket no wider than the tool plus allowance collapses to its centre line.
-                let mid = |a: f64, b: f64| if b < a { (0.5 * (a + b), 0.5 * (a + b)) } else { (a, b) };
-                let ((u0, u1), (v0, v1)) = (mid(u0, u1), mid(v0, v1));
-                let c = (corner_radius - off).max(0.0).min(0.5 * (u1 - u0)).min(0.5 * (v1 - v0));
-                let offsets = row_offsets(v0, v1, q, n);
-                let extent = |v: f64| {
-                    let dv = (v0 + c - v).max(v - (v1 - c));
-                    let ins = corner_inset(dv, c);
-                    (u0 + ins, u1 - ins)
-                };
-                let rows = rows_of(&offsets, extent, |u, v| [u, v]);
-                summary.stepover = q;
-                summary.passes = n;
-                summary.pass_length = u1 - u0;
-                summary.operation = "zigzag roughing + contour finishing".into();
-                summary.finish_tool = Some(ftool.number);
-                bld.comment(format!(
-                    "pocket {}: {} x {} x {} R{} at X{} Y{}; d={} m={} Q={} N={}",
-                    f.name,
-                    fmt(length),
-                    fmt(width),
-                    fmt(f.depth),
-                    fmt(corner_radius),
-                    fmt(x),
-                    fmt(y),
-                    fmt(d),
-                    m,
-                    fmt(q),
-                    n
-                ));
-                let (sx, sy) = rows.first().map_or((u0, v0), |r| (r.0[0], r.0[1]));
-                bld.start_op(tool, "roughing", sx, sy);
-                bld.comment("roughing start".into());
-                for (j, &z) in levels.iter().enumerate() {
-                    zigzag(&mut bld, &rows, z, tool, j + 1);
-                }
-                // Finishing contour at R_f from the walls, counter-clockwise (climb).
-                if opts.optional_stop {
-                    bld.out.push(Motion::Stop { optional: true });
-                }
-                let (cx, cy) = (x + 0.5 * length, y + 0.5 * width);
-                bld.start_op(ftool, "finishing", cx, cy);
-                bld.comment("finishing start: rapid to pocket centre".into());
-                let z = -f.depth;
-                bld.feed(Point3::new(cx, cy, z), ftool.plunge_feed);
-                let (a0, a1, b0, b1) = (x + rf, x + length - rf, y + rf, y + width - rf);
-                let k = (corner_radius - rf).max(0.0);
-                let fd = ftool.feed;
-                let p = |u: f64, v: f64| Point3::new(u, v, z);
-                bld.feed(p(cx, b0), fd);
-                let corners = [
-                    // (line end, arc end, arc centre)
-                    ((a1 - k, b0), (a1, b0 + k), (a1 - k, b0 + k)),
-                    ((a1, b1 - k), (a1 - k, b1), (a1 - k, b1 - k)),
-                    ((a0 + k, b1), (a0, b1 - k), (a0 + k, b1 - k)),
-                    ((a0, b0 + k), (a0 + k, b0), (a0 + k, b0 + k)),
-                ];
-                for (le, ae, ac) in corners {
-                    bld.feed(p(le.0, le.1), fd);
-                    if k > 1e-6 {
-                        bld.arc_ccw(p(ae.0, ae.1), ac.0, ac.1, fd);
-                    }
-                }
-                bld.feed(p(cx, b0), fd);
-                bld.feed(p(cx, cy), fd);
-                bld.retract();
+                pocket(&mut bld, &cuts, &mut summary, [x, y, length, width, corner_radius]);
             }
             FeatureKind::Slot { start, end, width, through } => {
-                let (dx, dy) = (end[0] - start[0], end[1] - start[1]);
-                let len = dx.hypot(dy);
-                let (ux, uy) = (dx / len, dy / len);
-                // Left normal: +v is to the left of the direction start -> end.
-                let (nx, ny) = (-uy, ux);
-                let map = |u: f64, v: f64| [start[0] + u * ux + v * nx, start[1] + u * uy + v * ny];
-                let (q, n) = stepover_rule(width, s, r, opts.max_stepover_ratio);
-                let a = (0.5 * width - r - s).max(0.0);
-                let (lo, hi) = if n == 1 { (0.0, 0.0) } else { (-a, a) };
-                let offsets = row_offsets(lo, hi, q, n);
-                let ext = r + opts.overrun;
-                let rows = if through {
-                    rows_of(&offsets, |_| (-ext, len + ext), map)
-                } else {
-                    rows_of(
-                        &offsets,
-                        |v| {
-                            let e = (a * a - v * v).max(0.0).sqrt();
-                            (-e, len + e)
-                        },
-                        map,
-                    )
-                };
-                summary.kind = if through { "through slot" } else { "slot" };
-                summary.stepover = q;
-                summary.passes = n;
-                summary.pass_length = rows.first().map_or(0.0, |r| (r.1[0] - r.0[0]).hypot(r.1[1] - r.0[1]));
-                let finishing = 0.5 * width - rf > 1e-6;
-                summary.operation = if finishing {
-                    "zigzag roughing + wall finishing".into()
-                } else {
-                    "centre-line passes".into()
-                };
-                summary.finish_tool = finishing.then_some(ftool.number);
-                bld.comment(format!(
-                    "{} {}: width {} depth {} from X{} Y{} to X{} Y{}; d={} m={} Q={} N={}",
-                    summary.kind,
-                    f.name,
-                    fmt(width),
-                    fmt(f.depth),
-                    fmt(start[0]),
-                    fmt(start[1]),
-                    fmt(end[0]),
-                    fmt(end[1]),
-                    fmt(d),
-                    m,
-                    fmt(q),
-                    n
-                ));
-                let (sx, sy) = rows.first().map_or((start[0], start[1]), |r| (r.0[0], r.0[1]));
-                bld.start_op(tool, "roughing", sx, sy);
-                for (j, &z) in levels.iter().enumerate() {
-                    zigzag(&mut bld, &rows, z, tool, j + 1);
-                }
-                if finishing {
-                    if opts.optional_stop {
-                        bld.out.push(Motion::Stop { optional: true });
-                    }
-                    let z = -f.depth;
-                    let w = 0.5 * width - rf;
-                    let fd = ftool.feed;
-                    let p = |u: f64, v: f64| {
-                        let q = map(u, v);
-                        Point3::new(q[0], q[1], z)
-                    };
-                    if through {
-                        // Right wall forward, left wall back (interior on the left: climb).
-                        let s0 = map(-ext, -w);
-                        bld.start_op(ftool, "finishing", s0[0], s0[1]);
-                        bld.comment("finishing: both walls".into());
-                        bld.feed(p(-ext, -w), ftool.plunge_feed);
-                        bld.feed(p(len + ext, -w), fd);
-                        bld.feed(p(len + ext, w), fd);
-                        bld.feed(p(-ext, w), fd);
-                    } else {
-                        let mid = map(0.5 * len, 0.0);
-                        bld.start_op(ftool, "finishing", mid[0], mid[1]);
-                        bld.comment("finishing: contour".into());
-                        bld.feed(p(0.5 * len, 0.0), ftool.plunge_feed);
-                        bld.feed(p(0.5 * len, -w), fd);
-                        bld.feed(p(len, -w), fd);
-                        let e = map(len, 0.0);
-                        bld.arc_ccw(p(len, w), e[0], e[1], fd);
-                        bld.feed(p(0.0, w), fd);
-                        let s0 = map(0.0, 0.0);
-                        bld.arc_ccw(p(0.0, -w), s0[0], s0[1], fd);
-                        bld.feed(p(0.5 * len, -w), fd);
-                        bld.feed(p(0.5 * len, 0.0), fd);
-                    }
-                    bld.retract();
-                }
+                slot(&mut bld, &cuts, &mut summary, [start, end], width, through);
             }
             FeatureKind::Hole { x, y, diameter, method } => {
-                let same = (tool.diameter - diameter).abs() <= 1e-6;
+                let same = (cuts.tool.diameter() - diameter).abs() <= 1e-6;
                 let helical =
                     matches!(method, HoleMethod::Helical) || (matches!(method, HoleMethod::Auto) && !same);
                 if helical {
-                    let rh = 0.5 * diameter - r;
-                    let r_in = 0.5 * r;
-                    let (q, rings) = if rh > r_in {
-                        let k = ((rh - r_in) / (opts.max_stepover_ratio * 2.0 * r) - 1e-9).ceil().max(1.0);
-                        ((rh - r_in) / k, k as usize)
-                    } else {
-                        (0.0, 0)
-                    };
-                    summary.kind = "helical hole";
-                    summary.operation = "helical interpolation + concentric circles".into();
-                    summary.stepover = q;
-                    summary.passes = rings + 1;
-                    bld.comment(format!(
-                        "helical hole {}: D{} depth {} at X{} Y{}; pitch d={} m={} circles={}",
-                        f.name,
-                        fmt(diameter),
-                        fmt(f.depth),
-                        fmt(x),
-                        fmt(y),
-                        fmt(d),
-                        m,
-                        rings + 1
-                    ));
-                    bld.start_op(tool, "milling", x + rh, y);
-                    bld.feed(Point3::new(x + rh, y, 0.0), tool.plunge_feed);
-                    for (j, &z) in levels.iter().enumerate() {
-                        bld.comment(format!("helix {}: down to {}", j + 1, fmt(-z)));
-                        bld.arc_ccw(Point3::new(x + rh, y, z), x, y, tool.plunge_feed);
-                        bld.arc_ccw(Point3::new(x + rh, y, z), x, y, tool.feed);
-                        for i in 1..=rings {
-                            let ri = rh - i as f64 * q;
-                            bld.feed(Point3::new(x + ri, y, z), tool.feed);
-                            if ri > 1e-6 {
-                                bld.arc_ccw(Point3::new(x + ri, y, z), x, y, tool.feed);
-                            }
-                        }
-                        bld.feed(Point3::new(x + rh, y, z), tool.feed);
-                    }
-                    bld.feed(Point3::new(x, y, -f.depth), tool.feed);
-                    bld.retract();
+                    helical_hole(&mut bld, &cuts, &mut summary, [x, y, diameter]);
                 } else {
-                    let kind = match method {
-                        HoleMethod::Dwell(sec) => {
-                            CycleKind::Dwell { seconds: sec.unwrap_or(opts.default_dwell) }
-                        }
-                        HoleMethod::Peck(p) => CycleKind::Peck { peck: p.unwrap_or(diameter) },
-                        HoleMethod::Auto if f.depth > 3.0 * diameter => CycleKind::Peck { peck: diameter },
-                        _ => CycleKind::Drill,
-                    };
-                    let (code, dc, cuts) = match kind {
-                        CycleKind::Drill => ("G81", f.depth, 1),
-                        CycleKind::Dwell { .. } => ("G82", f.depth, 1),
-                        CycleKind::Peck { peck } => {
-                            ("G83", peck, ((f.depth + opts.r_plane) / peck - 1e-9).ceil().max(1.0) as usize)
-                        }
-                    };
-                    summary.kind = "drilled hole";
-                    summary.operation = code.into();
-                    summary.depth_of_cut = dc;
-                    summary.cuts = cuts;
-                    bld.comment(format!(
-                        "drilled hole {}: D{} depth {} at X{} Y{} ({code})",
-                        f.name,
-                        fmt(diameter),
-                        fmt(f.depth),
-                        fmt(x),
-                        fmt(y)
-                    ));
-                    bld.start_op(tool, "drilling", x, y);
-                    let cyc = DrillCycle {
-                        kind,
-                        x,
-                        y,
-                        clearance: top_clear,
-                        r_plane: opts.r_plane,
-                        bottom: -f.depth,
-                        feed: tool.plunge_feed,
-                    };
-                    let mut lo = Point3::new(x, y, -f.depth);
-                    bld.grow(&lo);
-                    if opts.canned_cycles {
-                        bld.out.push(Motion::Cycle(cyc));
-                    } else {
-                        let mut ms = Vec::new();
-                        cyc.expand(bld.pos, |m| ms.push(m));
-                        for m in ms {
-                            match m {
-                                Motion::Rapid { to } => bld.rapid(to),
-                                Motion::Linear { to, feed, .. } => bld.feed(to, feed),
-                                other => bld.out.push(other),
-                            }
-                        }
-                    }
-                    lo.z = top_clear;
-                    bld.pos = Some(lo);
+                    drilled_hole(&mut bld, &cuts, &mut summary, [x, y, diameter], method);
                 }
             }
         }
@@ -1085,12 +867,315 @@ pub fn plan_features(job: &FeatureJob, opts: &FeatureOptions) -> Result<FeatureP
     Ok(FeaturePlan { motions: bld.out, summaries })
 }
 
+/// A pocket at `(x, y)` of `length` x `width` with `corner_radius`: zigzag roughing per cut,
+/// then the finishing contour.
+fn pocket(
+    bld: &mut Builder<'_>,
+    c: &Cuts<'_>,
+    summary: &mut FeatureSummary,
+    [x, y, length, width, corner_radius]: [f64; 5],
+) {
+    let (tool, ftool, r, rf, d, m, s, f) = (c.tool, c.ftool, c.r, c.rf, c.d, c.m, c.allowance, c.feature);
+    let levels = &c.levels;
+    let opts = bld.opts;
+    let (q, n) = stepover_rule(width, s, r, opts.max_stepover_ratio);
+    let off = r + s;
+    // Tool-centre region for roughing: the pocket inset by R + S.
+    let (u0, u1) = (x + off, x + length - off);
+    let (v0, v1) = (y + off, y + width - off);
+    // A pocket no wider than the tool plus allowance collapses to its centre line.
+    let mid = |a: f64, b: f64| if b < a { (0.5 * (a + b), 0.5 * (a + b)) } else { (a, b) };
+    let ((u0, u1), (v0, v1)) = (mid(u0, u1), mid(v0, v1));
+    let c = (corner_radius - off).max(0.0).min(0.5 * (u1 - u0)).min(0.5 * (v1 - v0));
+    let offsets = row_offsets(v0, v1, q, n);
+    let extent = |v: f64| {
+        let dv = (v0 + c - v).max(v - (v1 - c));
+        let ins = corner_inset(dv, c);
+        (u0 + ins, u1 - ins)
+    };
+    let rows = rows_of(&offsets, extent, |u, v| [u, v]);
+    summary.stepover = q;
+    summary.passes = n;
+    summary.pass_length = u1 - u0;
+    summary.operation = "zigzag roughing + contour finishing".into();
+    summary.finish_tool = Some(ftool.number);
+    bld.comment(format!(
+        "pocket {}: {} x {} x {} R{} at X{} Y{}; d={} m={} Q={} N={}",
+        f.name,
+        fmt(length),
+        fmt(width),
+        fmt(f.depth),
+        fmt(corner_radius),
+        fmt(x),
+        fmt(y),
+        fmt(d),
+        m,
+        fmt(q),
+        n
+    ));
+    let (sx, sy) = rows.first().map_or((u0, v0), |r| (r.0[0], r.0[1]));
+    bld.start_op(tool, "roughing", sx, sy);
+    bld.comment("roughing start".into());
+    for (j, &z) in levels.iter().enumerate() {
+        zigzag(bld, &rows, z, tool, j + 1);
+    }
+    // Finishing contour at R_f from the walls, counter-clockwise (climb).
+    if opts.optional_stop {
+        bld.out.push(Motion::Stop { optional: true });
+    }
+    let (cx, cy) = (x + 0.5 * length, y + 0.5 * width);
+    bld.start_op(ftool, "finishing", cx, cy);
+    bld.comment("finishing start: rapid to pocket centre".into());
+    let z = -f.depth;
+    bld.feed(Point3::new(cx, cy, z), ftool.plunge_feed);
+    let (a0, a1, b0, b1) = (x + rf, x + length - rf, y + rf, y + width - rf);
+    let k = (corner_radius - rf).max(0.0);
+    let fd = ftool.feed;
+    let p = |u: f64, v: f64| Point3::new(u, v, z);
+    bld.feed(p(cx, b0), fd);
+    let corners = [
+        // (line end, arc end, arc centre)
+        ((a1 - k, b0), (a1, b0 + k), (a1 - k, b0 + k)),
+        ((a1, b1 - k), (a1 - k, b1), (a1 - k, b1 - k)),
+        ((a0 + k, b1), (a0, b1 - k), (a0 + k, b1 - k)),
+        ((a0, b0 + k), (a0 + k, b0), (a0 + k, b0 + k)),
+    ];
+    for (le, ae, ac) in corners {
+        bld.feed(p(le.0, le.1), fd);
+        if k > 1e-6 {
+            bld.arc_ccw(p(ae.0, ae.1), ac.0, ac.1, fd);
+        }
+    }
+    bld.feed(p(cx, b0), fd);
+    bld.feed(p(cx, cy), fd);
+    bld.retract();
+}
+
+/// A slot along the centre line `[start, end]`: zigzag roughing per cut, then its walls.
+fn slot(
+    bld: &mut Builder<'_>,
+    c: &Cuts<'_>,
+    summary: &mut FeatureSummary,
+    [start, end]: [[f64; 2]; 2],
+    width: f64,
+    through: bool,
+) {
+    let (tool, ftool, r, rf, d, m, s, f) = (c.tool, c.ftool, c.r, c.rf, c.d, c.m, c.allowance, c.feature);
+    let levels = &c.levels;
+    let opts = bld.opts;
+    let (dx, dy) = (end[0] - start[0], end[1] - start[1]);
+    let len = dx.hypot(dy);
+    let (ux, uy) = (dx / len, dy / len);
+    // Left normal: +v is to the left of the direction start -> end.
+    let (nx, ny) = (-uy, ux);
+    let map = |u: f64, v: f64| [start[0] + u * ux + v * nx, start[1] + u * uy + v * ny];
+    let (q, n) = stepover_rule(width, s, r, opts.max_stepover_ratio);
+    let a = (0.5 * width - r - s).max(0.0);
+    let (lo, hi) = if n == 1 { (0.0, 0.0) } else { (-a, a) };
+    let offsets = row_offsets(lo, hi, q, n);
+    let ext = r + opts.overrun;
+    let rows = if through {
+        rows_of(&offsets, |_| (-ext, len + ext), map)
+    } else {
+        rows_of(
+            &offsets,
+            |v| {
+                let e = (a * a - v * v).max(0.0).sqrt();
+                (-e, len + e)
+            },
+            map,
+        )
+    };
+    summary.kind = if through { "through slot" } else { "slot" };
+    summary.stepover = q;
+    summary.passes = n;
+    summary.pass_length = rows.first().map_or(0.0, |r| (r.1[0] - r.0[0]).hypot(r.1[1] - r.0[1]));
+    let finishing = 0.5 * width - rf > 1e-6;
+    summary.operation =
+        if finishing { "zigzag roughing + wall finishing".into() } else { "centre-line passes".into() };
+    summary.finish_tool = finishing.then_some(ftool.number);
+    bld.comment(format!(
+        "{} {}: width {} depth {} from X{} Y{} to X{} Y{}; d={} m={} Q={} N={}",
+        summary.kind,
+        f.name,
+        fmt(width),
+        fmt(f.depth),
+        fmt(start[0]),
+        fmt(start[1]),
+        fmt(end[0]),
+        fmt(end[1]),
+        fmt(d),
+        m,
+        fmt(q),
+        n
+    ));
+    let (sx, sy) = rows.first().map_or((start[0], start[1]), |r| (r.0[0], r.0[1]));
+    bld.start_op(tool, "roughing", sx, sy);
+    for (j, &z) in levels.iter().enumerate() {
+        zigzag(bld, &rows, z, tool, j + 1);
+    }
+    if finishing {
+        if opts.optional_stop {
+            bld.out.push(Motion::Stop { optional: true });
+        }
+        let z = -f.depth;
+        let w = 0.5 * width - rf;
+        let fd = ftool.feed;
+        let p = |u: f64, v: f64| {
+            let q = map(u, v);
+            Point3::new(q[0], q[1], z)
+        };
+        if through {
+            // Right wall forward, left wall back (interior on the left: climb).
+            let s0 = map(-ext, -w);
+            bld.start_op(ftool, "finishing", s0[0], s0[1]);
+            bld.comment("finishing: both walls".into());
+            bld.feed(p(-ext, -w), ftool.plunge_feed);
+            bld.feed(p(len + ext, -w), fd);
+            bld.feed(p(len + ext, w), fd);
+            bld.feed(p(-ext, w), fd);
+        } else {
+            let mid = map(0.5 * len, 0.0);
+            bld.start_op(ftool, "finishing", mid[0], mid[1]);
+            bld.comment("finishing: contour".into());
+            bld.feed(p(0.5 * len, 0.0), ftool.plunge_feed);
+            bld.feed(p(0.5 * len, -w), fd);
+            bld.feed(p(len, -w), fd);
+            let e = map(len, 0.0);
+            bld.arc_ccw(p(len, w), e[0], e[1], fd);
+            bld.feed(p(0.0, w), fd);
+            let s0 = map(0.0, 0.0);
+            bld.arc_ccw(p(0.0, -w), s0[0], s0[1], fd);
+            bld.feed(p(0.5 * len, -w), fd);
+            bld.feed(p(0.5 * len, 0.0), fd);
+        }
+        bld.retract();
+    }
+}
+
+/// A hole of `diameter` at `(x, y)` larger than the tool: one helical turn per cut, then
+/// concentric circles inward.
+fn helical_hole(
+    bld: &mut Builder<'_>,
+    c: &Cuts<'_>,
+    summary: &mut FeatureSummary,
+    [x, y, diameter]: [f64; 3],
+) {
+    let (tool, r, d, m, f) = (c.tool, c.r, c.d, c.m, c.feature);
+    let levels = &c.levels;
+    let opts = bld.opts;
+    let rh = 0.5 * diameter - r;
+    let r_in = 0.5 * r;
+    let (q, rings) = if rh > r_in {
+        let k = ((rh - r_in) / (opts.max_stepover_ratio * 2.0 * r) - 1e-9).ceil().max(1.0);
+        ((rh - r_in) / k, k as usize)
+    } else {
+        (0.0, 0)
+    };
+    summary.kind = "helical hole";
+    summary.operation = "helical interpolation + concentric circles".into();
+    summary.stepover = q;
+    summary.passes = rings + 1;
+    bld.comment(format!(
+        "helical hole {}: D{} depth {} at X{} Y{}; pitch d={} m={} circles={}",
+        f.name,
+        fmt(diameter),
+        fmt(f.depth),
+        fmt(x),
+        fmt(y),
+        fmt(d),
+        m,
+        rings + 1
+    ));
+    bld.start_op(tool, "milling", x + rh, y);
+    bld.feed(Point3::new(x + rh, y, 0.0), tool.plunge_feed);
+    for (j, &z) in levels.iter().enumerate() {
+        bld.comment(format!("helix {}: down to {}", j + 1, fmt(-z)));
+        bld.arc_ccw(Point3::new(x + rh, y, z), x, y, tool.plunge_feed);
+        bld.arc_ccw(Point3::new(x + rh, y, z), x, y, tool.feed);
+        for i in 1..=rings {
+            let ri = rh - i as f64 * q;
+            bld.feed(Point3::new(x + ri, y, z), tool.feed);
+            if ri > 1e-6 {
+                bld.arc_ccw(Point3::new(x + ri, y, z), x, y, tool.feed);
+            }
+        }
+        bld.feed(Point3::new(x + rh, y, z), tool.feed);
+    }
+    bld.feed(Point3::new(x, y, -f.depth), tool.feed);
+    bld.retract();
+}
+
+/// A hole of `diameter` at `(x, y)` drilled with a canned cycle (or its expanded moves).
+fn drilled_hole(
+    bld: &mut Builder<'_>,
+    c: &Cuts<'_>,
+    summary: &mut FeatureSummary,
+    [x, y, diameter]: [f64; 3],
+    method: HoleMethod,
+) {
+    let (tool, f) = (c.tool, c.feature);
+    let opts = bld.opts;
+    let kind = match method {
+        HoleMethod::Dwell(sec) => CycleKind::Dwell { seconds: sec.unwrap_or(opts.default_dwell) },
+        HoleMethod::Peck(p) => CycleKind::Peck { peck: p.unwrap_or(diameter) },
+        HoleMethod::Auto if f.depth > 3.0 * diameter => CycleKind::Peck { peck: diameter },
+        _ => CycleKind::Drill,
+    };
+    let (code, dc, cuts) = match kind {
+        CycleKind::Drill => ("G81", f.depth, 1),
+        CycleKind::Dwell { .. } => ("G82", f.depth, 1),
+        CycleKind::Peck { peck } => {
+            ("G83", peck, ((f.depth + opts.r_plane) / peck - 1e-9).ceil().max(1.0) as usize)
+        }
+    };
+    summary.kind = "drilled hole";
+    summary.operation = code.into();
+    summary.depth_of_cut = dc;
+    summary.cuts = cuts;
+    bld.comment(format!(
+        "drilled hole {}: D{} depth {} at X{} Y{} ({code})",
+        f.name,
+        fmt(diameter),
+        fmt(f.depth),
+        fmt(x),
+        fmt(y)
+    ));
+    bld.start_op(tool, "drilling", x, y);
+    let cyc = DrillCycle {
+        kind,
+        x,
+        y,
+        clearance: bld.clearance(),
+        r_plane: opts.r_plane,
+        bottom: -f.depth,
+        feed: tool.plunge_feed,
+    };
+    let mut lo = Point3::new(x, y, -f.depth);
+    bld.grow(&lo);
+    if opts.canned_cycles {
+        bld.out.push(Motion::Cycle(cyc));
+    } else {
+        let mut ms = Vec::new();
+        cyc.expand(bld.pos, |m| ms.push(m));
+        for m in ms {
+            match m {
+                Motion::Rapid { to } => bld.rapid(to),
+                Motion::Linear { to, feed, .. } => bld.feed(to, feed),
+                other => bld.out.push(other),
+            }
+        }
+    }
+    lo.z = bld.clearance();
+    bld.pos = Some(lo);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn tool(number: u32, diameter: f64) -> CuttingTool {
-        CuttingTool { number, diameter, rpm: 1200.0, feed: 90.0, plunge_feed: 90.0 }
+    fn tool(number: u32, diameter: f64) -> Tool {
+        Tool { number, spindle_rpm: 1200.0, feed: 90.0, plunge_feed: 90.0, ..Tool::flat(0.5 * diameter) }
     }
 
     fn seed_job() -> FeatureJob {
@@ -1275,7 +1360,7 @@ mod tests {
         target.set_where(|p| !job.removed(p));
         let mut tools = ToolTable::single(Cutter::flat(5.0, 20.0));
         for t in &job.tools {
-            tools = tools.with(t.number, Cutter::flat(0.5 * t.diameter, 20.0));
+            tools = tools.with(t.number, Cutter::flat(t.radius(), 20.0));
         }
         let mut sim = Simulator::new(VoxelGrid::full(spec), tools, SimOptions::default())
             .and_then(|s| s.with_target(&target))
@@ -1310,7 +1395,7 @@ mod tests {
         let mut pos: Option<Point3<f64>> = None;
         for m in &plan.motions {
             if let Motion::ToolChange { tool } = m {
-                r = job.tools.iter().find(|t| t.number == *tool).map_or(0.0, |t| 0.5 * t.diameter);
+                r = job.tools.iter().find(|t| t.number == *tool).map_or(0.0, |t| t.radius());
             }
             let Some(to) = m.end_point() else { continue };
             let from = pos.unwrap_or(to);
@@ -1384,7 +1469,13 @@ mod tests {
             let job = FeatureJob {
                 block,
                 allowance,
-                tools: vec![CuttingTool { number: 7, diameter: dia, rpm: 1000.0, feed: 100.0, plunge_feed: 50.0 }],
+                tools: vec![Tool {
+                    number: 7,
+                    spindle_rpm: 1000.0,
+                    feed: 100.0,
+                    plunge_feed: 50.0,
+                    ..Tool::flat(0.5 * dia)
+                }],
                 features: vec![Feature { name: "random".into(), kind, depth, tool: 7, finish_tool: None }],
             };
             let opts = FeatureOptions { canned_cycles: false, ..Default::default() };

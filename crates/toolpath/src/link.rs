@@ -13,8 +13,10 @@ use s2g_gcode::{ArcDirection, Marker, Motion, MotionSink, Plane, SpindleDirectio
 use s2g_geom::{Aabb, Point3, Setup};
 
 use crate::error::ToolpathError;
-use crate::plan::{Ctx, LayerPlan, PlanOptions};
+use crate::layer::LayerPlan;
+use crate::options::PlanOptions;
 use crate::region::{Point2, Polyline2, RegionIndex};
+use crate::rest::RemainingMaterial;
 use crate::tool::Tool;
 
 pub(crate) struct LinkParams {
@@ -38,6 +40,8 @@ pub(crate) struct Stats {
 pub(crate) struct Emitter<'s, S: MotionSink> {
     sink: &'s mut S,
     tool: Tool,
+    /// Remaining material: entries where it reports none go straight down.
+    rest: Option<&'s dyn RemainingMaterial>,
     rapid_feed: f64,
     ramp_tan: f64,
     helix_radius: f64,
@@ -48,14 +52,21 @@ pub(crate) struct Emitter<'s, S: MotionSink> {
 }
 
 impl<'s, S: MotionSink> Emitter<'s, S> {
-    pub fn new(sink: &'s mut S, tool: &Tool, opts: &PlanOptions, p: LinkParams) -> Self {
+    pub fn new(
+        sink: &'s mut S,
+        tool: &Tool,
+        opts: &PlanOptions,
+        p: LinkParams,
+        rest: Option<&'s dyn RemainingMaterial>,
+    ) -> Self {
         Self {
             sink,
             tool: *tool,
+            rest,
             rapid_feed: opts.rapid_feed,
             ramp_tan: opts.ramp.angle_deg.to_radians().tan().max(1e-6),
-            helix_radius: opts.ramp.helix_radius.unwrap_or(0.5 * tool.radius),
-            min_ramp: opts.ramp.min_ramp_length.unwrap_or(tool.radius),
+            helix_radius: opts.ramp.helix_radius.unwrap_or(0.5 * tool.radius()),
+            min_ramp: opts.ramp.min_ramp_length.unwrap_or(tool.radius()),
             p,
             pos: None,
             stats: Stats::default(),
@@ -105,7 +116,9 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         self.send(Motion::Setup { frame: setup.frame, rotary: [None; 3] })?;
         let c = format!(
             "s2g-toolpath: tool {} radius {} strategy {}",
-            self.tool.number, self.tool.radius, strategy
+            self.tool.number,
+            self.tool.radius(),
+            strategy
         );
         self.send(Motion::Comment(c.into()))?;
         self.send(Motion::ToolChange { tool: self.tool.number })?;
@@ -133,13 +146,13 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         let s = &self.p.stock;
         let dx = (s.min.x - q.x).max(q.x - s.max.x).max(0.0);
         let dy = (s.min.y - q.y).max(q.y - s.max.y).max(0.0);
-        (dx * dx + dy * dy).sqrt() >= self.tool.radius * (1.0 - 1e-9)
+        (dx * dx + dy * dy).sqrt() >= self.tool.radius() * (1.0 - 1e-9)
     }
 
-    pub fn layer(&mut self, plan: &LayerPlan, ctx: &Ctx<'_>) -> Result<(), ToolpathError<S::Error>> {
+    pub fn layer(&mut self, plan: &LayerPlan) -> Result<(), ToolpathError<S::Error>> {
         self.send(Motion::Marker(Marker::Layer { index: Some(plan.index as i64), z: Some(plan.z) }))?;
         let index = plan.free.index();
-        let tol = 1e-7 * self.tool.radius;
+        let tol = 1e-7 * self.tool.radius();
         let z = plan.z;
         for path in plan.contour.iter().chain(&plan.clearing) {
             let Some(s) = path.start() else { continue };
@@ -155,7 +168,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                 let top = (plan.z_above + self.p.gap).min(self.p.clear_z);
                 self.rapid(Point3::new(s.x, s.y, self.p.clear_z))?;
                 self.rapid(Point3::new(s.x, s.y, top))?;
-                self.enter(path, &index, plan, ctx, top)?;
+                self.enter(path, &index, plan, top)?;
             }
             for q in path.points.iter().skip(1) {
                 self.feed(Point3::new(q.x, q.y, z), self.tool.feed)?;
@@ -175,7 +188,6 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         path: &Polyline2,
         index: &RegionIndex,
         plan: &LayerPlan,
-        ctx: &Ctx<'_>,
         top: f64,
     ) -> Result<(), ToolpathError<S::Error>> {
         let Some(s) = path.start() else { return Ok(()) };
@@ -183,8 +195,8 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         let depth = top - z;
         let plunge = self.tool.plunge_feed;
         let air = self.outside_stock(&s)
-            || ctx.rest.is_some_and(|rest| {
-                let r = self.tool.radius;
+            || self.rest.is_some_and(|rest| {
+                let r = self.tool.radius();
                 !rest.any_in_box(&Point3::new(s.x - r, s.y - r, z), &Point3::new(s.x + r, s.y + r, top))
             });
         if depth <= 0.0 || air {

@@ -10,219 +10,14 @@ use s2g_gcode::MotionSink;
 use s2g_geom::{Aabb, Mesh, Point3, Setup};
 
 use crate::error::ToolpathError;
+use crate::layer::LayerPlan;
 use crate::link::{Emitter, LinkParams};
+use crate::options::PlanOptions;
 use crate::region::{Point2, Polyline2, Region2, RegionIndex, nearest_index};
 use crate::rest::RemainingMaterial;
 use crate::slice::{Keepouts, flat_levels, layer_levels, setup_triangles, slab_regions};
-use crate::strategy::Strategy;
-use crate::tool::Tool;
-
-/// Default radians per arc segment in offsets (about 63 segments per full circle).
-pub const DEFAULT_ARC_STEP: f64 = 0.1;
-
-/// How the tool enters material below the previous level.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RampOptions {
-    /// Descent angle of ramps and helices, degrees from horizontal. Default 3.
-    pub angle_deg: f64,
-    /// Radius of the helix the tool centre follows; `None` (default) means half the tool radius.
-    pub helix_radius: Option<f64>,
-    /// Shortest usable ramp; `None` (default) means the tool radius. Where neither a helix
-    /// nor a ramp fits, the tool plunges straight at the plunge feed.
-    pub min_ramp_length: Option<f64>,
-}
-
-impl Default for RampOptions {
-    fn default() -> Self {
-        Self { angle_deg: 3.0, helix_radius: None, min_ramp_length: None }
-    }
-}
-
-/// Planning options. Distances are in part units, in the setup frame.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlanOptions {
-    /// Largest depth of cut per layer. Default 1/64 (the paper's coarsest, normalised units).
-    pub layer_height: f64,
-    /// Distance between neighbouring clearing passes as a fraction of the tool diameter,
-    /// in (0, 1]. Default 0.5.
-    pub stepover: f64,
-    /// Clearing strategy. Default zigzag along X.
-    pub strategy: Strategy,
-    /// Run the contour pass along the offset keep-out before clearing (§3.3.1: the paper
-    /// always does). `false` leaves it out, for ablations; the clearing passes still stay
-    /// in the free region, so the program stays safe. Default true.
-    pub contour: bool,
-    /// Material left on the part's walls for a finishing pass. Default 0.
-    pub finishing_allowance: f64,
-    /// Climb milling (with a clockwise spindle) rather than conventional. Default true.
-    pub climb: bool,
-    /// Height of the clearance plane above the stock top (Appendix A.1: 0.1 in normalised
-    /// units). Default 0.1.
-    pub clearance_height: f64,
-    /// Rapid descents stop this far above the previous level before feeding in; `None`
-    /// (default) means half the layer height.
-    pub retract_gap: Option<f64>,
-    /// The stock box in the setup frame; `None` (default) means the part's bounding box in
-    /// the setup frame grown by `stock_margin`.
-    pub stock: Option<Aabb>,
-    /// Margin around the part for the default stock. Default 0.
-    pub stock_margin: f64,
-    /// The start position (Eq. 4) in the setup frame; `None` (default) means above the
-    /// stock's minimum corner (outside it by the tool radius) at the clearance plane.
-    pub safe_start: Option<Point3>,
-    /// Entry moves.
-    pub ramp: RampOptions,
-    /// Radians per arc segment in offsets (chord tolerance: the sagitta is
-    /// `radius * (1 - cos(arc_step / 2))`). Default [`DEFAULT_ARC_STEP`].
-    pub arc_step: f64,
-    /// Keep-outs are thinned (Douglas-Peucker) at `offset_eps * tool radius`, and rid of
-    /// slits and spikes narrower than that, before offsetting
-    /// (the offset grows by as much, so it stays conservative). Default 1e-3.
-    pub offset_eps: f64,
-    /// Put a layer exactly on every horizontal face's level. Default true.
-    pub snap_to_flats: bool,
-    /// A face is horizontal when `|n_z| >= 1 - flat_tolerance`. Default 1e-6.
-    pub flat_tolerance: f64,
-    /// Faces within this distance above a level do not block the tool there (its tip may
-    /// rest on them); also the merge distance of flat levels. Default 1e-7.
-    pub level_tolerance: f64,
-    /// Lowest level to cut (setup frame z); `None` (default) means the part's lowest point
-    /// (never below the stock bottom, nor deeper than the flute length below the stock top).
-    pub bottom: Option<f64>,
-    /// Longest link cut at feed without retracting (it must also stay in the free region);
-    /// `None` (default) means two tool diameters.
-    pub max_stay_down_link: Option<f64>,
-    /// Rapid traverse rate for time estimates, units per minute. Default 5000.
-    pub rapid_feed: f64,
-    /// Cell size of the remaining-material map in rest machining; `None` (default) means
-    /// the larger of half the step-over and 1/256 of the stock's larger side.
-    pub rest_cell: Option<f64>,
-    /// Layers planned concurrently before their motions are streamed (bounds memory).
-    /// Default 32.
-    pub layers_per_batch: usize,
-    /// Largest axial depth of cut of a roughing layer; `None` (default) clears every layer
-    /// whole, as the paper does (§3.3). With `Some(d)`, the levels are grouped top down so
-    /// that each group spans at most `d`: its lowest level (the roughing level) clears the
-    /// whole free region in one cut of the group's depth, and only then are the group's
-    /// finer levels above it machined, each with its contour and its clearing limited to
-    /// where the roughing cut's tool centres did not stand (the steps along the part's
-    /// sloping walls; a level whose keep-out is the roughing level's has nothing left). The
-    /// finished shape is the same; the clearing passes of all but one level per group are
-    /// saved. A `d` below the layer height changes nothing.
-    pub roughing_depth: Option<f64>,
-    /// Faces steeper than about 89.4 degrees whose projection along the tool axis is
-    /// narrower than this are left out of the keep-out regions, which are then exact to
-    /// within this width; the tool-centre keep-out grows by as much more, so the tool
-    /// stays as far from the part. Numerically vertical slivers (walls rounded to single
-    /// precision, or cut by a boolean) otherwise make the keep-outs' boundaries grow
-    /// without bound from layer to layer. `None` (default) means 1e-6 of the stock's
-    /// larger horizontal side (0.1 µm on a 100 mm part).
-    pub sliver_width: Option<f64>,
-    /// Measure [`PlanSummary::air_cut_fraction`] in rest machining: one remaining-material
-    /// query per half tool radius of path, which for a small tool on fine layers costs more
-    /// than planning. Default false.
-    pub measure_air_cut: bool,
-}
-
-impl Default for PlanOptions {
-    fn default() -> Self {
-        Self {
-            layer_height: 1.0 / 64.0,
-            stepover: 0.5,
-            strategy: Strategy::default(),
-            contour: true,
-            finishing_allowance: 0.0,
-            climb: true,
-            clearance_height: 0.1,
-            retract_gap: None,
-            stock: None,
-            stock_margin: 0.0,
-            safe_start: None,
-            ramp: RampOptions::default(),
-            arc_step: DEFAULT_ARC_STEP,
-            offset_eps: 1e-3,
-            snap_to_flats: true,
-            flat_tolerance: 1e-6,
-            level_tolerance: 1e-7,
-            bottom: None,
-            max_stay_down_link: None,
-            rapid_feed: 5000.0,
-            rest_cell: None,
-            layers_per_batch: 32,
-            roughing_depth: None,
-            sliver_width: None,
-            measure_air_cut: false,
-        }
-    }
-}
-
-impl PlanOptions {
-    fn validate(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be positive and finite, got {v}"))
-            }
-        };
-        let nonneg = |name: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be finite and >= 0, got {v}"))
-            }
-        };
-        pos("layer_height", self.layer_height)?;
-        if !(self.stepover > 0.0 && self.stepover <= 1.0) {
-            return Err(format!(
-                "stepover must be in (0, 1] (fraction of the diameter), got {}",
-                self.stepover
-            ));
-        }
-        nonneg("finishing_allowance", self.finishing_allowance)?;
-        nonneg("clearance_height", self.clearance_height)?;
-        nonneg("stock_margin", self.stock_margin)?;
-        pos("arc_step", self.arc_step)?;
-        nonneg("flat_tolerance", self.flat_tolerance)?;
-        nonneg("offset_eps", self.offset_eps)?;
-        nonneg("level_tolerance", self.level_tolerance)?;
-        pos("rapid_feed", self.rapid_feed)?;
-        if !(self.ramp.angle_deg > 0.0 && self.ramp.angle_deg <= 90.0) {
-            return Err(format!("ramp angle must be in (0, 90] degrees, got {}", self.ramp.angle_deg));
-        }
-        for (name, v) in [
-            ("retract_gap", self.retract_gap),
-            ("ramp.helix_radius", self.ramp.helix_radius),
-            ("ramp.min_ramp_length", self.ramp.min_ramp_length),
-            ("max_stay_down_link", self.max_stay_down_link),
-            ("bottom", self.bottom.map(f64::abs)),
-        ] {
-            if let Some(v) = v {
-                nonneg(name, v)?;
-            }
-        }
-        if let Some(c) = self.rest_cell {
-            pos("rest_cell", c)?;
-        }
-        if let Some(w) = self.sliver_width {
-            nonneg("sliver_width", w)?;
-        }
-        if let Some(d) = self.roughing_depth {
-            pos("roughing_depth", d)?;
-        }
-        if let Strategy::Zigzag { angle_deg } = self.strategy
-            && !angle_deg.is_finite()
-        {
-            return Err("zigzag angle must be finite".into());
-        }
-        if let Some(p) = self.safe_start
-            && !p.iter().all(|c| c.is_finite())
-        {
-            return Err("safe_start must be finite".into());
-        }
-        Ok(())
-    }
-}
+use crate::strategy::ClearingContext;
+use crate::tool::{Envelope, Tool};
 
 /// What a planned setup amounts to.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -271,46 +66,6 @@ pub struct SetupSlices {
     pub keepouts: Vec<Region2>,
     /// The keep-outs are exact to within this width ([`PlanOptions::sliver_width`]).
     pub sliver_width: f64,
-}
-
-/// One layer's plan: its regions and paths (tool-centre XY at level `z`).
-#[derive(Debug, Clone)]
-pub struct LayerPlan {
-    /// Layer index from the top.
-    pub index: usize,
-    /// Level of the tool tip.
-    pub z: f64,
-    /// The level above (previous layer, or the stock top; for a roughing level, the
-    /// previous roughing level): material above it is gone.
-    pub z_above: f64,
-    /// Where the tool centre may go: stock outline grown by the radius, minus the keep-out
-    /// grown by radius + allowance.
-    pub free: Region2,
-    /// The region the clearing strategy fills (`free`, restricted to remaining material and,
-    /// on a level above a roughing level, to what the roughing cut could not reach).
-    pub clearing_region: Region2,
-    /// Contour passes along the offset keep-out (closed loops, or pieces where clipped).
-    pub contour: Vec<Polyline2>,
-    /// Clearing passes, in order.
-    pub clearing: Vec<Polyline2>,
-    /// Cut and air length of contour + clearing (air only with rest information).
-    pub cut_air: (f64, f64),
-}
-
-impl LayerPlan {
-    /// A layer with nothing to cut.
-    fn empty(index: usize, z: f64, z_above: f64, free: &Region2) -> Self {
-        LayerPlan {
-            index,
-            z,
-            z_above,
-            free: free.clone(),
-            clearing_region: Region2::empty(),
-            contour: Vec::new(),
-            clearing: Vec::new(),
-            cut_air: (0.0, 0.0),
-        }
-    }
 }
 
 fn check_tool_opts<E>(tool: &Tool, opts: &PlanOptions) -> Result<(), ToolpathError<E>> {
@@ -368,8 +123,10 @@ fn slice_levels<E>(
     }
     let top = stock.max.z;
     let mut bottom = opts.bottom.unwrap_or(part_bbox.min.z).max(stock.min.z);
-    if tool.flute_length.is_finite() {
-        bottom = bottom.max(top - tool.flute_length);
+    // Layer planning keeps the tool's enclosing cylinder out of the part (see `Envelope`).
+    let envelope = tool.envelope();
+    if envelope.length.is_finite() {
+        bottom = bottom.max(top - envelope.length);
     }
     let flats = if opts.snap_to_flats {
         flat_levels(&tris, opts.flat_tolerance, opts.level_tolerance)
@@ -377,7 +134,7 @@ fn slice_levels<E>(
         Vec::new()
     };
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
-    let grow = tool.radius + opts.finishing_allowance;
+    let grow = envelope.radius + opts.finishing_allowance;
     let min_hole_area = std::f64::consts::PI * grow * grow;
     let sliver_width = opts.sliver_width.unwrap_or(1e-6 * stock.extent().x.max(stock.extent().y));
     let slabs = slab_regions(&tris, &levels, opts.level_tolerance, min_hole_area, sliver_width);
@@ -386,6 +143,9 @@ fn slice_levels<E>(
 
 pub(crate) struct Ctx<'a> {
     pub tool: &'a Tool,
+    /// What planning keeps out of the part: the tool's enclosing cylinder
+    /// ([`Tool::envelope`]); every distance to the part below is measured with its radius.
+    pub envelope: Envelope,
     pub opts: &'a PlanOptions,
     pub stock: Aabb,
     pub start: Point3,
@@ -470,7 +230,7 @@ impl Ctx<'_> {
     }
 
     fn centre_rect(&self) -> Region2 {
-        let r = self.tool.radius;
+        let r = self.envelope.radius;
         Region2::rect(
             Point2::new(self.stock.min.x - r, self.stock.min.y - r),
             Point2::new(self.stock.max.x + r, self.stock.max.y + r),
@@ -559,11 +319,11 @@ impl Ctx<'_> {
         let lo = self.stock.min;
         // Cell offsets whose boxes lie within the radius of a cell's box, and the margin of
         // cells the growth adds around the map.
-        let m = (self.tool.radius / c).ceil() as usize + 1;
+        let m = (self.envelope.radius / c).ceil() as usize + 1;
         let gap = |d: usize| d.saturating_sub(1) as f64 * c;
         let reach: Vec<(usize, usize)> = (0..=2 * m)
             .flat_map(|dj| (0..=2 * m).map(move |di| (di, dj)))
-            .filter(|&(di, dj)| gap(di.abs_diff(m)).hypot(gap(dj.abs_diff(m))) <= self.tool.radius)
+            .filter(|&(di, dj)| gap(di.abs_diff(m)).hypot(gap(dj.abs_diff(m))) <= self.envelope.radius)
             .collect();
         let (wx, wy) = (nx + 2 * m, ny + 2 * m);
         // Cell `(i, j)` of the grown grid is map cell `(i - m, j - m)`; a map cell's
@@ -599,13 +359,13 @@ impl Ctx<'_> {
     /// No remaining material under the central half of the cutter (the rim is left out:
     /// next to the part it always touches the part itself).
     fn is_air(&self, rest: &dyn RemainingMaterial, p: &Point2, z: f64, z_above: f64) -> bool {
-        let r = 0.5 * self.tool.radius;
+        let r = 0.5 * self.envelope.radius;
         !rest.any_in_box(&Point3::new(p.x - r, p.y - r, z), &Point3::new(p.x + r, p.y + r, z_above))
     }
 
     /// The tool-centre keep-out and free region of a level with keep-out `keepout`.
     fn clearance(&self, keepout: &Region2) -> Clearance {
-        let r = self.tool.radius;
+        let r = self.envelope.radius;
         let thin = 0.005 * r;
         let off = keepout
             .grown_safe(
@@ -630,7 +390,7 @@ impl Ctx<'_> {
         clearance: &Clearance,
         roughed: Option<(&Region2, &RegionIndex)>,
     ) -> LayerPlan {
-        let r = self.tool.radius;
+        let r = self.envelope.radius;
         let Clearance { off, free } = clearance;
         let to_clear = match roughed {
             Some((done, _)) => Cow::Owned(free.difference(done)),
@@ -688,14 +448,14 @@ impl Ctx<'_> {
             cur = p.end().unwrap_or(cur);
             contour.push(p);
         }
-        let clearing = self.opts.strategy.clear_with(
-            &clearing_region,
-            r,
-            self.stepover(),
-            cur,
-            self.opts.arc_step,
-            self.opts.climb,
-        );
+        let clearing_ctx = ClearingContext {
+            tool_radius: r,
+            stepover: self.stepover(),
+            start: cur,
+            arc_step: self.opts.arc_step,
+            climb: self.opts.climb,
+        };
+        let clearing = self.opts.strategy.clear(&clearing_region, &clearing_ctx);
         let mut cut_air = (0.0, 0.0);
         for p in contour.iter().chain(&clearing) {
             cut_air.0 += p.length();
@@ -846,8 +606,9 @@ fn make_ctx<'a>(
     let clear_z = stock.max.z + opts.clearance_height;
     let start = opts
         .safe_start
-        .unwrap_or_else(|| Point3::new(stock.min.x - tool.radius, stock.min.y - tool.radius, clear_z));
-    Ctx { tool, opts, stock, start, rest, sliver_width, reaches: ReachCache::default() }
+        .unwrap_or_else(|| Point3::new(stock.min.x - tool.radius(), stock.min.y - tool.radius(), clear_z));
+    let envelope = tool.envelope();
+    Ctx { tool, envelope, opts, stock, start, rest, sliver_width, reaches: ReachCache::default() }
 }
 
 /// Plans `part` (part frame) for `setup` and streams the program into `sink`:
@@ -933,7 +694,7 @@ pub fn plan_setup_watched<S: MotionSink>(
         max_link: opts.max_stay_down_link.unwrap_or(2.0 * tool.diameter()),
         stock,
     };
-    let mut em = Emitter::new(sink, tool, opts, params);
+    let mut em = Emitter::new(sink, tool, opts, params, rest);
     em.begin(setup, &ctx.start, opts.strategy.name())?;
     let mut summary = PlanSummary { layers: sliced.levels.len(), stock: Some(stock), ..Default::default() };
     let (mut cut, mut air) = (0.0, 0.0);
@@ -978,7 +739,7 @@ pub fn plan_setup_watched<S: MotionSink>(
                 }
                 cut += plan.cut_air.0;
                 air += plan.cut_air.1;
-                em.layer(plan, &ctx)?;
+                em.layer(plan)?;
             }
         }
         window = next;
@@ -1027,11 +788,11 @@ mod tests {
         }
         let cells = Region2::union_contours(rects);
         // Every point within the radius of a cell is in the reach...
-        let exact = cells.offset(tool.radius, opts.arc_step);
+        let exact = cells.offset(tool.radius(), opts.arc_step);
         let missed = exact.difference(&reach).area();
         assert!(missed < 1e-9 * exact.area(), "the reach misses {missed} of {}", exact.area());
         // ... and nothing farther than the radius and a cell's diagonal.
-        let loose = cells.offset(tool.radius + c * std::f64::consts::SQRT_2, opts.arc_step);
+        let loose = cells.offset(tool.radius() + c * std::f64::consts::SQRT_2, opts.arc_step);
         let extra = reach.difference(&loose).area();
         assert!(extra < 1e-9 * reach.area(), "the reach goes {extra} beyond a cell's diagonal");
         assert!(reach.area() > exact.area() && reach.area() < loose.area());

@@ -1,32 +1,21 @@
-//! [`Tool`]: a milling cutter and its cutting data.
+//! [`Tool`]: a physical cutter ([`s2g_geom::Cutter`]) and its cutting data, and the
+//! [`Envelope`] the layer planner keeps out of the part.
 
-/// The cutter's end shape.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ToolKind {
-    /// Flat end mill.
-    Flat,
-    /// Ball end mill (corner radius = tool radius).
-    Ball,
-    /// Bull-nose end mill with the given corner radius (`0 < corner <= radius`).
-    BullNose {
-        /// Corner radius.
-        corner: f64,
-    },
-}
+use s2g_geom::{Cutter, CutterShape};
 
 /// A milling cutter with its cutting data. The programmed point is the tool tip.
 ///
-/// Planning treats every cutter as its enclosing cylinder of `radius` (always safe:
-/// ball and bull-nose cutters then leave cusps on floors but never cut the part).
+/// The cutter itself (end shape, radius, flutes, shank, holder) is the workspace's one
+/// description of a physical cutter, [`s2g_geom::Cutter`]; the simulator cuts with the
+/// same value (`s2g_voxsim::ToolTable` takes a [`Cutter`]), so a planned tool and a
+/// simulated one cannot drift apart. Layer planning uses the tool through its
+/// [`envelope`](Self::envelope).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tool {
-    /// Cutter radius (half the diameter), in part units.
-    pub radius: f64,
-    /// End shape.
-    pub kind: ToolKind,
-    /// Usable cutting length below the holder; planning never goes deeper than this below
-    /// the stock top. `f64::INFINITY` (the paper's assumption) means unlimited.
-    pub flute_length: f64,
+    /// The physical cutter. Its [`flute_length`](Cutter::flute_length) bounds planning
+    /// depth: planning never goes deeper than this below the stock top; `f64::INFINITY`
+    /// (the paper's assumption, and [`Tool::flat`]'s default) means unlimited.
+    pub cutter: Cutter,
     /// Cutting feed in units per minute.
     pub feed: f64,
     /// Feed for plunges, ramps and helices, in units per minute.
@@ -37,32 +26,100 @@ pub struct Tool {
     pub number: u32,
 }
 
+/// The solid of revolution that layer planning keeps out of the part: a cylinder of
+/// `radius` from the tool tip up `length` along the tool axis.
+///
+/// Today's layer planner treats every cutter as its enclosing cylinder ([`Tool::envelope`]):
+/// always safe, since a ball or bull-nose end lies inside the cylinder of its radius (such
+/// cutters then leave cusps on floors but never cut the part). A shape-aware planner
+/// (finishing with ball and bull-nose cutters) plugs in here: it reads the cutter's
+/// profile ([`Cutter::radius_at`]) instead of this cylinder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Envelope {
+    /// Radius of the cylinder: the tool-centre keep-out is the part grown by it.
+    pub radius: f64,
+    /// Length of the cylinder from the tip (the flute length; `f64::INFINITY` when
+    /// unlimited): planning never goes deeper than this below the stock top.
+    pub length: f64,
+}
+
 impl Tool {
-    /// A flat end mill of the given radius with default cutting data: feed 1000/min,
-    /// plunge feed 300/min, 10,000 rpm, unlimited flute length, tool number 1.
-    pub fn flat(radius: f64) -> Self {
+    /// Default cutting feed of the constructors (units per minute).
+    pub const DEFAULT_FEED: f64 = 1000.0;
+    /// Default plunge feed of the constructors (units per minute).
+    pub const DEFAULT_PLUNGE_FEED: f64 = 300.0;
+    /// Default spindle speed of the constructors (rpm).
+    pub const DEFAULT_SPINDLE_RPM: f64 = 10_000.0;
+
+    /// `cutter` with default cutting data: feed [`DEFAULT_FEED`](Self::DEFAULT_FEED)
+    /// (1000/min), plunge feed 300/min, 10,000 rpm, tool number 1.
+    pub fn new(cutter: Cutter) -> Self {
         Self {
-            radius,
-            kind: ToolKind::Flat,
-            flute_length: f64::INFINITY,
-            feed: 1000.0,
-            plunge_feed: 300.0,
-            spindle_rpm: 10_000.0,
+            cutter,
+            feed: Self::DEFAULT_FEED,
+            plunge_feed: Self::DEFAULT_PLUNGE_FEED,
+            spindle_rpm: Self::DEFAULT_SPINDLE_RPM,
             number: 1,
         }
     }
 
+    /// A flat end mill of the given radius with the default cutting data of [`Tool::new`]
+    /// and unlimited flute length: flute length and stick-out are `f64::INFINITY` (the
+    /// paper's assumption: the tool reaches any depth), shank radius = `radius`, no holder.
+    pub fn flat(radius: f64) -> Self {
+        Self::unlimited(CutterShape::Flat, radius)
+    }
+
     /// A ball end mill with the defaults of [`Tool::flat`].
     pub fn ball(radius: f64) -> Self {
-        Self { kind: ToolKind::Ball, ..Self::flat(radius) }
+        Self::unlimited(CutterShape::Ball, radius)
     }
 
-    /// The diameter.
+    /// A bull-nose end mill with the defaults of [`Tool::flat`].
+    pub fn bull(radius: f64, corner_radius: f64) -> Self {
+        Self::unlimited(CutterShape::BullNose { corner_radius }, radius)
+    }
+
+    fn unlimited(shape: CutterShape, radius: f64) -> Self {
+        Self::new(Cutter {
+            shape,
+            radius,
+            flute_length: f64::INFINITY,
+            shank_radius: radius,
+            stickout: f64::INFINITY,
+            holder: None,
+        })
+    }
+
+    /// The cutting radius (half the diameter).
+    pub fn radius(&self) -> f64 {
+        self.cutter.radius
+    }
+
+    /// The cutting diameter.
     pub fn diameter(&self) -> f64 {
-        2.0 * self.radius
+        self.cutter.diameter()
     }
 
-    /// Checks that the tool can exist; the message names the offending field.
+    /// The usable cutting length from the tip; `f64::INFINITY` means unlimited.
+    pub fn flute_length(&self) -> f64 {
+        self.cutter.flute_length
+    }
+
+    /// The end shape.
+    pub fn shape(&self) -> CutterShape {
+        self.cutter.shape
+    }
+
+    /// What layer planning keeps out of the part: today the cutter's enclosing cylinder,
+    /// of its cutting radius and flute length, whatever its end shape (see [`Envelope`]).
+    pub fn envelope(&self) -> Envelope {
+        Envelope { radius: self.cutter.radius, length: self.cutter.flute_length }
+    }
+
+    /// Checks that the tool can exist; the message names the offending field. The cutter
+    /// is checked as [`Cutter::validate`] does, except that flute length and stick-out
+    /// may be `f64::INFINITY` (unlimited).
     pub fn validate(&self) -> Result<(), String> {
         let pos = |name: &str, v: f64| {
             if v.is_finite() && v > 0.0 {
@@ -71,20 +128,82 @@ impl Tool {
                 Err(format!("{name} must be positive and finite, got {v}"))
             }
         };
-        pos("radius", self.radius)?;
+        pos("radius", self.radius())?;
         pos("feed", self.feed)?;
         pos("plunge_feed", self.plunge_feed)?;
         if !(self.spindle_rpm.is_finite() && self.spindle_rpm >= 0.0) {
             return Err(format!("spindle_rpm must be finite and not negative, got {}", self.spindle_rpm));
         }
-        if !(self.flute_length > 0.0) {
-            return Err(format!("flute_length must be positive, got {}", self.flute_length));
+        if !(self.flute_length() > 0.0) {
+            return Err(format!("flute_length must be positive, got {}", self.flute_length()));
         }
-        if let ToolKind::BullNose { corner } = self.kind
-            && !(corner > 0.0 && corner <= self.radius)
+        if let CutterShape::BullNose { corner_radius } = self.shape()
+            && !(corner_radius > 0.0 && corner_radius <= self.radius())
         {
-            return Err(format!("bull-nose corner radius {corner} must be in (0, radius = {}]", self.radius));
+            return Err(format!(
+                "bull-nose corner radius {corner_radius} must be in (0, radius = {}]",
+                self.radius()
+            ));
         }
-        Ok(())
+        // The rest of the cutter's checks, with an unlimited length standing in as the
+        // largest finite one.
+        let finite = |v: f64| if v == f64::INFINITY { f64::MAX } else { v };
+        let cutter = Cutter {
+            flute_length: finite(self.cutter.flute_length),
+            stickout: finite(self.cutter.stickout),
+            ..self.cutter
+        };
+        cutter.validate().map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accessors_read_the_cutter() {
+        let t = Tool::new(Cutter::bull(3.0, 1.0, 12.0));
+        assert_eq!(t.radius(), 3.0);
+        assert_eq!(t.diameter(), 6.0);
+        assert_eq!(t.flute_length(), 12.0);
+        assert_eq!(t.shape(), CutterShape::BullNose { corner_radius: 1.0 });
+        assert_eq!(t.envelope(), Envelope { radius: 3.0, length: 12.0 });
+        assert_eq!((t.feed, t.plunge_feed, t.spindle_rpm, t.number), (1000.0, 300.0, 10_000.0, 1));
+        assert!(t.validate().is_ok());
+    }
+
+    #[test]
+    fn flat_and_ball_tools_have_unlimited_flutes_and_are_valid() {
+        for t in [Tool::flat(0.25), Tool::ball(0.25), Tool::bull(0.25, 0.1)] {
+            assert_eq!(t.radius(), 0.25, "{t:?}");
+            assert_eq!(t.diameter(), 0.5, "{t:?}");
+            assert_eq!(t.flute_length(), f64::INFINITY, "{t:?}");
+            assert_eq!(t.cutter.stickout, f64::INFINITY, "{t:?}");
+            assert_eq!(t.cutter.shank_radius, 0.25, "{t:?}");
+            assert_eq!(t.envelope(), Envelope { radius: 0.25, length: f64::INFINITY }, "{t:?}");
+            assert_eq!(t.validate(), Ok(()), "{t:?}");
+        }
+        assert_eq!(Tool::flat(1.0).shape(), CutterShape::Flat);
+        assert_eq!(Tool::ball(1.0).shape(), CutterShape::Ball);
+    }
+
+    #[test]
+    fn impossible_tools_name_the_field() {
+        let msg = |t: Tool| t.validate().unwrap_err();
+        assert!(msg(Tool::flat(-1.0)).contains("radius"));
+        assert!(msg(Tool { feed: f64::NAN, ..Tool::flat(1.0) }).contains("feed"));
+        assert!(msg(Tool { plunge_feed: 0.0, ..Tool::flat(1.0) }).contains("plunge_feed"));
+        assert!(msg(Tool { spindle_rpm: -1.0, ..Tool::flat(1.0) }).contains("spindle_rpm"));
+        assert!(msg(Tool::bull(1.0, 1.5)).contains("corner radius"));
+        assert!(msg(Tool::bull(1.0, 0.0)).contains("corner radius"));
+        let short =
+            Tool { cutter: Cutter { flute_length: -1.0, ..Tool::flat(1.0).cutter }, ..Tool::flat(1.0) };
+        assert!(msg(short).contains("flute_length"));
+        let shank =
+            Tool { cutter: Cutter { shank_radius: 0.0, ..Tool::flat(1.0).cutter }, ..Tool::flat(1.0) };
+        assert!(msg(shank).contains("shank"));
+        let ball = Tool::new(Cutter::ball(1.0, 1.5));
+        assert!(msg(ball).contains("flute length"));
     }
 }

@@ -2,10 +2,11 @@
 //! direction, linked by short straight moves when they stay inside the region.
 
 use crate::region::{Point2, Polyline2, Region2};
-use crate::strategy::ClearingStrategy;
+use crate::strategy::{ClearingContext, ClearingStrategy};
 
 /// Parallel passes at `angle_deg` from +X, evenly spaced at most one step-over apart,
-/// the first and last half a spacing inside the region's extent.
+/// the first and last half a spacing inside the region's extent. Registered as `zigzag`
+/// (along X); the milling direction and arc step of the context do not apply.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Zigzag {
     /// Pass direction, degrees counter-clockwise from +X.
@@ -13,7 +14,16 @@ pub struct Zigzag {
 }
 
 impl ClearingStrategy for Zigzag {
-    fn clear(&self, region: &Region2, tool_radius: f64, stepover: f64, start: Point2) -> Vec<Polyline2> {
+    fn name(&self) -> &str {
+        "zigzag"
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        if self.angle_deg.is_finite() { Ok(()) } else { Err("zigzag angle must be finite".into()) }
+    }
+
+    fn clear(&self, region: &Region2, ctx: &ClearingContext) -> Vec<Polyline2> {
+        let ClearingContext { tool_radius, stepover, start, .. } = *ctx;
         if region.is_empty() || !(stepover > 0.0) || !stepover.is_finite() {
             return Vec::new();
         }

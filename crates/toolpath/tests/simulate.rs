@@ -7,8 +7,8 @@ use common::HeightField;
 use s2g_gcode::MotionRecorder;
 use s2g_geom::{Aabb, GridSpec, Mesh, Point3, Setup, VoxelGrid, occupancy_iou, voxelize};
 use s2g_toolpath::{
-    LayerPlan, PlanOptions, PlanSummary, Point2, Strategy, Tool, VoxelMaterial, plan_layers, plan_setup,
-    plan_setup_rest,
+    LayerPlan, PlanOptions, PlanSummary, Point2, Tool, VoxelMaterial, plan_layers, plan_setup,
+    plan_setup_rest, strategies,
 };
 use s2g_voxsim::{Cutter, SimOptions, SimReport, Simulator, ToolTable};
 
@@ -37,7 +37,7 @@ fn simulate(
     tool: &Tool,
     run: impl FnOnce(&mut Simulator) -> PlanSummary,
 ) -> (PlanSummary, SimReport, VoxelGrid) {
-    let cutter = Cutter::flat(tool.radius, 10.0);
+    let cutter = Cutter::flat(tool.radius(), 10.0);
     let mut sim = Simulator::new(stock, ToolTable::single(cutter), SimOptions::default())
         .expect("simulator")
         .with_target(target)
@@ -56,8 +56,13 @@ fn stepped_block_with_pocket_machines_without_gouges_to_iou_099() {
     let spec = grid_over(&stock, 1.0 / 160.0);
     let target = voxelize(&part, &spec).expect("voxelize");
     let tool = Tool::flat(0.02);
-    for strategy in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Periphery, Strategy::Spiral] {
-        let opts = PlanOptions { layer_height: 0.05, strategy, stock: Some(stock), ..Default::default() };
+    for strategy in strategies().iter() {
+        let opts = PlanOptions {
+            layer_height: 0.05,
+            strategy: strategy.clone(),
+            stock: Some(stock),
+            ..Default::default()
+        };
         let (summary, report, residual) = simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
             plan_setup(&part, &Setup::top(), &tool, &opts, sim).expect("plan")
         });
@@ -205,10 +210,10 @@ fn strategy_comparison_table() {
             measure_air_cut: true,
             ..Default::default()
         };
-        let r = tool.radius;
+        let r = tool.radius();
         let (mut lengths, mut removed) = (Vec::new(), Vec::new());
-        for strategy in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Periphery, Strategy::Spiral] {
-            let top_opts = PlanOptions { strategy, ..base.clone() };
+        for strategy in strategies().iter() {
+            let top_opts = PlanOptions { strategy: strategy.clone(), ..base.clone() };
             let (s1, r1, after_top) = simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
                 plan_setup(part, &top, &tool, &top_opts, sim).expect("plan top")
             });
@@ -228,7 +233,7 @@ fn strategy_comparison_table() {
                 })
                 .collect();
             let sb = Aabb::from_points(&corners).expect("corners");
-            let opts = PlanOptions { strategy, stock: Some(sb), ..base.clone() };
+            let opts = PlanOptions { strategy: strategy.clone(), stock: Some(sb), ..base.clone() };
             let rest = VoxelMaterial::new(&removable_grid, bottom);
             let (summary, report, _) = simulate(after_top.clone(), &target, &tool, |sim| {
                 plan_setup_rest(part, &bottom, &tool, &opts, Some(&rest), sim).expect("plan bottom")

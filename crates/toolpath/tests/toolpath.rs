@@ -7,17 +7,22 @@ use common::{
 };
 use s2g_gcode::MotionRecorder;
 use s2g_geom::{Aabb, Isometry3, Mesh, MeshIndex, Point3, Rotation3, Setup, Similarity3, Vector3};
+use std::sync::Arc;
+
 use s2g_toolpath::{
-    PlanOptions, PlanSummary, Point2, SetupSlices, Strategy, Tool, ToolKind, ToolpathError, plan_layers,
-    plan_setup, plan_setup_rest, slice_setup,
+    ClearingContext, ClearingStrategy, Periphery, PlanOptions, PlanSummary, Point2, SetupSlices, Spiral,
+    Tool, ToolpathError, Zigzag, plan_layers, plan_setup, plan_setup_rest, slice_setup, strategies,
 };
 
-const STRATEGIES: [Strategy; 4] = [
-    Strategy::Zigzag { angle_deg: 0.0 },
-    Strategy::Zigzag { angle_deg: 30.0 },
-    Strategy::Periphery,
-    Strategy::Spiral,
-];
+/// The strategies every property is checked with.
+fn all_strategies() -> [Arc<dyn ClearingStrategy>; 4] {
+    [
+        Arc::new(Zigzag { angle_deg: 0.0 }),
+        Arc::new(Zigzag { angle_deg: 30.0 }),
+        Arc::new(Periphery),
+        Arc::new(Spiral),
+    ]
+}
 
 /// The analytic parts: (name, height field).
 fn analytic_parts() -> Vec<(&'static str, HeightField)> {
@@ -48,17 +53,17 @@ fn analytic_parts() -> Vec<(&'static str, HeightField)> {
     ]
 }
 
-fn opts_for(strategy: Strategy, h: f64) -> PlanOptions {
+fn opts_for(strategy: Arc<dyn ClearingStrategy>, h: f64) -> PlanOptions {
     PlanOptions { layer_height: h, strategy, stock_margin: 0.1, ..Default::default() }
 }
 
 /// Checks one analytic part with one strategy: distance to the exact closure, stock bounds,
 /// coverage and rapids.
-fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
+fn check_heightfield(name: &str, hf: &HeightField, strategy: &Arc<dyn ClearingStrategy>) {
     let part = hf.mesh();
     let tool = Tool::flat(0.04);
-    let r = tool.radius;
-    let opts = opts_for(strategy, 0.1);
+    let r = tool.radius();
+    let opts = opts_for(strategy.clone(), 0.1);
     let (slices, layers) = plan_layers::<()>(&part, &Setup::top(), &tool, &opts, None).expect("plans");
     let stock = slices.stock;
     // Floors land exactly on the flat levels.
@@ -121,8 +126,8 @@ fn check_heightfield(name: &str, hf: &HeightField, strategy: Strategy) {
 #[test]
 fn analytic_parts_keep_clear_stay_in_stock_and_leave_no_islands() {
     for (name, hf) in analytic_parts() {
-        for s in STRATEGIES {
-            check_heightfield(name, &hf, s);
+        for s in all_strategies() {
+            check_heightfield(name, &hf, &s);
         }
     }
 }
@@ -131,9 +136,9 @@ fn analytic_parts_keep_clear_stay_in_stock_and_leave_no_islands() {
 fn cylinder_contour_keeps_the_radius_and_covers() {
     let part = cylinder(0.5, 0.5, 0.3, 0.4, 48);
     let tool = Tool::flat(0.03);
-    let r = tool.radius;
-    for s in STRATEGIES {
-        let opts = opts_for(s, 0.1);
+    let r = tool.radius();
+    for s in all_strategies() {
+        let opts = opts_for(s.clone(), 0.1);
         let (slices, layers) = plan_layers::<()>(&part, &Setup::top(), &tool, &opts, None).expect("plans");
         let lo = Point2::new(slices.stock.min.x, slices.stock.min.y);
         let hi = Point2::new(slices.stock.max.x, slices.stock.max.y);
@@ -199,11 +204,16 @@ fn check_mesh(
     part: &Mesh,
     truth: &Mesh,
     setup: &Setup,
-    strategy: Strategy,
+    strategy: &Arc<dyn ClearingStrategy>,
 ) -> (SetupSlices, PlanSummary) {
     let tool = Tool::flat(0.02);
-    let r = tool.radius;
-    let opts = PlanOptions { layer_height: 1.0 / 16.0, stock_margin: 0.05, strategy, ..Default::default() };
+    let r = tool.radius();
+    let opts = PlanOptions {
+        layer_height: 1.0 / 16.0,
+        stock_margin: 0.05,
+        strategy: strategy.clone(),
+        ..Default::default()
+    };
     let name = format!("{name}/{strategy:?}");
     let (slices, layers) = plan_layers::<()>(part, setup, &tool, &opts, None).expect("plans");
     assert!(layers.len() >= 8, "{name}: {} layers", layers.len());
@@ -256,9 +266,9 @@ fn check_mesh(
 fn bundled_meshes_keep_the_tool_radius() {
     let bunny = bunny();
     let ex1 = openscad("openscad_Old_example001.stl");
-    for s in STRATEGIES {
-        check_mesh("bunny", &bunny, &bunny, &Setup::top(), s);
-        check_mesh("example001 from +X", &ex1, &ex1, &Setup::six_axes()[2], s);
+    for s in all_strategies() {
+        check_mesh("bunny", &bunny, &bunny, &Setup::top(), &s);
+        check_mesh("example001 from +X", &ex1, &ex1, &Setup::six_axes()[2], &s);
     }
 }
 
@@ -267,13 +277,13 @@ fn bundled_meshes_keep_the_tool_radius() {
 fn rotated_and_reversed_parts_pass_every_property() {
     let part = openscad("openscad_Old_example002.stl");
     let top = Setup::top();
-    for s in [Strategy::Zigzag { angle_deg: 0.0 }, Strategy::Spiral] {
-        let (base, b) = check_mesh("example002", &part, &part, &top, s);
+    for s in [Arc::new(Zigzag::default()) as Arc<dyn ClearingStrategy>, Arc::new(Spiral)] {
+        let (base, b) = check_mesh("example002", &part, &part, &top, &s);
         // Turned 37 degrees about the setup's Z axis: a different plan (passes meet the
         // walls at new angles), the same cross-section areas.
         let spin = Isometry3::rotation(Vector3::z() * 37f64.to_radians());
         let spun = part.transformed(&Similarity3::from_isometry(spin, 1.0));
-        let (turned, _) = check_mesh("example002 turned 37 deg about Z", &spun, &spun, &top, s);
+        let (turned, _) = check_mesh("example002 turned 37 deg about Z", &spun, &spun, &top, &s);
         assert_eq!(base.levels.len(), turned.levels.len());
         for (l, (a, c)) in base.keepouts.iter().zip(&turned.keepouts).enumerate() {
             let rel = (a.area() - c.area()).abs() / a.area().max(1e-12);
@@ -287,13 +297,13 @@ fn rotated_and_reversed_parts_pass_every_property() {
         );
         let moved = part.transformed(&Similarity3::from_isometry(iso, 1.0));
         let setup = Setup { frame: iso * top.frame };
-        let (_, m) = check_mesh("example002 moved with its setup", &moved, &moved, &setup, s);
+        let (_, m) = check_mesh("example002 moved with its setup", &moved, &moved, &setup, &s);
         assert!(
             (m.cutting_length - b.cutting_length).abs() <= 1e-6 * b.cutting_length,
             "moved {m:?} vs {b:?}"
         );
         // Every triangle's orientation reversed: the same part, the same program.
-        let (_, f) = check_mesh("example002 reversed", &part.flipped(), &part, &top, s);
+        let (_, f) = check_mesh("example002 reversed", &part.flipped(), &part, &top, &s);
         assert!(
             (f.cutting_length - b.cutting_length).abs() <= 1e-9 * b.cutting_length,
             "reversed {f:?} vs {b:?}"
@@ -345,8 +355,8 @@ fn impossible_inputs_are_typed_errors() {
         Tool::flat(0.0),
         Tool::flat(f64::NAN),
         Tool { feed: 0.0, ..Tool::flat(0.1) },
-        Tool { kind: ToolKind::BullNose { corner: 0.2 }, ..Tool::flat(0.1) },
-        Tool { flute_length: -1.0, ..Tool::flat(0.1) },
+        Tool::bull(0.1, 0.2),
+        Tool { cutter: s2g_geom::Cutter { flute_length: -1.0, ..Tool::flat(0.1).cutter }, ..Tool::flat(0.1) },
     ];
     for t in bad_tools {
         let e = plan_setup(&part, &top, &t, &PlanOptions::default(), &mut rec);
@@ -356,7 +366,7 @@ fn impossible_inputs_are_typed_errors() {
         PlanOptions { layer_height: 0.0, ..Default::default() },
         PlanOptions { stepover: 1.5, ..Default::default() },
         PlanOptions { stepover: f64::NAN, ..Default::default() },
-        PlanOptions { strategy: Strategy::Zigzag { angle_deg: f64::INFINITY }, ..Default::default() },
+        PlanOptions { strategy: Arc::new(Zigzag { angle_deg: f64::INFINITY }), ..Default::default() },
         PlanOptions { arc_step: -1.0, ..Default::default() },
     ];
     for o in bad_opts {
@@ -397,7 +407,7 @@ fn rest_machining_skips_material_already_removed() {
         );
     let part = hf.mesh();
     let tool = Tool::flat(0.04);
-    let opts = PlanOptions { measure_air_cut: true, ..opts_for(Strategy::Zigzag { angle_deg: 0.0 }, 0.1) };
+    let opts = PlanOptions { measure_air_cut: true, ..opts_for(Arc::new(Zigzag::default()), 0.1) };
     let mut full = MotionRecorder::default();
     let s_full = plan_setup(&part, &Setup::top(), &tool, &opts, &mut full).expect("plan");
     // An earlier setup removed everything above z = 0.35 and everything outside the part's
@@ -424,4 +434,100 @@ fn rest_machining_skips_material_already_removed() {
             assert!(b.z < 0.35 + 1e-9, "cut at {b:?} where nothing remains");
         }
     }
+}
+
+#[test]
+fn the_registry_names_the_built_in_strategies_in_order() {
+    let registry = strategies();
+    assert_eq!(registry.names().collect::<Vec<_>>(), ["zigzag", "periphery", "spiral"]);
+    assert_eq!(registry.len(), 3);
+    for name in ["zigzag", "periphery", "spiral"] {
+        assert_eq!(registry.get(name).expect(name).name(), name);
+        assert_eq!(registry.get(&name.to_uppercase()).expect(name).name(), name, "case-insensitive");
+    }
+    // The registry's zigzag runs along X, as the default options' does.
+    assert_eq!(format!("{:?}", registry.get("zigzag").unwrap()), "Zigzag { angle_deg: 0.0 }");
+    assert_eq!(format!("{:?}", PlanOptions::default().strategy), "Zigzag { angle_deg: 0.0 }");
+}
+
+#[test]
+fn an_unknown_strategy_name_is_an_error_that_lists_the_known_ones() {
+    let e = strategies().get("trochoidal").unwrap_err();
+    assert_eq!(e.name, "trochoidal");
+    assert_eq!(e.known, ["zigzag", "periphery", "spiral"]);
+    assert_eq!(e.to_string(), "unknown clearing strategy \"trochoidal\" (known: zigzag, periphery, spiral)");
+    assert!(strategies().get("").is_err());
+    assert!(s2g_toolpath::StrategyRegistry::new().get("zigzag").is_err());
+}
+
+#[test]
+fn registering_appends_a_new_name_and_replaces_a_known_one_in_place() {
+    let mut registry = strategies().clone();
+    /// Runs the region's loops (enough to register and look up).
+    #[derive(Debug)]
+    struct Loops(&'static str);
+    impl ClearingStrategy for Loops {
+        fn name(&self) -> &str {
+            self.0
+        }
+        fn clear(&self, region: &s2g_toolpath::Region2, _: &ClearingContext) -> Vec<s2g_toolpath::Polyline2> {
+            region.loops()
+        }
+    }
+    assert!(registry.register(Arc::new(Loops("loops"))).is_none());
+    assert_eq!(registry.names().collect::<Vec<_>>(), ["zigzag", "periphery", "spiral", "loops"]);
+    let old = registry.register(Arc::new(Loops("Periphery"))).expect("replaced");
+    assert_eq!(old.name(), "periphery");
+    assert_eq!(registry.names().collect::<Vec<_>>(), ["zigzag", "Periphery", "spiral", "loops"]);
+    assert_eq!(format!("{:?}", registry.get("periphery").unwrap()), "Loops(\"Periphery\")");
+    // The built-in registry is untouched.
+    assert_eq!(strategies().names().collect::<Vec<_>>(), ["zigzag", "periphery", "spiral"]);
+}
+
+/// A strategy from outside the crate receives the options' arc step, milling direction and
+/// step-over, and the tool's radius, and its paths are what the layers clear.
+#[test]
+fn a_plugged_in_strategy_gets_the_planner_s_context() {
+    use std::sync::Mutex;
+    #[derive(Debug, Default)]
+    struct Spy(Mutex<Vec<ClearingContext>>);
+    impl ClearingStrategy for Spy {
+        fn name(&self) -> &str {
+            "spy"
+        }
+        fn clear(&self, _: &s2g_toolpath::Region2, ctx: &ClearingContext) -> Vec<s2g_toolpath::Polyline2> {
+            self.0.lock().unwrap().push(*ctx);
+            vec![s2g_toolpath::Polyline2::open(vec![
+                ctx.start,
+                ctx.start + s2g_toolpath::Vector2::new(1e-3, 0.0),
+            ])]
+        }
+    }
+    let part = HeightField::new(4, 3, 0.25, |_, _| 0.4).mesh();
+    let spy = Arc::new(Spy::default());
+    let tool = Tool::flat(0.04);
+    let opts = PlanOptions {
+        layer_height: 0.1,
+        stepover: 0.4,
+        arc_step: 0.05,
+        climb: false,
+        strategy: spy.clone(),
+        stock_margin: 0.1,
+        ..Default::default()
+    };
+    let (_, layers) = plan_layers::<()>(&part, &Setup::top(), &tool, &opts, None).expect("plans");
+    let seen = spy.0.lock().unwrap().clone();
+    assert_eq!(seen.len(), layers.len());
+    for ctx in &seen {
+        assert_eq!((ctx.tool_radius, ctx.arc_step, ctx.climb), (0.04, 0.05, false));
+        assert!((ctx.stepover - 0.4 * 0.08).abs() < 1e-15, "{ctx:?}");
+    }
+    assert!(layers.iter().all(|l| l.clearing.len() == 1), "the strategy's paths are the clearing");
+    let mut rec = MotionRecorder::default();
+    plan_setup(&part, &Setup::top(), &tool, &opts, &mut rec).expect("plan");
+    let header = rec.motions.iter().find_map(|(_, m)| match m {
+        s2g_gcode::Motion::Comment(c) => Some(c.to_string()),
+        _ => None,
+    });
+    assert_eq!(header.as_deref(), Some("s2g-toolpath: tool 1 radius 0.04 strategy spy"));
 }

@@ -35,7 +35,12 @@ impl ToolTable {
 
     /// Validates every cutter.
     pub fn validate(&self) -> Result<()> {
-        self.default.validate()?;
+        // The default cutter's error is an invalid tool too, as before the cutter moved to
+        // geom (whose error would otherwise come through as `SimError::Geom`).
+        self.default.validate().map_err(|e| match e {
+            s2g_geom::GeomError::InvalidTool(m) => SimError::InvalidTool(m),
+            e => e.into(),
+        })?;
         for (&n, c) in &self.tools {
             c.validate().map_err(|e| numbered_tool_error(n, e))?;
         }
