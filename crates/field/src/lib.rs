@@ -80,7 +80,6 @@ mod layer;
 mod milling;
 mod path;
 mod program;
-mod rng;
 mod sdf;
 mod siren;
 

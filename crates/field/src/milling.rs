@@ -40,7 +40,7 @@ use s2g_geom::{Aabb, Mesh, MeshIndex, Normalization, Point3, Real, SignedDistanc
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
 use crate::layer::{LayerGeometry, cross, hessian_times_gradient, layer_normal};
-use crate::rng::SplitMix64;
+use s2g_geom::SplitMix64;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 
 /// A cylindrical tool (a flat end mill with its holder, as one axisymmetric unit),

@@ -46,7 +46,7 @@ use s2g_geom::Vector3;
 
 use crate::layer::{cross, gradient_norm, hessian_times_gradient, layer_normal};
 use crate::milling::MillingProblem;
-use crate::rng::SplitMix64;
+use s2g_geom::SplitMix64;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 
 /// The toolpath quantities of §3.2 at a batch of points.

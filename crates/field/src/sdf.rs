@@ -12,7 +12,7 @@ use s2g_geom::{
 
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
-use crate::rng::SplitMix64;
+use s2g_geom::SplitMix64;
 use crate::siren::{Siren, SirenConfig, SirenF64};
 
 /// Weights of the four losses of §6.2 (Eqs. 42-46 of seed 002).
