@@ -112,7 +112,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t0 = Instant::now();
     let arm = bent_arm_mesh(6.0, COLUMN, BEND_RADIUS, BEND_DEG, 24.0, 32, 12)?;
     let part = MeshSdf::new(&arm)?;
-    let nozzle = Tool { radius: 2.5, length: 30.0, axial_offset: 1.0, axial_step: 3.0, ring_points: 10 };
+    let nozzle = Tool { axial_offset: 1.0, axial_step: 3.0, ring_points: 10, ..Tool::cylinder(2.5, 30.0) };
     let check = Tool { axial_step: 1.5, ring_points: 24, ..nozzle };
     let print = PrintProblem::from_mesh(&part, &arm, nozzle, grid, 500, dac.seed)?;
     let problem = AlignProblem::from_field(print, |p| bent_arm_axis(p, COLUMN, BEND_RADIUS, BEND_DEG))?;

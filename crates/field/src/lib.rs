@@ -44,7 +44,7 @@
 //!   ([`LayerPathFields`], [`optimize_tgc`]) so that the layers contain the directions
 //!   and the toolpaths follow them, evenly spaced, their geodesic curvature weighted up
 //!   from 0.001 to 1 (Table 1's TGC row, [`TgcWeights`]).
-//! - Reproducible: seeds drive this crate's own generator for weights, samples and batches,
+//! - Reproducible: seeds drive geom's [`SplitMix64`](s2g_geom::SplitMix64) for weights, samples and batches,
 //!   and the CPU backends run single-threaded, so the same options give the same field.
 //! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a
 //!   [`FieldError`], never a panic.
@@ -77,11 +77,14 @@ mod checkpoint;
 mod error;
 mod eval;
 mod layer;
+mod mesh_sdf;
 mod milling;
 mod path;
 mod program;
 mod sdf;
 mod siren;
+mod tool;
+mod train;
 
 pub use additive::{
     OverhangStats, PrintCollisionCount, PrintConstants, PrintLosses, PrintOptions, PrintProblem, PrintReport,
@@ -101,10 +104,10 @@ pub use layer::{
     GRAD_EPS, LayerGeometry, gaussian_curvature, gradient_norm, hessian_times_gradient, layer_normal,
     max_abs_curvature, mean_curvature, principal_curvatures,
 };
+pub use mesh_sdf::MeshSdf;
 pub use milling::{
-    CollisionCount, LayerOptions, LayerReport, LossConstants, MeshSdf, MillingLosses, MillingProblem,
-    MillingWeights, Tool, colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers,
-    pretrain_planar,
+    CollisionCount, LayerOptions, LayerReport, LossConstants, MillingLosses, MillingProblem, MillingWeights,
+    colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers, pretrain_planar,
 };
 pub use path::{
     DirectionLosses, PathGeometry, PathOptions, PathReport, PathStats, PathWeights, contour_directions,
@@ -117,3 +120,4 @@ pub use program::{
 };
 pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
 pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};
+pub use tool::Tool;
