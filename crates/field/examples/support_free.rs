@@ -33,8 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut options = PrintOptions::default();
     let mut grid = 2.5;
     let mut samples = 3000;
-    let mut nozzle =
-        Tool { axial_offset: 1.0, axial_step: 3.0, ring_points: 10, ..Tool::cylinder(2.5, 30.0) };
+    let mut nozzle = Tool { axial_offset: 1.0, axial_step: 3.0, ..Tool::cylinder(2.5, 30.0) };
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
         let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;

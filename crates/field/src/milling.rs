@@ -5,7 +5,7 @@
 //! - [`Tool`] (`tool.rs`): a physical cutter sampled as points (Appendix B): rings of
 //!   points on its stack's surface at fixed axial intervals from an offset above the
 //!   tool's base point, plus points on the axis; the ring phase is perturbed every step.
-//! - [`MillingProblem`]: the part (any [`SignedDistance`], e.g. [`MeshSdf`] for geom's
+//! - [`MillingProblem`]: the part (any [`SignedDistance`], e.g. [`MeshSdf`](crate::MeshSdf) for geom's
 //!   exact mesh distance), the block, the tool, and the pose points (the block minus the
 //!   part, offset by the tool radius).
 //! - [`milling_losses`]: the tool-part collision loss (Eq. 14-15), the inter-layer
@@ -21,7 +21,7 @@
 //! - The collision loss only puts the tool points within the clearance of the part into
 //!   the tensor graph (elsewhere the ReLU and its gradient are zero), so a dense tool
 //!   sampling (the check's: rings 2 mm apart, 24 points) costs little more than a coarse
-//!   one; [`MeshSdf`] (`mesh_sdf.rs`) caches the winding-number sign on a lattice.
+//!   one; [`MeshSdf`](crate::MeshSdf) (`mesh_sdf.rs`) caches the winding-number sign on a lattice.
 //! - The Adam loop, the batches, the weight ramp, the layer regularisers and the
 //!   inter-layer collision term are the training base shared with printing (`train.rs`).
 //! - [`cup_mesh`]: a cup with an inward-overhanging lip, made by revolving a profile.

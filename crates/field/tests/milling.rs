@@ -114,8 +114,7 @@ fn losses_vanish_where_planar_layers_are_clear() {
     ));
     let bad = MillingProblem::with_poses(&sphere, block, tool, vec![Point3::new(f64::NAN, 0.0, 0.0)]);
     assert!(matches!(bad, Err(FieldError::NonFinite { .. })));
-    let mut bad_tool = tool;
-    bad_tool.cutter.radius = -1.0;
+    let bad_tool = Tool::cylinder(-1.0, 15.0);
     assert!(matches!(
         MillingProblem::with_poses(&sphere, block, bad_tool, vec![]),
         Err(FieldError::InvalidConfig { .. })
