@@ -11,7 +11,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
-use s2g_field::{MillOptions, SdfOptions, cup_mesh, fit_sdf_opt, mill_mesh, sdf_error, validation_points};
+use s2g_field::{
+    MillOptions, SdfOptions, Tool, cup_mesh, fit_sdf_opt, mill_mesh, sdf_error, validation_points,
+};
 use shape2gcode::geom::{MeshIndex, load_mesh, sample_surface, save_mesh, write_bytes_atomic};
 
 /// Arguments of `s2g field`.
@@ -113,8 +115,7 @@ fn mill(args: MillArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let mut options = MillOptions::default();
-    options.tool.radius = args.tool_radius;
-    options.tool.length = args.tool_length;
+    options.tool.cutter = Tool::cylinder(args.tool_radius, args.tool_length).cutter;
     options.layers.check_tool = Some(options.tool);
     if let Some(s) = args.steps {
         options.layers.steps = s;

@@ -73,7 +73,8 @@ fn regions(g: &SirenF64, problem: &AlignProblem<'_>) -> [f64; 3] {
     sums.map(|(s, n)| s / n.max(1) as f64)
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// The command line: DAC's and TGC's options, the pose grid, whether to run the ablation.
+fn parse_args() -> Result<(DacOptions, TgcOptions, f64, bool), Box<dyn std::error::Error>> {
     let mut dac = DacOptions::default();
     let mut tgc = TgcOptions::default();
     let mut grid = 2.5;
@@ -84,35 +85,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         match flag.as_str() {
             "--steps" => dac.steps = value.parse()?,
             "--tgc-steps" => tgc.steps = value.parse()?,
-            "--batch" => {
-                dac.batch_size = value.parse()?;
-                tgc.batch_size = dac.batch_size;
-            }
+            "--batch" => (dac.batch_size, tgc.batch_size) = (value.parse()?, value.parse()?),
             "--grid" => grid = value.parse()?,
-            "--lr" => {
-                dac.learning_rate = value.parse()?;
-                tgc.learning_rate = dac.learning_rate;
-            }
-            "--seed" => {
-                dac.seed = value.parse()?;
-                tgc.seed = dac.seed;
-            }
+            "--lr" => (dac.learning_rate, tgc.learning_rate) = (value.parse()?, value.parse()?),
+            "--seed" => (dac.seed, tgc.seed) = (value.parse()?, value.parse()?),
             "--ablation" => ablation = value.parse()?,
             "--omega" => {
-                dac.network.first_omega = value.parse()?;
-                tgc.layer_network.first_omega = dac.network.first_omega;
+                (dac.network.first_omega, tgc.layer_network.first_omega) = (value.parse()?, value.parse()?)
             }
             "--zero-gradient" => {
-                dac.weights.zero_gradient = value.parse()?;
-                tgc.weights.zero_gradient = dac.weights.zero_gradient;
+                (dac.weights.zero_gradient, tgc.weights.zero_gradient) = (value.parse()?, value.parse()?)
             }
             _ => return Err(format!("unknown flag {flag}").into()),
         }
     }
+    Ok((dac, tgc, grid, ablation))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let (dac, tgc, grid, ablation) = parse_args()?;
     let t0 = Instant::now();
     let arm = bent_arm_mesh(6.0, COLUMN, BEND_RADIUS, BEND_DEG, 24.0, 32, 12)?;
     let part = MeshSdf::new(&arm)?;
-    let nozzle = Tool { radius: 2.5, length: 30.0, axial_offset: 1.0, axial_step: 3.0, ring_points: 10 };
+    let nozzle = Tool { axial_offset: 1.0, axial_step: 3.0, ..Tool::cylinder(2.5, 30.0) };
     let check = Tool { axial_step: 1.5, ring_points: 24, ..nozzle };
     let print = PrintProblem::from_mesh(&part, &arm, nozzle, grid, 500, dac.seed)?;
     let problem = AlignProblem::from_field(print, |p| bent_arm_axis(p, COLUMN, BEND_RADIUS, BEND_DEG))?;

@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut options = PrintOptions::default();
     let mut grid = 2.5;
     let mut samples = 3000;
-    let mut nozzle = Tool { radius: 2.5, length: 30.0, axial_offset: 1.0, axial_step: 3.0, ring_points: 10 };
+    let mut nozzle = Tool { axial_offset: 1.0, axial_step: 3.0, ..Tool::cylinder(2.5, 30.0) };
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
         let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;
@@ -45,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--samples" => samples = value.parse()?,
             "--lr" => options.learning_rate = value.parse()?,
             "--seed" => options.seed = value.parse()?,
-            "--nozzle-radius" => nozzle.radius = value.parse()?,
+            "--nozzle-radius" => nozzle.cutter = Tool::cylinder(value.parse()?, nozzle.length()).cutter,
             "--nozzle-offset" => nozzle.axial_offset = value.parse()?,
             "--collision-weight" => {
                 let (start, end) = value.split_once(',').ok_or("--collision-weight takes START,END")?;

@@ -36,18 +36,19 @@
 
 use std::time::Instant;
 
-use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::AdamConfig;
 use burn::tensor::{Int, Tensor, TensorData};
 use s2g_geom::{Aabb, Mesh, Normalization, Point3, SignedDistance, Vector3, sample_surface};
 
-use crate::backend::{Backend, finite_losses, host_values};
+use crate::backend::{Backend, host_values};
 use crate::error::{FieldError, Result};
 use crate::layer::{LayerGeometry, layer_normal};
-use crate::milling::{
-    Batcher, LossConstants, Tool, fit_planar, layer_collision, place_tool, ramp, regularisers, tool_points,
-};
+use crate::milling::LossConstants;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
+use crate::tool::{Tool, place_tool, tool_points};
+use crate::train::{
+    Batcher, LossLog, device_of, fit_planar, layer_collision, loss_values, ramp, regularisers, train,
+};
 
 /// The overhang angle in degrees (see the module docs) of a surface with outward normal
 /// `surface_normal` under the build direction `build_direction` (neither needs to be unit):
@@ -457,19 +458,18 @@ impl PrintLosses {
     /// The seven values, in the order of [`PrintReport::final_losses`], or
     /// [`FieldError::Diverged`] at `step`.
     fn values(&self, step: usize) -> Result<[f32; 7]> {
-        let v = finite_losses(
-            vec![
-                self.support_free.clone(),
-                self.base.clone(),
-                self.collision.clone(),
-                self.platform.clone(),
-                self.spacing.clone(),
-                self.zero_gradient.clone(),
-                self.curvature.clone(),
+        loss_values(
+            [
+                &self.support_free,
+                &self.base,
+                &self.collision,
+                &self.platform,
+                &self.spacing,
+                &self.zero_gradient,
+                &self.curvature,
             ],
             step,
-        )?;
-        Ok([v[0], v[1], v[2], v[3], v[4], v[5], v[6]])
+        )
     }
 }
 
@@ -496,7 +496,7 @@ pub fn print_losses(
     constants.validate()?;
     check_indices("pose", poses, problem.poses.len())?;
     check_indices("surface sample", surface, problem.surface.len())?;
-    let device = g.devices().first().cloned().unwrap_or_else(|| Backend::default().device());
+    let device = device_of(g);
 
     // Functional losses (Eq. 30, 31): gradients only.
     let s_unit = problem.unit_tensor(surface.iter().map(|&i| problem.surface[i]), &device);
@@ -569,7 +569,7 @@ pub(crate) fn nozzle_terms(
     constants: &PrintConstants,
 ) -> Result<NozzleTerms> {
     check_indices("pose", poses, problem.poses.len())?;
-    let device = g.devices().first().cloned().unwrap_or_else(|| Backend::default().device());
+    let device = device_of(g);
     let scale = problem.normalization.scale;
     let lc = &constants.layer;
 
@@ -737,7 +737,7 @@ pub struct PrintReport {
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`],
 /// [`FieldError::NonFinite`] if the part's distance is not finite at a nozzle point.
 pub fn optimize_print_layers(
-    mut g: Siren,
+    g: Siren,
     problem: &PrintProblem<'_>,
     options: &PrintOptions,
 ) -> Result<(Siren, PrintReport)> {
@@ -746,22 +746,20 @@ pub fn optimize_print_layers(
     let mut opt = AdamConfig::new().init();
     let mut poses = Batcher::new(problem.poses.len(), options.seed);
     let mut surface = Batcher::new(problem.surface.len(), options.seed ^ 0x5355_5246);
-    let mut report = PrintReport { steps: 0, final_losses: [0.0; 7], seconds: 0.0 };
+    let mut log = LossLog::new();
     let (mut pidx, mut sidx) = (Vec::new(), Vec::new());
-    for step in 0..options.steps {
+    let g = train(g, &mut opt, options.learning_rate, options.steps, &mut log, |g, step| {
         poses.batch(options.batch_size, &[], &mut pidx);
         surface.batch(options.surface_batch, &[], &mut sidx);
         let phase = poses.rng.uniform(0.0, std::f64::consts::TAU);
-        let losses = print_losses(&g, problem, &pidx, &sidx, phase, &options.constants)?;
+        let losses = print_losses(g, problem, &pidx, &sidx, phase, &options.constants)?;
         let total = losses.total(&options.weights, options.weights.collision_at(step, options.steps));
         let values = losses.values(step)?;
-        let grads = GradientsParams::from_grads(total.backward(), &g);
-        g = opt.step(options.learning_rate, g, grads);
         poses.update(&pidx, &losses.colliding_poses);
-        report.steps += 1;
-        report.final_losses = values;
-    }
-    report.seconds = start.elapsed().as_secs_f64();
+        Ok((total, values))
+    })?;
+    let report =
+        PrintReport { steps: log.steps, final_losses: log.last, seconds: start.elapsed().as_secs_f64() };
     Ok((g, report))
 }
 
@@ -972,7 +970,7 @@ mod tests {
             normals: vec![Vector3::x()],
             base: vec![],
         };
-        let nozzle = Tool { radius: 0.3, length: 0.5, axial_offset: 0.05, axial_step: 0.1, ring_points: 8 };
+        let nozzle = Tool { axial_offset: 0.05, axial_step: 0.1, ring_points: 8, ..Tool::cylinder(0.3, 0.5) };
         let problem = PrintProblem::with_samples(&ball, nozzle, bounds, -100.0, samples).unwrap();
         let constants = PrintConstants::default();
         let value = |t: Tensor<1>| -> f32 { t.into_scalar() };

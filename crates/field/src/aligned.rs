@@ -38,19 +38,20 @@
 use std::time::Instant;
 
 use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::AdamConfig;
 use burn::tensor::{Tensor, TensorData};
 use s2g_geom::{Point3, Vector3};
 
 use crate::additive::{PrintConstants, PrintProblem, check_indices, nozzle_terms};
-use crate::backend::{Backend, finite_losses};
+use crate::backend::Backend;
 use crate::error::{FieldError, Result};
 use crate::layer::LayerGeometry;
-use crate::milling::{Batcher, LossConstants, fit_planar, ramp, regularisers};
+use crate::milling::LossConstants;
 use crate::path::{
     direction_losses, geodesic_curvature, path_curvature_loss, path_spacing, path_spacing_loss,
 };
 use crate::siren::{Siren, SirenConfig, SirenF64};
+use crate::train::{Batcher, LossLog, device_of, fit_planar, loss_values, ramp, regularisers, train};
 
 /// A printing problem with a prescribed direction at each deposition pose.
 #[derive(Debug)]
@@ -274,18 +275,17 @@ impl DacLosses {
     /// The six values, in the order of [`DacReport::final_losses`], or
     /// [`FieldError::Diverged`] at `step`.
     fn values(&self, step: usize) -> Result<[f32; 6]> {
-        let v = finite_losses(
-            vec![
-                self.alignment.clone(),
-                self.collision.clone(),
-                self.platform.clone(),
-                self.spacing.clone(),
-                self.zero_gradient.clone(),
-                self.curvature.clone(),
+        loss_values(
+            [
+                &self.alignment,
+                &self.collision,
+                &self.platform,
+                &self.spacing,
+                &self.zero_gradient,
+                &self.curvature,
             ],
             step,
-        )?;
-        Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
+        )
     }
 }
 
@@ -415,7 +415,7 @@ pub struct DacReport {
 /// [`FieldError::Diverged`], [`FieldError::NonFinite`] if the part's distance is not finite
 /// at a nozzle point.
 pub fn optimize_dac_layers(
-    mut g: Siren,
+    g: Siren,
     problem: &AlignProblem<'_>,
     options: &DacOptions,
 ) -> Result<(Siren, DacReport)> {
@@ -423,24 +423,23 @@ pub fn optimize_dac_layers(
     let start = Instant::now();
     let mut opt = AdamConfig::new().init();
     let mut poses = Batcher::new(problem.print.poses().len(), options.seed);
-    let mut report = DacReport { steps: 0, initial_losses: [0.0; 6], final_losses: [0.0; 6], seconds: 0.0 };
+    let mut log = LossLog::new();
     let mut idx = Vec::new();
-    for step in 0..options.steps {
+    let g = train(g, &mut opt, options.learning_rate, options.steps, &mut log, |g, step| {
         poses.batch(options.batch_size, &[], &mut idx);
         let phase = poses.rng.uniform(0.0, std::f64::consts::TAU);
-        let losses = dac_losses(&g, problem, &idx, phase, &options.constants)?;
+        let losses = dac_losses(g, problem, &idx, phase, &options.constants)?;
         let total = losses.total(&options.weights, options.weights.collision_at(step, options.steps));
         let values = losses.values(step)?;
-        let grads = GradientsParams::from_grads(total.backward(), &g);
-        g = opt.step(options.learning_rate, g, grads);
         poses.update(&idx, &losses.colliding_poses);
-        if step == 0 {
-            report.initial_losses = values;
-        }
-        report.steps += 1;
-        report.final_losses = values;
-    }
-    report.seconds = start.elapsed().as_secs_f64();
+        Ok((total, values))
+    })?;
+    let report = DacReport {
+        steps: log.steps,
+        initial_losses: log.initial,
+        final_losses: log.last,
+        seconds: start.elapsed().as_secs_f64(),
+    };
     Ok((g, report))
 }
 
@@ -607,20 +606,19 @@ impl TgcLosses {
     /// The eight values, in the order of [`TgcReport::final_losses`], or
     /// [`FieldError::Diverged`] at `step`.
     fn values(&self, step: usize) -> Result<[f32; 8]> {
-        let v = finite_losses(
-            vec![
-                self.alignment.clone(),
-                self.spacing.clone(),
-                self.zero_gradient.clone(),
-                self.curvature.clone(),
-                self.path_spacing.clone(),
-                self.path_curvature.clone(),
-                self.path_alignment.clone(),
-                self.path_continuity.clone(),
+        loss_values(
+            [
+                &self.alignment,
+                &self.spacing,
+                &self.zero_gradient,
+                &self.curvature,
+                &self.path_spacing,
+                &self.path_curvature,
+                &self.path_alignment,
+                &self.path_continuity,
             ],
             step,
-        )?;
-        Ok(std::array::from_fn(|i| v[i]))
+        )
     }
 }
 
@@ -640,7 +638,7 @@ pub fn tgc_losses(
     constants.validate()?;
     let print = &problem.print;
     check_indices("pose", poses, print.poses().len())?;
-    let device = fields.layer.devices().first().cloned().unwrap_or_else(|| Backend::default().device());
+    let device = device_of(&fields.layer);
     let scale = print.normalization().scale;
     let x = print.unit_tensor(poses.iter().map(|&i| print.poses()[i]), &device);
     let g = fields.layer.forward_hessian(x.clone());
@@ -779,7 +777,7 @@ pub struct TgcReport {
 ///
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`].
 pub fn optimize_tgc(
-    mut fields: LayerPathFields,
+    fields: LayerPathFields,
     problem: &AlignProblem<'_>,
     options: &TgcOptions,
 ) -> Result<(LayerPathFields, TgcReport)> {
@@ -787,21 +785,19 @@ pub fn optimize_tgc(
     let start = Instant::now();
     let mut opt = AdamConfig::new().init();
     let mut poses = Batcher::new(problem.print.poses().len(), options.seed ^ 0x5447_4321);
-    let mut report = TgcReport { steps: 0, initial_losses: [0.0; 8], final_losses: [0.0; 8], seconds: 0.0 };
+    let mut log = LossLog::new();
     let mut idx = Vec::new();
-    for step in 0..options.steps {
+    let fields = train(fields, &mut opt, options.learning_rate, options.steps, &mut log, |fields, step| {
         poses.batch(options.batch_size, &[], &mut idx);
-        let losses = tgc_losses(&fields, problem, &idx, &options.constants)?;
+        let losses = tgc_losses(fields, problem, &idx, &options.constants)?;
         let total = losses.total(&options.weights, options.weights.path_curvature_at(step, options.steps));
-        let values = losses.values(step)?;
-        let grads = GradientsParams::from_grads(total.backward(), &fields);
-        fields = opt.step(options.learning_rate, fields, grads);
-        if step == 0 {
-            report.initial_losses = values;
-        }
-        report.steps += 1;
-        report.final_losses = values;
-    }
-    report.seconds = start.elapsed().as_secs_f64();
+        Ok((total, losses.values(step)?))
+    })?;
+    let report = TgcReport {
+        steps: log.steps,
+        initial_losses: log.initial,
+        final_losses: log.last,
+        seconds: start.elapsed().as_secs_f64(),
+    };
     Ok((fields, report))
 }

@@ -3,7 +3,7 @@
 use s2g_geom::{Aabb, Point3, Real, SignedDistance, SurfaceSamples, Vector3};
 
 use crate::error::{FieldError, Result};
-use crate::rng::SplitMix64;
+use s2g_geom::SplitMix64;
 
 /// How one signed distance field differs from a reference on a set of points.
 #[derive(Debug, Clone, Copy, PartialEq)]

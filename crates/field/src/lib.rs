@@ -18,16 +18,14 @@
 //!   ([`fit_sdf_opt`], [`SdfOptions`]); it implements [`s2g_geom::SignedDistance`] with the
 //!   network's exact gradient, and saves to a file with Burn's record format
 //!   ([`NeuralSdf::save`], atomic). [`sdf_error`] and [`validation_points`] measure it.
-//! - Milling (§4.2, §5.4, §7.4): a layer field optimised from planar layers by Eq. 40 so
-//!   that the tool along the layer normal is clear of the part ([`optimize_layers`],
-//!   [`count_collisions`]), a simultaneous five-axis program from its layers and normals
-//!   written by `s2g-gcode` ([`mill_program`]), simulated in `s2g-voxsim` for gouges
-//!   ([`simulate_program`]); [`mill_mesh`] runs it all.
-//! - Toolpaths (§3.2, §4.3-4.5, §7.3-7.4): a path field `P` whose iso-curves on each layer
-//!   are the toolpaths: tangent, spacing and geodesic curvature ([`PathGeometry`]), the
-//!   path losses and their optimisation on a fixed layer field ([`optimize_path`],
-//!   [`path_stats`]), and contour-parallel milling toolpaths ([`fit_contour_paths`],
-//!   [`mill_program_with_paths`]).
+//! - Milling (§4.2, §5.4, §7.4): a layer field optimised from planar layers by Eq. 40 so that the tool along
+//!   the layer normal is clear of the part ([`optimize_layers`], [`count_collisions`]), a simultaneous
+//!   five-axis program from its layers and normals written by `s2g-gcode` ([`mill_program`]), simulated in
+//!   `s2g-voxsim` for gouges ([`simulate_program`]); [`mill_mesh`] runs it all.
+//! - Toolpaths (§3.2, §4.3-4.5, §7.3-7.4): a path field `P` whose iso-curves on each layer are the
+//!   toolpaths: tangent, spacing and geodesic curvature ([`PathGeometry`]), the path losses and their
+//!   optimisation on a fixed layer field ([`optimize_path`], [`path_stats`]), and contour-parallel
+//!   milling toolpaths ([`fit_contour_paths`], [`mill_program_with_paths`]).
 //! - Printing (§4.1, §4.6, §5.1, §7.1): a layer field optimised from planar layers by the
 //!   support- and collision-free total loss (Eq. 37: support-free Eq. 30, base Eq. 31, the
 //!   nozzle sampled as points against printed material Eq. 13 and the platform Eq. 36, and
@@ -44,10 +42,9 @@
 //!   ([`LayerPathFields`], [`optimize_tgc`]) so that the layers contain the directions
 //!   and the toolpaths follow them, evenly spaced, their geodesic curvature weighted up
 //!   from 0.001 to 1 (Table 1's TGC row, [`TgcWeights`]).
-//! - Reproducible: seeds drive this crate's own generator for weights, samples and batches,
-//!   and the CPU backends run single-threaded, so the same options give the same field.
-//! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a
-//!   [`FieldError`], never a panic.
+//! - Reproducible: seeds drive geom's [`SplitMix64`](s2g_geom::SplitMix64) for weights, samples and
+//!   batches, and the CPU backends run single-threaded, so the same options give the same field.
+//! - Bad input (NaN points, empty meshes, zero epochs, bad frequencies) is a [`FieldError`], never a panic.
 //!
 //! # Example
 //!
@@ -77,12 +74,14 @@ mod checkpoint;
 mod error;
 mod eval;
 mod layer;
+mod mesh_sdf;
 mod milling;
 mod path;
 mod program;
-mod rng;
 mod sdf;
 mod siren;
+mod tool;
+mod train;
 
 pub use additive::{
     OverhangStats, PrintCollisionCount, PrintConstants, PrintLosses, PrintOptions, PrintProblem, PrintReport,
@@ -102,10 +101,10 @@ pub use layer::{
     GRAD_EPS, LayerGeometry, gaussian_curvature, gradient_norm, hessian_times_gradient, layer_normal,
     max_abs_curvature, mean_curvature, principal_curvatures,
 };
+pub use mesh_sdf::MeshSdf;
 pub use milling::{
-    CollisionCount, LayerOptions, LayerReport, LossConstants, MeshSdf, MillingLosses, MillingProblem,
-    MillingWeights, Tool, colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers,
-    pretrain_planar,
+    CollisionCount, LayerOptions, LayerReport, LossConstants, MillingLosses, MillingProblem, MillingWeights,
+    colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers, pretrain_planar,
 };
 pub use path::{
     DirectionLosses, PathGeometry, PathOptions, PathReport, PathStats, PathWeights, contour_directions,
@@ -118,3 +117,4 @@ pub use program::{
 };
 pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
 pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};
+pub use tool::Tool;

@@ -2,10 +2,10 @@
 //! (a [`Siren`]) whose level sets are the milling layers and whose normal is the tool
 //! axis, optimised from planar layers by the milling total loss (Eq. 40).
 //!
-//! - [`Tool`]: a cylindrical tool sampled as points (Appendix B): rings of points on the
-//!   cylinder's boundary at fixed axial intervals from an offset above the tool's base
-//!   point, plus points on the axis; the ring phase is perturbed every step.
-//! - [`MillingProblem`]: the part (any [`SignedDistance`], e.g. [`MeshSdf`] for geom's
+//! - [`Tool`] (`tool.rs`): a physical cutter sampled as points (Appendix B): rings of
+//!   points on its stack's surface at fixed axial intervals from an offset above the
+//!   tool's base point, plus points on the axis; the ring phase is perturbed every step.
+//! - [`MillingProblem`]: the part (any [`SignedDistance`], e.g. [`MeshSdf`](crate::MeshSdf) for geom's
 //!   exact mesh distance), the block, the tool, and the pose points (the block minus the
 //!   part, offset by the tool radius).
 //! - [`milling_losses`]: the tool-part collision loss (Eq. 14-15), the inter-layer
@@ -21,209 +21,29 @@
 //! - The collision loss only puts the tool points within the clearance of the part into
 //!   the tensor graph (elsewhere the ReLU and its gradient are zero), so a dense tool
 //!   sampling (the check's: rings 2 mm apart, 24 points) costs little more than a coarse
-//!   one; [`MeshSdf`] caches the winding-number sign on a lattice.
+//!   one; [`MeshSdf`](crate::MeshSdf) (`mesh_sdf.rs`) caches the winding-number sign on a lattice.
+//! - The Adam loop, the batches, the weight ramp, the layer regularisers and the
+//!   inter-layer collision term are the training base shared with printing (`train.rs`).
 //! - [`cup_mesh`]: a cup with an inward-overhanging lip, made by revolving a profile.
 //!
 //! Coordinates: the part, block, tool and poses are in the part's units (e.g. mm); the
 //! network sees them through a [`Normalization`] (the block's bounding box centred and its
 //! largest side scaled to 1), so `G` and its derivatives are in unit-cube coordinates.
 
-use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
-use burn::module::Module;
-use burn::optim::{AdamConfig, GradientsParams};
-use burn::tensor::activation::sigmoid;
+use burn::optim::AdamConfig;
 use burn::tensor::{Int, Tensor, TensorData};
-use s2g_geom::{Aabb, Mesh, MeshIndex, Normalization, Point3, Real, SignedDistance, Vector3};
+use s2g_geom::{Aabb, Mesh, Normalization, Point3, SignedDistance, Vector3};
 
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
-use crate::layer::{LayerGeometry, cross, hessian_times_gradient, layer_normal};
-use crate::rng::SplitMix64;
-use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
-
-/// A cylindrical tool (a flat end mill with its holder, as one axisymmetric unit),
-/// sampled as points (Appendix B of seed 002). The tool's base point (the cutting end's
-/// centre) sits at the pose point; its axis is the layer normal.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Tool {
-    /// Cylinder radius, finite and `> 0`.
-    pub radius: f64,
-    /// Length of the cylinder from the base point, finite and `> axial_offset`.
-    pub length: f64,
-    /// Where the sampling starts along the axis, measured from the base point, finite and
-    /// `>= 0` (Appendix B starts above the cutting end: the end itself touches the layer
-    /// being cut and the part's offset surface by construction).
-    pub axial_offset: f64,
-    /// Axial interval between rings, finite and `> 0` (Appendix B: 5 mm).
-    pub axial_step: f64,
-    /// Points per ring on the cylinder's boundary, `>= 3` (Appendix B: 10).
-    pub ring_points: usize,
-}
-
-impl Default for Tool {
-    /// A 5 mm tool (radius 2.5) 40 mm long, sampled from 3 mm at 4 mm intervals with 10
-    /// points per ring.
-    fn default() -> Self {
-        Self { radius: 2.5, length: 40.0, axial_offset: 3.0, axial_step: 4.0, ring_points: 10 }
-    }
-}
-
-impl Tool {
-    /// Checks every field's range.
-    pub fn validate(&self) -> Result<()> {
-        FieldError::check_positive(&[("tool.radius", self.radius), ("tool.axial_step", self.axial_step)])?;
-        FieldError::check_non_negative(&[("tool.axial_offset", self.axial_offset)])?;
-        if !(self.length.is_finite() && self.length > self.axial_offset) {
-            return Err(FieldError::config("tool.length", "must be finite and > axial_offset"));
-        }
-        if (self.length - self.axial_offset) / self.axial_step > 1e4 {
-            return Err(FieldError::config("tool.axial_step", "too many rings (> 10^4)"));
-        }
-        if !(3..=1024).contains(&self.ring_points) {
-            return Err(FieldError::config("tool.ring_points", "must be in 3..=1024"));
-        }
-        Ok(())
-    }
-
-    /// The sample points in the tool's frame `(axial, u, v)`: the axis is `+axial`, the
-    /// base point the origin. Rings at `axial_offset, axial_offset + axial_step, ...,
-    /// length` (the last ring at `length` exactly), each with `ring_points` points on the
-    /// boundary rotated by `phase` radians, and one axis point per ring.
-    pub fn points(&self, phase: f64) -> Vec<[f64; 3]> {
-        let rings = ((self.length - self.axial_offset) / self.axial_step).ceil().max(0.0) as usize + 1;
-        let mut out = Vec::with_capacity(rings * (self.ring_points + 1));
-        for i in 0..rings {
-            let a = (self.axial_offset + i as f64 * self.axial_step).min(self.length);
-            out.push([a, 0.0, 0.0]);
-            for k in 0..self.ring_points {
-                let t = phase + std::f64::consts::TAU * k as f64 / self.ring_points as f64;
-                out.push([a, self.radius * t.cos(), self.radius * t.sin()]);
-            }
-        }
-        out
-    }
-}
-
-/// An exact mesh signed distance for the collision loss: geom's [`MeshIndex`] (closest
-/// point, sign by the winding number), with the gradient `±(p - closest)/|p - closest|`
-/// from the same closest-point query instead of the trait's six-query central
-/// differences.
-///
-/// The winding number costs about thirty closest-point queries, so the sign is cached: a
-/// lattice of nodes over the mesh's bounding box (64 steps along its longest side) holds
-/// each node's inside flag, computed exactly on first use. A point farther from the surface
-/// than half a lattice diagonal has the sign of its nearest node (the segment between them
-/// lies in a ball free of the surface); nearer points, and points outside the lattice, get
-/// the exact winding number, except points outside the bounding box, which are outside.
-/// The answers are those of [`MeshIndex::signed_distance`] for closed meshes.
-#[derive(Debug)]
-pub struct MeshSdf {
-    index: MeshIndex,
-    signs: SignLattice,
-}
-
-/// The lazily filled inside flags of [`MeshSdf`]: 0 unknown, 1 outside, 2 inside.
-#[derive(Debug)]
-struct SignLattice {
-    bbox: Aabb,
-    origin: Point3,
-    step: f64,
-    dims: [usize; 3],
-    flags: Vec<AtomicU8>,
-}
-
-impl SignLattice {
-    fn new(bbox: Aabb) -> Self {
-        let ext = bbox.max - bbox.min;
-        let step = (ext.max() / 64.0).max(1e-9);
-        let origin = bbox.min - Vector3::repeat(step);
-        let dims = ext.map(|e| ((e / step).ceil() as usize).min(1 << 12) + 3);
-        let flags = (0..dims[0] * dims[1] * dims[2]).map(|_| AtomicU8::new(0)).collect();
-        Self { bbox, origin, step, dims: [dims.x, dims.y, dims.z], flags }
-    }
-
-    /// Whether `p`, at unsigned distance `d` from the surface, is inside.
-    fn inside(&self, index: &MeshIndex, p: &Point3, d: f64) -> bool {
-        let b = &self.bbox;
-        if (0..3).any(|a| p[a] < b.min[a] || p[a] > b.max[a]) {
-            return false;
-        }
-        if d > 0.87 * self.step {
-            let mut ijk = [0usize; 3];
-            let mut ok = true;
-            for a in 0..3 {
-                let f = ((p[a] - self.origin[a]) / self.step).round();
-                if !(f >= 0.0 && f < self.dims[a] as f64) {
-                    ok = false;
-                    break;
-                }
-                ijk[a] = f as usize;
-            }
-            if ok {
-                let k = (ijk[2] * self.dims[1] + ijk[1]) * self.dims[0] + ijk[0];
-                let cached = self.flags[k].load(Ordering::Relaxed);
-                if cached != 0 {
-                    return cached == 2;
-                }
-                let node =
-                    self.origin + Vector3::new(ijk[0] as f64, ijk[1] as f64, ijk[2] as f64) * self.step;
-                let inside = index.contains(&node);
-                self.flags[k].store(if inside { 2 } else { 1 }, Ordering::Relaxed);
-                return inside;
-            }
-        }
-        index.contains(p)
-    }
-}
-
-impl MeshSdf {
-    /// Indexes `mesh`. Errors: [`FieldError::EmptyMesh`] for a mesh without triangles.
-    pub fn new(mesh: &Mesh) -> Result<Self> {
-        if mesh.is_empty() {
-            return Err(FieldError::EmptyMesh);
-        }
-        let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
-        if !(bbox.min.iter().chain(bbox.max.iter()).all(|c| c.is_finite())) {
-            return Err(FieldError::NonFinite { what: "mesh vertex", index: 0 });
-        }
-        Ok(Self { index: MeshIndex::new(mesh).map_err(FieldError::geom)?, signs: SignLattice::new(bbox) })
-    }
-
-    /// The index.
-    pub fn index(&self) -> &MeshIndex {
-        &self.index
-    }
-
-    /// The signed distance and its gradient from one closest-point query.
-    pub fn distance_gradient(&self, p: &Point3) -> (Real, Vector3) {
-        let c = self.index.closest_point(p);
-        if !c.distance.is_finite() {
-            return (Real::NAN, Vector3::z());
-        }
-        let g = (p - c.point).try_normalize(1e-12).unwrap_or_else(Vector3::z);
-        if self.signs.inside(&self.index, p, c.distance) { (-c.distance, -g) } else { (c.distance, g) }
-    }
-}
-
-impl SignedDistance for MeshSdf {
-    fn distance(&self, p: &Point3) -> Real {
-        let c = self.index.closest_point(p);
-        if !c.distance.is_finite() {
-            return Real::NAN;
-        }
-        if self.signs.inside(&self.index, p, c.distance) { -c.distance } else { c.distance }
-    }
-
-    fn gradient(&self, p: &Point3) -> Vector3 {
-        self.distance_gradient(p).1
-    }
-
-    fn contains(&self, p: &Point3) -> bool {
-        self.distance(p) < 0.0
-    }
-}
+use crate::layer::LayerGeometry;
+use crate::siren::{Siren, SirenConfig, SirenF64};
+use crate::tool::{Tool, place_tool, tool_points};
+use crate::train::{
+    Batcher, LossLog, device_of, fit_planar, layer_collision, loss_values, ramp, regularisers, train,
+};
 
 /// Weights of the milling total loss (Eq. 40 of seed 002).
 ///
@@ -263,12 +83,6 @@ impl MillingWeights {
     pub fn collision_at(&self, step: usize, steps: usize) -> f64 {
         ramp(self.collision_start, self.collision_end, step, steps)
     }
-}
-
-/// Linear from `start` at step 0 to `end` at step `steps - 1` (`end` when `steps <= 1`).
-pub(crate) fn ramp(start: f64, end: f64, step: usize, steps: usize) -> f64 {
-    let t = if steps <= 1 { 1.0 } else { (step as f64 / (steps - 1) as f64).clamp(0.0, 1.0) };
-    start + t * (end - start)
 }
 
 /// Constants inside the individual losses. The seed's text gives their form but not all
@@ -332,7 +146,7 @@ impl std::fmt::Debug for MillingProblem<'_> {
 
 impl<'a> MillingProblem<'a> {
     /// A problem whose poses are the points of a grid of spacing `grid` over `block` that
-    /// lie at least `tool.radius + margin` outside the part (the tool centre's reachable
+    /// lie at least `tool.radius() + margin` outside the part (the tool centre's reachable
     /// region: the block minus the part, offset by the tool).
     ///
     /// Errors: [`FieldError::InvalidArgument`] for a degenerate or non-finite block, a bad
@@ -362,7 +176,7 @@ impl<'a> MillingProblem<'a> {
             for j in 0..counts.y {
                 for k in 0..counts.z {
                     let p = block.min + Vector3::new(i as f64, j as f64, k as f64) * grid;
-                    if part.distance(&p) >= tool.radius + margin {
+                    if part.distance(&p) >= tool.radius() + margin {
                         poses.push(p);
                     }
                 }
@@ -461,120 +275,6 @@ impl MillingLosses {
     }
 }
 
-/// A unit vector field `e1 ⟂ n` continuous in `n` away from `±x`, and `e2 = n × e1`.
-fn frame(n: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
-    let dims = n.dims();
-    let device = n.device();
-    let ex = Tensor::<2>::from_data(TensorData::new(vec![1.0f32, 0.0, 0.0], [1, 3]), &device).expand(dims);
-    let nx = n.clone().narrow(1, 0, 1);
-    let raw = ex - n.clone() * nx;
-    let e1 = layer_normal(raw);
-    let e2 = cross(n, e1.clone());
-    (e1, e2)
-}
-
-/// The most tool points per evaluation of the inter-layer collision term (a subsample
-/// beyond that).
-const LAYER_POINTS: usize = 8192;
-
-/// The layer regularisers of `G` at a batch of points (shared by Eq. 37 and Eq. 40): the
-/// spacing loss (Eq. 26, `mean |∇|∇G||²` with `∇|∇G| = ∇²G ∇G / |∇G|`), the zero-gradient
-/// loss (Eq. 27) and the curvature loss (Eq. 24) with the singularity mask (Eq. 52-53).
-/// `scale` maps part units to the unit cube.
-pub(crate) fn regularisers(
-    out: &FieldHessian,
-    geo: &LayerGeometry,
-    scale: f64,
-    constants: &LossConstants,
-) -> (Tensor<1>, Tensor<1>, Tensor<1>) {
-    let grad_norm = geo.spacing.clone(); // [n, 1]
-    let dnorm = hessian_times_gradient(out.gradient.clone(), out.hessian.clone()) / grad_norm.clone();
-    let spacing = dnorm.square().sum_dim(1).mean();
-    let zero_gradient = grad_norm.clone().neg().add_scalar(constants.min_gradient).clamp_min(0.0).mean();
-    let kappa_bar = constants.max_curvature / scale; // 1 / unit-cube lengths
-    let s = constants.singular_gradient;
-    let mask = sigmoid(grad_norm.sub_scalar(s).div_scalar(0.1 * s)).detach();
-    let curvature = (mask * geo.max_abs_curvature().sub_scalar(kappa_bar).clamp_min(0.0))
-        .mean()
-        .mul_scalar(constants.curvature_factor * scale); // back to 1 / part units
-    (spacing, zero_gradient, curvature)
-}
-
-/// The points of `tool` (rings rotated by `phase`) placed at the poses `x_world` `[n, 3]`
-/// (part units) along the unit normals `normal` `[n, 3]`: `p = x + a n + u e1 + v e2`,
-/// `[n * t, 3]` with pose `k / t` for row `k`, differentiable through the normals; and `t`.
-pub(crate) fn tool_points(
-    x_world: Tensor<2>,
-    normal: Tensor<2>,
-    tool: &Tool,
-    phase: f64,
-) -> (Tensor<2>, usize) {
-    let device = x_world.device();
-    let n = x_world.dims()[0];
-    let local = tool.points(phase);
-    let t = local.len();
-    let col = |k: usize| -> Tensor<3> {
-        let v: Vec<f32> = local.iter().map(|p| p[k] as f32).collect();
-        Tensor::<2>::from_data(TensorData::new(v, [1, t]), &device).reshape([1, t, 1])
-    };
-    let (a, u, v) = (col(0), col(1), col(2));
-    let (e1, e2) = frame(normal.clone());
-    let lift = |d: Tensor<2>| d.reshape([n, 1, 3]);
-    let p = lift(x_world) + lift(normal) * a + lift(e1) * u + lift(e2) * v; // [n, t, 3]
-    (p.reshape([n * t, 3]), t)
-}
-
-/// The inter-layer collision term (Eq. 13): `ReLU(k (ε - (G(p) - G(x))))` summed over the
-/// tool points `rows` of `p` (`[m, 3]`, part units, `t` per pose, pose values `g_x`
-/// `[n, 1]`) where material is in the way, divided by `m`. At most `LAYER_POINTS` of the
-/// rows enter the graph: an even subsample, offset by the phase, rescaled to the sum over
-/// all of them. Also returns the batch positions (`row / t`, ascending, distinct) of the
-/// poses with a positive term.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn layer_collision(
-    g: &Siren,
-    normalization: &Normalization,
-    p: Tensor<2>,
-    g_x: Tensor<2>,
-    rows: &[usize],
-    t: usize,
-    m: usize,
-    phase: f64,
-    constants: &LossConstants,
-) -> Result<(Tensor<1>, Vec<usize>)> {
-    let device = p.device();
-    if rows.is_empty() {
-        return Ok((Tensor::<1>::zeros([1], &device), Vec::new()));
-    }
-    let stride = rows.len().div_ceil(LAYER_POINTS);
-    let offset =
-        ((phase.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU) * stride as f64) as usize % stride;
-    let kept: Vec<usize> = rows.iter().copied().skip(offset).step_by(stride).collect();
-    let weight = rows.len() as f64 / kept.len() as f64;
-    let s_len = kept.len();
-    let pose_of: Vec<i64> = kept.iter().map(|&k| (k / t) as i64).collect();
-    let kept: Vec<i64> = kept.iter().map(|&k| k as i64).collect();
-    let kept = Tensor::<1, Int>::from_data(TensorData::new(kept, [s_len]), &device);
-    let pose_host = pose_of.clone();
-    let pose_of = Tensor::<1, Int>::from_data(TensorData::new(pose_of, [s_len]), &device);
-    let tr = normalization.translation;
-    let shift =
-        Tensor::<2>::from_data(TensorData::new(vec![tr.x as f32, tr.y as f32, tr.z as f32], [1, 3]), &device);
-    let p_unit = p.select(0, kept).mul_scalar(normalization.scale) + shift;
-    let g_p = g.forward(p_unit);
-    let g_x = g_x.select(0, pose_of);
-    let terms = (g_p - g_x)
-        .neg()
-        .add_scalar(constants.layer_clearance)
-        .mul_scalar(constants.collision_slope)
-        .clamp_min(0.0);
-    let values = crate::backend::host_values(terms.clone().detach())?;
-    let mut active: Vec<usize> =
-        values.iter().zip(&pose_host).filter(|(v, _)| **v > 0.0).map(|(_, &k)| k as usize).collect();
-    active.dedup();
-    Ok((terms.sum().mul_scalar(weight / m as f64), active))
-}
-
 /// Evaluates the milling losses of `g` at the poses `idx` of `problem`, with the tool's
 /// rings rotated by `phase`.
 ///
@@ -607,7 +307,7 @@ fn milling_losses_with(
     if let Some(&i) = idx.iter().find(|&&i| i >= problem.poses.len()) {
         return Err(FieldError::InvalidArgument(format!("pose index {i} out of range")));
     }
-    let device = g.devices().first().cloned().unwrap_or_else(|| Backend::default().device());
+    let device = device_of(g);
     let n = idx.len();
     let scale = problem.normalization.scale;
     let xw: Vec<f32> = idx
@@ -796,33 +496,6 @@ pub fn pretrain_planar(options: &LayerOptions) -> Result<Siren> {
     fit_planar(&options.network, options.pretrain_steps, options.seed, options.backend)
 }
 
-/// Fits a new network of `network` to `G(x̂) = ẑ` by `steps` Adam steps (see
-/// [`pretrain_planar`]), on `backend`'s autodiff device.
-pub(crate) fn fit_planar(network: &SirenConfig, steps: usize, seed: u64, backend: Backend) -> Result<Siren> {
-    let device = backend.device().autodiff();
-    let mut net = Siren::new(network, &device)?;
-    let mut opt = AdamConfig::new().init();
-    let mut rng = SplitMix64::new(seed, 0x504c_414e);
-    let n = 512;
-    for step in 0..steps {
-        let pts: Vec<f32> = (0..3 * n).map(|_| rng.uniform(-0.6, 0.6) as f32).collect();
-        let z: Vec<f32> = pts.chunks_exact(3).map(|c| c[2]).collect();
-        let x = Tensor::<2>::from_data(TensorData::new(pts, [n, 3]), &device);
-        let target = Tensor::<2>::from_data(TensorData::new(z, [n, 1]), &device);
-        let ez =
-            Tensor::<2>::from_data(TensorData::new(vec![0.0f32, 0.0, 1.0], [1, 3]), &device).expand([n, 3]);
-        let out = net.forward_gradient(x);
-        let loss = (out.value - target).square().mean() + (out.gradient - ez).square().sum_dim(1).mean();
-        let v: f32 = loss.clone().into_scalar();
-        if !v.is_finite() {
-            return Err(FieldError::Diverged { loss: v, step });
-        }
-        let grads = GradientsParams::from_grads(loss.backward(), &net);
-        net = opt.step(1e-3, net, grads);
-    }
-    Ok(net)
-}
-
 /// What [`optimize_layers`] did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LayerReport {
@@ -841,117 +514,6 @@ pub struct LayerReport {
     pub checks: Vec<CollisionCount>,
     /// Wall-clock seconds of the optimisation (the checks included).
     pub seconds: f64,
-}
-
-/// One Adam step of Eq. 40 on the poses `idx`; returns the losses' values and the poses
-/// whose tool came closer to the part than the clearance.
-// The main and the repair loops differ in every argument; a struct would only rename them.
-#[allow(clippy::too_many_arguments)]
-fn adam_step(
-    g: Siren,
-    opt: &mut burn::optim::ModuleOptimizer,
-    problem: &MillingProblem<'_>,
-    tool: &Tool,
-    idx: &[usize],
-    phase: f64,
-    collision_weight: f64,
-    options: &LayerOptions,
-    step: usize,
-) -> Result<(Siren, [f32; 5], Vec<usize>)> {
-    let losses = milling_losses_with(&g, problem, tool, idx, phase, &options.constants)?;
-    let total = losses.total(&options.weights, collision_weight);
-    let values = crate::backend::finite_losses(
-        vec![
-            losses.part_collision.clone(),
-            losses.layer_collision.clone(),
-            losses.spacing.clone(),
-            losses.zero_gradient.clone(),
-            losses.curvature.clone(),
-        ],
-        step,
-    )?;
-    let grads = GradientsParams::from_grads(total.backward(), &g);
-    let g = opt.step(options.learning_rate, g, grads);
-    Ok((g, [values[0], values[1], values[2], values[3], values[4]], losses.near_poses))
-}
-
-/// Draws batches: up to half from the "hot" poses (those whose tool last came closer to
-/// the part than the clearance, in turn), the rest from a shuffled pass over all poses.
-pub(crate) struct Batcher {
-    pub(crate) rng: SplitMix64,
-    order: Vec<usize>,
-    cursor: usize,
-    hot: std::collections::VecDeque<usize>,
-    is_hot: Vec<bool>,
-}
-
-impl Batcher {
-    pub(crate) fn new(np: usize, seed: u64) -> Self {
-        Self {
-            rng: SplitMix64::new(seed, 0x4d49_4c4c),
-            order: (0..np).collect(),
-            cursor: np,
-            hot: Default::default(),
-            is_hot: vec![false; np],
-        }
-    }
-
-    /// A batch of `size` distinct poses (fewer when there are fewer poses), `forced` first.
-    pub(crate) fn batch(&mut self, size: usize, forced: &[usize], out: &mut Vec<usize>) {
-        let np = self.order.len();
-        let size = size.min(np);
-        out.clear();
-        let mut taken = vec![false; np];
-        for &i in forced.iter().take(size) {
-            if !taken[i] {
-                taken[i] = true;
-                out.push(i);
-            }
-        }
-        let hot_quota = (size / 2).saturating_sub(out.len());
-        for _ in 0..self.hot.len().min(hot_quota) {
-            if let Some(i) = self.hot.pop_front() {
-                self.hot.push_back(i);
-                if !taken[i] {
-                    taken[i] = true;
-                    out.push(i);
-                }
-            }
-        }
-        let mut guard = 0;
-        while out.len() < size && guard < 2 * np + 2 {
-            guard += 1;
-            if self.cursor == np {
-                for i in (1..np).rev() {
-                    self.order.swap(i, self.rng.below(i + 1));
-                }
-                self.cursor = 0;
-            }
-            let i = self.order[self.cursor];
-            self.cursor += 1;
-            if !taken[i] {
-                taken[i] = true;
-                out.push(i);
-            }
-        }
-    }
-
-    /// Marks the poses of `batch` hot (in `near`) or cold (not in it).
-    pub(crate) fn update(&mut self, batch: &[usize], near: &[usize]) {
-        for &i in batch {
-            self.is_hot[i] = false;
-        }
-        for &i in near {
-            self.is_hot[i] = true;
-        }
-        let is_hot = &self.is_hot;
-        self.hot.retain(|&i| is_hot[i]);
-        for &i in near {
-            if !self.hot.contains(&i) {
-                self.hot.push_back(i);
-            }
-        }
-    }
 }
 
 /// Optimises the layer field `g` (on an autodiff device, e.g. from [`pretrain_planar`])
@@ -979,15 +541,14 @@ impl Batcher {
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`],
 /// [`FieldError::NonFinite`] if the part's distance is not finite at a tool point.
 pub fn optimize_layers(
-    mut g: Siren,
+    g: Siren,
     problem: &MillingProblem<'_>,
     options: &LayerOptions,
 ) -> Result<(Siren, LayerReport)> {
     options.validate()?;
     let start = Instant::now();
-    let mut opt = AdamConfig::new().init();
-    let np = problem.poses.len();
-    let mut batcher = Batcher::new(np, options.seed);
+    let mut run = LayerTraining::new(problem, options);
+    let g = run.main_steps(g)?;
     let mut report = LayerReport {
         steps: 0,
         final_losses: [0.0; 5],
@@ -996,57 +557,151 @@ pub fn optimize_layers(
         checks: Vec::new(),
         seconds: 0.0,
     };
-    let mut idx = Vec::with_capacity(options.batch_size);
-    for step in 0..options.steps {
-        batcher.batch(options.batch_size, &[], &mut idx);
-        let phase = batcher.rng.uniform(0.0, std::f64::consts::TAU);
-        let wc = options.weights.collision_at(step, options.steps);
-        let (next, values, near) =
-            adam_step(g, &mut opt, problem, &problem.tool, &idx, phase, wc, options, report.steps)?;
-        g = next;
-        batcher.update(&idx, &near);
-        report.steps += 1;
-        report.final_losses = values;
-    }
     let check_tool = options.check_tool.unwrap_or(problem.tool);
-    let mut wc = options.weights.collision_end;
-    // Every pose found colliding so far stays in the repair batches, so that fixing some
-    // does not undo others.
-    let mut kept: Vec<usize> = Vec::new();
-    let mut is_kept = vec![false; np];
-    let mut lr = options.learning_rate;
-    // The field of the best check so far: the rounds are not monotone.
-    let mut best: Option<(Siren, CollisionCount)> = None;
-    for round in 0..=options.repair_rounds {
-        if options.repair_rounds == 0 {
-            break;
+    let g = run.repair(g, &check_tool, &mut report)?;
+    report.steps = run.log.steps;
+    report.final_losses = run.log.last;
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok((g, report))
+}
+
+/// Eq. 40 at the poses `idx` for one Adam step: the weighted total (collision weight
+/// `collision_weight`), the unweighted values in [`LayerReport::final_losses`]' order
+/// ([`FieldError::Diverged`] at `step`), and the poses whose tool came closer to the part
+/// than the clearance.
+// The main and the repair steps differ in every argument; a struct would only rename them.
+#[allow(clippy::too_many_arguments)]
+fn milling_step(
+    g: &Siren,
+    problem: &MillingProblem<'_>,
+    tool: &Tool,
+    idx: &[usize],
+    phase: f64,
+    collision_weight: f64,
+    options: &LayerOptions,
+    step: usize,
+) -> Result<(Tensor<1>, [f32; 5], Vec<usize>)> {
+    let losses = milling_losses_with(g, problem, tool, idx, phase, &options.constants)?;
+    let total = losses.total(&options.weights, collision_weight);
+    let values = loss_values(
+        [
+            &losses.part_collision,
+            &losses.layer_collision,
+            &losses.spacing,
+            &losses.zero_gradient,
+            &losses.curvature,
+        ],
+        step,
+    )?;
+    Ok((total, values, losses.near_poses))
+}
+
+/// [`optimize_layers`]' state across its main steps and repair rounds: one Adam, one
+/// batcher (its shuffles, hot poses and ring phases), one record of the losses.
+struct LayerTraining<'p, 'a> {
+    problem: &'p MillingProblem<'a>,
+    options: &'p LayerOptions,
+    opt: burn::optim::ModuleOptimizer,
+    batcher: Batcher,
+    idx: Vec<usize>,
+    log: LossLog<5>,
+}
+
+impl<'p, 'a> LayerTraining<'p, 'a> {
+    fn new(problem: &'p MillingProblem<'a>, options: &'p LayerOptions) -> Self {
+        Self {
+            problem,
+            options,
+            opt: AdamConfig::new().init(),
+            batcher: Batcher::new(problem.poses.len(), options.seed),
+            idx: Vec::with_capacity(options.batch_size),
+            log: LossLog::new(),
         }
-        let (count, bad) = colliding_poses(&g.to_f64()?, problem, &check_tool)?;
-        report.collisions = Some(count);
-        report.checks.push(count);
-        if best
-            .as_ref()
-            .is_none_or(|(_, c): &(Siren, CollisionCount)| count.part + count.layer < c.part + c.layer)
-        {
-            best = Some((g.clone(), count));
-        }
-        if bad.is_empty() || round == options.repair_rounds {
-            break;
-        }
-        for &i in &bad {
-            if !is_kept[i] {
-                is_kept[i] = true;
-                kept.push(i);
+    }
+
+    /// The main steps: batches with hot poses, a random ring phase per step, the collision
+    /// weight on its ramp.
+    fn main_steps(&mut self, g: Siren) -> Result<Siren> {
+        let (problem, options) = (self.problem, self.options);
+        let (batcher, idx) = (&mut self.batcher, &mut self.idx);
+        train(g, &mut self.opt, options.learning_rate, options.steps, &mut self.log, |g, step| {
+            batcher.batch(options.batch_size, &[], idx);
+            let phase = batcher.rng.uniform(0.0, std::f64::consts::TAU);
+            let wc = options.weights.collision_at(step, options.steps);
+            let (total, values, near) =
+                milling_step(g, problem, &problem.tool, idx, phase, wc, options, step)?;
+            batcher.update(idx, &near);
+            Ok((total, values))
+        })
+    }
+
+    /// The repair rounds of [`optimize_layers`]: check, train on what collides, keep the
+    /// best check's field; the checks go into `report`.
+    fn repair(&mut self, mut g: Siren, check_tool: &Tool, report: &mut LayerReport) -> Result<Siren> {
+        let (problem, options) = (self.problem, self.options);
+        let mut wc = options.weights.collision_end;
+        // Every pose found colliding so far stays in the repair batches, so that fixing some
+        // does not undo others.
+        let mut kept: Vec<usize> = Vec::new();
+        let mut is_kept = vec![false; problem.poses.len()];
+        let mut lr = options.learning_rate;
+        // The field of the best check so far: the rounds are not monotone.
+        let mut best: Option<(Siren, CollisionCount)> = None;
+        for round in 0..=options.repair_rounds {
+            if options.repair_rounds == 0 {
+                break;
             }
+            let (count, bad) = colliding_poses(&g.to_f64()?, problem, check_tool)?;
+            report.collisions = Some(count);
+            report.checks.push(count);
+            if best
+                .as_ref()
+                .is_none_or(|(_, c): &(Siren, CollisionCount)| count.part + count.layer < c.part + c.layer)
+            {
+                best = Some((g.clone(), count));
+            }
+            if bad.is_empty() || round == options.repair_rounds {
+                break;
+            }
+            for &i in &bad {
+                if !is_kept[i] {
+                    is_kept[i] = true;
+                    kept.push(i);
+                }
+            }
+            report.repair_rounds += 1;
+            lr *= options.repair_decay;
+            // A penalty with a margin: the larger its weight, the smaller the violation of
+            // the margin where it balances the regularisers, down to none of the constraint
+            // itself.
+            wc *= options.repair_weight_growth;
+            g = self.repair_steps(g, check_tool, &bad, &kept, lr, wc)?;
         }
-        report.repair_rounds += 1;
-        lr *= options.repair_decay;
-        // A penalty with a margin: the larger its weight, the smaller the violation of the
-        // margin where it balances the regularisers, down to none of the constraint itself.
-        wc *= options.repair_weight_growth;
-        let step_options = LayerOptions { learning_rate: lr, ..options.clone() };
-        let mut cursor = 0;
-        for s in 0..options.repair_steps {
+        if let (Some((field, count)), Some(last)) = (best, report.collisions)
+            && count.part + count.layer < last.part + last.layer
+        {
+            g = field;
+            report.collisions = Some(count);
+        }
+        Ok(g)
+    }
+
+    /// One repair round's steps on the colliding poses `bad` (and those of earlier rounds,
+    /// `kept`), at learning rate `lr` and collision weight `wc`, the check's tool sampled
+    /// with its own points on even steps and a random ring phase on odd ones.
+    fn repair_steps(
+        &mut self,
+        g: Siren,
+        check_tool: &Tool,
+        bad: &[usize],
+        kept: &[usize],
+        lr: f64,
+        wc: f64,
+    ) -> Result<Siren> {
+        let (problem, options) = (self.problem, self.options);
+        let (batcher, idx) = (&mut self.batcher, &mut self.idx);
+        let (mut cursor, mut s) = (0, 0);
+        train(g, &mut self.opt, lr, options.repair_steps, &mut self.log, |g, step| {
             // The colliding poses first (all when they fit, in turn otherwise), then the
             // ones that collided in earlier rounds, then random ones.
             let quota = options.batch_size.div_ceil(2).max(1);
@@ -1057,39 +712,15 @@ pub fn optimize_layers(
             } else {
                 forced.extend(kept.iter().copied().filter(|i| !bad.contains(i)).take(quota - forced.len()));
             }
-            batcher.batch(options.batch_size, &forced, &mut idx);
+            batcher.batch(options.batch_size, &forced, idx);
             let random_phase = batcher.rng.uniform(0.0, std::f64::consts::TAU);
             let phase = if s % 2 == 0 { 0.0 } else { random_phase };
-            let (next, values, near) =
-                adam_step(g, &mut opt, problem, &check_tool, &idx, phase, wc, &step_options, report.steps)?;
-            g = next;
-            batcher.update(&idx, &near);
-            report.steps += 1;
-            report.final_losses = values;
-        }
+            s += 1;
+            let (total, values, near) = milling_step(g, problem, check_tool, idx, phase, wc, options, step)?;
+            batcher.update(idx, &near);
+            Ok((total, values))
+        })
     }
-    if let (Some((field, count)), Some(last)) = (best, report.collisions)
-        && count.part + count.layer < last.part + last.layer
-    {
-        g = field;
-        report.collisions = Some(count);
-    }
-    report.seconds = start.elapsed().as_secs_f64();
-    Ok((g, report))
-}
-
-/// The tool points `local` (tool frame `(axial, u, v)`) placed at `x` along the unit axis
-/// `n`, with the frame of the tensor losses (`e1` from `+x` projected off `n`).
-pub(crate) fn place_tool<'l>(
-    x: &Point3,
-    n: &Vector3,
-    local: &'l [[f64; 3]],
-) -> impl Iterator<Item = Point3> + 'l {
-    let raw = Vector3::x() - n * n.x;
-    let e1 = raw.try_normalize(1e-12).unwrap_or_else(|| n.cross(&Vector3::y()).normalize());
-    let e2 = n.cross(&e1);
-    let (x, n) = (*x, *n);
-    local.iter().map(move |q| x + n * q[0] + e1 * q[1] + e2 * q[2])
 }
 
 /// Counts of sampled tool poses in collision.

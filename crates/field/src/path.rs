@@ -36,18 +36,17 @@
 
 use std::time::Instant;
 
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::AdamConfig;
 use burn::tensor::activation::sigmoid;
 use burn::tensor::{Tensor, TensorData};
+use s2g_geom::{SplitMix64, Vector3};
 
-use crate::backend::{Backend, finite_losses, host_values};
+use crate::backend::{Backend, host_values};
 use crate::error::{FieldError, Result};
-use s2g_geom::Vector3;
-
 use crate::layer::{cross, gradient_norm, hessian_times_gradient, layer_normal};
 use crate::milling::MillingProblem;
-use crate::rng::SplitMix64;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
+use crate::train::{LossLog, loss_values, train};
 
 /// The toolpath quantities of §3.2 at a batch of points.
 #[derive(Debug, Clone)]
@@ -354,14 +353,15 @@ pub fn optimize_path(
         })
         .collect();
     let layer_gradients: Vec<[f64; 3]> = layer_derivs.iter().map(|d| d.0).collect();
-    let mut net = Siren::new(&options.network, &device)?;
+    let net = Siren::new(&options.network, &device)?;
     let mut opt = AdamConfig::new().init();
     let mut rng = SplitMix64::new(options.seed, 0x5041_5448);
     let batch = options.batch_size.min(points.len());
     let w = options.weights;
-    let (mut initial, mut last, mut totals) = ([0f32; 4], [0f32; 4], [0f32; 2]);
+    // The four losses, then the weighted total.
+    let mut log = LossLog::<5>::new();
     let mut idx = Vec::with_capacity(batch);
-    for step in 0..options.steps {
+    let net = train(net, &mut opt, options.learning_rate, options.steps, &mut log, |net, step| {
         idx.clear();
         idx.extend((0..batch).map(|_| rng.below(points.len())));
         let x = rows3(points, &idx, &device);
@@ -390,22 +390,15 @@ pub fn optimize_path(
             + dir.alignment.clone().mul_scalar(w.alignment)
             + dir.continuity.clone().mul_scalar(w.continuity)
             + curvature.clone().mul_scalar(w.curvature);
-        let values =
-            finite_losses(vec![spacing, dir.alignment, dir.continuity, curvature, total.clone()], step)?;
-        last = [values[0], values[1], values[2], values[3]];
-        totals[1] = values[4];
-        if step == 0 {
-            initial = last;
-            totals[0] = values[4];
-        }
-        let grads = GradientsParams::from_grads(total.backward(), &net);
-        net = opt.step(options.learning_rate, net, grads);
-    }
+        let values = loss_values([&spacing, &dir.alignment, &dir.continuity, &curvature, &total], step)?;
+        Ok((total, values))
+    })?;
+    let (first, last) = (log.initial, log.last);
     let report = PathReport {
         steps: options.steps,
-        initial_losses: initial,
-        final_losses: last,
-        totals,
+        initial_losses: [first[0], first[1], first[2], first[3]],
+        final_losses: [last[0], last[1], last[2], last[3]],
+        totals: [first[4], last[4]],
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((net, report))

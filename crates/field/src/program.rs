@@ -24,7 +24,8 @@
 //!   block turns A or C by more than [`ProgramOptions::max_angle_step_deg`].
 //! - **Checks.** Every tool position the machine passes through (the blocks sampled as the
 //!   simulator interpolates them: rotation slerp, program point lerp) is proved clear of
-//!   the part: the distance at axis points spaced `s` apart must exceed `sqrt(r² + s²/4)`,
+//!   the part: the distance at axis points spaced `s` apart must exceed `sqrt(r² + s²/4)`
+//!   (`r` the largest radius of the tool's cutter),
 //!   plus [`ProgramOptions::flute_clearance`] along the flutes, which bounds the whole
 //!   cylinder away from the part (the distance is 1-Lipschitz). Poses that fail are left
 //!   out, links that fail are replaced by higher retracts or skip their pose; both counted.
@@ -39,11 +40,14 @@ use s2g_gcode::{
     WriterOptions, rotary_frame,
 };
 use s2g_geom::{Aabb, GridSpec, Isometry3, Mesh, Point3, SignedDistance, Vector3, VoxelGrid, voxelize};
-use s2g_voxsim::{Cutter, SimOptions, Simulator, ToolTable};
+use s2g_voxsim::{SimOptions, Simulator, ToolTable};
 
 use crate::error::{FieldError, Result};
-use crate::milling::{MillingProblem, Tool};
+use crate::milling::MillingProblem;
 use crate::siren::SirenF64;
+use crate::tool::Tool;
+
+mod route;
 
 /// How [`mill_program`] builds a program. Lengths in the part's units (mm).
 #[derive(Debug, Clone, PartialEq)]
@@ -61,8 +65,6 @@ pub struct ProgramOptions {
     pub feed: f64,
     /// Spindle speed, rpm. Default `12000`.
     pub spindle_rpm: f64,
-    /// Length of the cutter's flutes (the cutting part, from the tip). Default `10.0`.
-    pub flute_length: f64,
     /// Extra clearance of the flutes from the part, on top of the cylinder bound: at least
     /// the simulator's sweep tolerance (a quarter voxel). Default `0.3`.
     pub flute_clearance: f64,
@@ -90,7 +92,6 @@ impl Default for ProgramOptions {
             retract: 8.0,
             feed: 800.0,
             spindle_rpm: 12000.0,
-            flute_length: 10.0,
             flute_clearance: 0.3,
             check_step: 0.5,
             move_step: 0.5,
@@ -111,7 +112,6 @@ impl ProgramOptions {
             ("program.retract", self.retract),
             ("program.feed", self.feed),
             ("program.spindle_rpm", self.spindle_rpm),
-            ("program.flute_length", self.flute_length),
             ("program.check_step", self.check_step),
             ("program.move_step", self.move_step),
             ("program.max_angle_step_deg", self.max_angle_step_deg),
@@ -124,15 +124,6 @@ impl ProgramOptions {
             return Err(FieldError::config("program.dialect", "needs rotary axes: LinuxCnc or Fanuc"));
         }
         Ok(())
-    }
-
-    /// The simulated cutter for `tool`: a flat end mill of the tool's radius with
-    /// [`ProgramOptions::flute_length`] of flutes and a shank of the same radius up to the
-    /// tool's length.
-    fn cutter(&self, tool: &Tool) -> Cutter {
-        let mut c = Cutter::flat(tool.radius, self.flute_length.min(tool.length));
-        c.stickout = tool.length.max(c.flute_length);
-        c
     }
 }
 
@@ -282,92 +273,20 @@ fn build_program(
     paths: Option<&ContourPaths>,
 ) -> Result<MillProgram> {
     options.validate()?;
-    let tool = *problem.tool();
-    let axes = options.rotary;
+    let tool = problem.tool();
     let clearance = Clearance {
         part: problem.part(),
-        radius: tool.radius,
-        length: tool.length,
-        flute: options.flute_length.min(tool.length),
+        radius: tool.envelope_radius(),
+        length: tool.length(),
+        flute: tool.cutter.flute_length,
         flute_clearance: options.flute_clearance,
         step: options.check_step,
     };
-    let nz = problem.normalization();
-    let snap = options.vertical_snap_deg;
-
-    // Poses: G, the (snapped) tool axis, and the clearance proof.
-    struct Pose {
-        tip: Point3,
-        g: f64,
-        tilt: f64,
-        c: f64,
-        vertical: bool,
-        /// The iso-curve of `P` (0 for every pose without a path field).
-        curve: i64,
-    }
-    let curve_step = paths.map(|p| gradient_step(&p.field, problem, p.step));
-    let mut poses = Vec::new();
-    let mut skipped = 0usize;
-    let mut reoriented = 0usize;
-    for x in problem.poses() {
-        let u = nz.to_unit(x);
-        let (gx, grad) = g.value_gradient([u.x, u.y, u.z]);
-        let n = Vector3::new(grad[0], grad[1], grad[2]);
-        let Some(n) = n.try_normalize(1e-12) else {
-            skipped += 1;
-            continue;
-        };
-        if !gx.is_finite() {
-            skipped += 1;
-            continue;
-        }
-        // The layer normal; if the clearance proof fails there (the flutes' clearance is
-        // stricter than the loss's hinge), the normal turned toward +Z by a quarter, a
-        // half, three quarters and all the way, the first that passes.
-        let mut chosen = None;
-        for (k, t) in [0.0, 0.25, 0.5, 0.75, 1.0].into_iter().enumerate() {
-            let Some(axis) = (n * (1.0 - t) + Vector3::z() * t).try_normalize(1e-12) else { continue };
-            let (tilt, c) = tool_axis_angles(axes, &axis);
-            let vertical = tilt < snap;
-            let (tilt, c) = if vertical { (0.0, 0.0) } else { (tilt, c) };
-            let s = State { tip: *x, tilt, c };
-            if clearance.clear(x, &axis_of(axes, &s)) {
-                chosen = Some((tilt, c, vertical, k > 0));
-                break;
-            }
-        }
-        let Some((tilt, c, vertical, turned)) = chosen else {
-            skipped += 1;
-            continue;
-        };
-        reoriented += turned as usize;
-        let curve = match (paths, curve_step) {
-            (Some(p), Some(step)) => {
-                let v = p.field.value([u.x, u.y, u.z]);
-                if !v.is_finite() {
-                    skipped += 1;
-                    continue;
-                }
-                (v / step).round() as i64
-            }
-            _ => 0,
-        };
-        poses.push(Pose { tip: *x, g: gx, tilt, c, vertical, curve });
-    }
+    let (poses, skipped, reoriented) = route::program_poses(g, problem, options, paths, &clearance);
     if poses.is_empty() {
         return Err(FieldError::InvalidArgument("no pose passes the tool clearance check".into()));
     }
-
-    // Layers, top first; a nearest-neighbour chain on each.
-    let h = gradient_step(g, problem, options.layer_step);
-    let g_top = poses.iter().map(|p| p.g).fold(f64::NEG_INFINITY, f64::max);
-    let layer_of = |p: &Pose| ((g_top - p.g) / h).round() as i64;
-    let mut by_layer: std::collections::BTreeMap<i64, Vec<usize>> = Default::default();
-    for (i, p) in poses.iter().enumerate() {
-        by_layer.entry(layer_of(p)).or_default().push(i);
-    }
-
-    let mut w = Emitter::new(options, axes);
+    let mut w = Emitter::new(options, options.rotary);
     w.push(Motion::ToolChange { tool: 1 })?;
     w.push(Motion::Spindle { rpm: options.spindle_rpm, direction: SpindleDirection::Clockwise })?;
     let mut out = MillProgram {
@@ -382,178 +301,10 @@ fn build_program(
         jumps: 0,
         blocks: 0,
     };
-    let mut cur: Option<State> = None;
-    // The pose the tool last reached (None after a step back along the trail).
-    let mut from_pose: Option<usize> = None;
-    // Every waypoint written, in order: the way back when no remaining pose can be reached
-    // from where the tool is (retracing checked moves is safe).
-    let mut trail: Vec<State> = Vec::new();
-    let unwrap = |c: f64, near: f64| c + 360.0 * ((near - c) / 360.0).round();
-    let target_of = |p: &Pose, c_ref: f64| State {
-        tip: p.tip,
-        tilt: p.tilt,
-        c: if p.vertical { c_ref } else { unwrap(p.c, c_ref) },
-    };
-    let high = problem.block().max.z + options.retract;
-    for members in by_layer.values() {
-        let mut left: Vec<usize> = members.clone();
-        let mut milled_any = false;
-        let mut backtracks = 0usize;
-        while !left.is_empty() {
-            let Some(from) = cur else {
-                // Start: appear above the first pose along its axis, plunge.
-                let i = left.swap_remove(0);
-                let target = target_of(&poses[i], 0.0);
-                let axis = axis_of(axes, &target);
-                let mut started = false;
-                for r in [options.retract, 2.0 * options.retract, 4.0 * options.retract] {
-                    let above = State { tip: target.tip + axis * r, ..target };
-                    if clearance.clear(&above.tip, &axis) && w.check_move(&clearance, &above, &target) {
-                        w.setup(&above)?;
-                        w.rapid(&above)?;
-                        w.feed_to(&above, &target, false)?;
-                        trail.extend([above, target]);
-                        started = true;
-                        break;
-                    }
-                }
-                if started {
-                    from_pose = Some(i);
-                    cur = Some(target);
-                    out.poses_used += 1;
-                    milled_any = true;
-                } else {
-                    out.poses_skipped += 1;
-                }
-                continue;
-            };
-            // The nearest remaining poses first: a feed link to a neighbour, else a jump;
-            // with a path field, the near ones on the current iso-curve before all others
-            // (without one every pose is on curve 0 and this is the plain nearest order).
-            let mut order: Vec<usize> = (0..left.len()).collect();
-            let dist = |k: usize| (poses[left[k]].tip - from.tip).norm_squared();
-            let from_curve = from_pose.map(|i| poses[i].curve);
-            let off_curve = |k: usize| {
-                !(Some(poses[left[k]].curve) == from_curve && dist(k) <= options.link_distance.powi(2))
-            };
-            order.sort_by(|&a, &b| off_curve(a).cmp(&off_curve(b)).then(dist(a).total_cmp(&dist(b))));
-            let mut found = None;
-            for &k in order.iter().take(CANDIDATES) {
-                let target = target_of(&poses[left[k]], from.c);
-                let near = (target.tip - from.tip).norm() <= options.link_distance;
-                if near && w.check_path(&clearance, &from, &target) {
-                    found = Some((k, vec![target], true));
-                    break;
-                }
-                if let Some(route) = jump_route(&w, &clearance, &from, &target, options.retract, high) {
-                    found = Some((k, route, false));
-                    break;
-                }
-            }
-            let Some((k, route, link)) = found else {
-                // Nothing reachable from here: step back along the trail, or give the
-                // nearest pose up.
-                if backtracks < MAX_BACKTRACK && trail.len() >= 2 {
-                    let back = trail[trail.len() - 2];
-                    if w.check_path(&clearance, &from, &back) {
-                        w.feed_to(&from, &back, true)?;
-                        trail.pop();
-                        cur = Some(back);
-                        from_pose = None;
-                        backtracks += 1;
-                        continue;
-                    }
-                }
-                left.swap_remove(order[0]);
-                out.poses_skipped += 1;
-                backtracks = 0;
-                continue;
-            };
-            let on_curve = link && paths.is_some() && Some(poses[left[k]].curve) == from_curve;
-            from_pose = Some(left.swap_remove(k));
-            let mut prev = from;
-            for s in &route {
-                w.feed_to(&prev, s, true)?;
-                prev = *s;
-            }
-            trail.extend_from_slice(&route);
-            if link {
-                out.links += 1;
-                out.curve_links += on_curve as usize;
-            } else {
-                out.jumps += 1;
-            }
-            backtracks = 0;
-            cur = Some(prev);
-            out.poses_used += 1;
-            milled_any = true;
-        }
-        out.layers += milled_any as usize;
-    }
-    // Leave along the tool axis.
-    if let Some(s) = cur {
-        let axis = axis_of(axes, &s);
-        for r in [4.0 * options.retract, 2.0 * options.retract, options.retract] {
-            let up = State { tip: s.tip + axis * r, ..s };
-            if w.check_path(&clearance, &s, &up) {
-                w.feed_to(&s, &up, true)?;
-                break;
-            }
-        }
-    }
+    route::walk_layers(&mut w, &mut out, g, problem, options, &clearance, &poses, paths.is_some())?;
     out.blocks = w.blocks;
     out.text = w.finish()?;
     Ok(out)
-}
-
-/// Remaining poses tried, nearest first, before stepping back along the trail.
-const CANDIDATES: usize = 6;
-
-/// Steps back along the trail before a pose is given up.
-const MAX_BACKTRACK: usize = 64;
-
-/// The waypoints of a checked jump from `from` to `to` (ending at `to`): retract along the
-/// tool axis by `r`, `2 r` or `4 r`, traverse, plunge; failing those, the same retracts
-/// then up to a vertical tool with its tip at height `high` (above the block, where the
-/// vertical tool is clear of a part inside it), across, and down. `None` when no route
-/// passes the checks.
-fn jump_route(
-    w: &Emitter,
-    clearance: &Clearance<'_>,
-    from: &State,
-    to: &State,
-    r: f64,
-    high: f64,
-) -> Option<Vec<State>> {
-    let axes = w.axes;
-    let ok = |route: &[State]| {
-        let mut prev = *from;
-        route.iter().all(|s| {
-            let pass = w.check_path(clearance, &prev, s);
-            prev = *s;
-            pass
-        })
-    };
-    let retracts = [r, 2.0 * r, 4.0 * r];
-    for r in retracts {
-        let up = State { tip: from.tip + axis_of(axes, from) * r, ..*from };
-        let down = State { tip: to.tip + axis_of(axes, to) * r, ..*to };
-        let route = [up, down, *to];
-        if ok(&route) {
-            return Some(route.to_vec());
-        }
-    }
-    for r in retracts {
-        let up = State { tip: from.tip + axis_of(axes, from) * r, ..*from };
-        let down = State { tip: to.tip + axis_of(axes, to) * r, ..*to };
-        let over =
-            |s: &State, c: f64| State { tip: Point3::new(s.tip.x, s.tip.y, s.tip.z.max(high)), tilt: 0.0, c };
-        let route = [up, over(&up, from.c), over(&down, to.c), down, *to];
-        if ok(&route) {
-            return Some(route.to_vec());
-        }
-    }
-    None
 }
 
 /// Writes the blocks through [`GcodeWriter`], tracking the rotary state.
@@ -813,8 +564,8 @@ pub struct ProgramSimulation {
 
 /// Parses `program` with `options`' rotary axes and simulates it in `s2g-voxsim` on a
 /// stock filling `block` (cubic voxels of edge about `voxel`), with the part `mesh`
-/// voxelised on the same grid as the target for gouges, cutting with
-/// [`ProgramOptions`]' flat end mill of `tool`'s radius and length.
+/// voxelised on the same grid as the target for gouges, cutting with `tool`'s cutter
+/// ([`Tool::cutter`]: flutes, shank and holder).
 ///
 /// Errors: [`FieldError::InvalidArgument`] for a bad voxel size or block,
 /// [`FieldError::Program`] for a program the parser or the simulator rejects.
@@ -841,7 +592,7 @@ pub fn simulate_program(
     let target = voxelize(mesh, &spec).map_err(FieldError::geom)?;
     let removable = stock.count().saturating_sub(target.count());
     let prog_err = |e: String| FieldError::Program(e);
-    let sim = Simulator::new(stock, ToolTable::single(options.cutter(tool)), SimOptions::default())
+    let sim = Simulator::new(stock, ToolTable::single(tool.cutter), SimOptions::default())
         .and_then(|s| s.with_target(&target))
         .map_err(|e| prog_err(e.to_string()))?;
     let mut sim = sim;
@@ -865,12 +616,14 @@ pub fn simulate_program(
 /// Everything [`mill_mesh`] does, with the defaults of the cup example.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MillOptions {
-    /// The tool, and its point sampling for the collision loss and the checks. Default
-    /// radius 2.5, length 40, rings from 3 mm every 2 mm with 24 points.
+    /// The tool (its cutter is the one the program is checked and simulated with), and
+    /// its point sampling for the collision loss and the checks. Default
+    /// [`Tool::cylinder`]`(2.5, 40.0)` (10 mm of flutes), rings from 3 mm every 2 mm with
+    /// 24 points.
     pub tool: Tool,
     /// Spacing of the pose grid. Default `3.0`.
     pub grid: f64,
-    /// Poses lie at least `tool.radius + margin` from the part. Default `0.5`.
+    /// Poses lie at least `tool.radius() + margin` from the part. Default `0.5`.
     pub margin: f64,
     /// The block (stock) is the part's bounding box grown by this much along X and Y.
     /// Default `6.0`.
@@ -955,7 +708,7 @@ pub fn mill_mesh(mesh: &Mesh, options: &MillOptions) -> Result<MillReport> {
     {
         return Err(FieldError::InvalidArgument(format!("bad layer lattice spacing {spacing}")));
     }
-    let part = crate::milling::MeshSdf::new(mesh)?;
+    let part = crate::mesh_sdf::MeshSdf::new(mesh)?;
     let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
     let grow = [options.stock_side, options.stock_top];
     if !grow.iter().all(|v| v.is_finite() && *v >= 0.0) {

@@ -19,7 +19,7 @@ use burn::nn::Linear;
 use burn::tensor::{Device, Tensor, TensorData};
 
 use crate::error::{FieldError, Result};
-use crate::rng::SplitMix64;
+use s2g_geom::SplitMix64;
 
 /// Shape, frequencies and seed of a [`Siren`].
 ///

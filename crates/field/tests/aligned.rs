@@ -25,7 +25,7 @@ fn arm() -> Mesh {
 }
 
 fn nozzle() -> Tool {
-    Tool { radius: 2.5, length: 20.0, axial_offset: 1.0, axial_step: 4.0, ring_points: 8 }
+    Tool { axial_offset: 1.0, axial_step: 4.0, ring_points: 8, ..Tool::cylinder(2.5, 20.0) }
 }
 
 fn axis(p: &Point3) -> Vector3 {

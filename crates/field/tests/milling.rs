@@ -17,7 +17,7 @@ fn scalar(t: burn::tensor::Tensor<1>) -> f32 {
 
 #[test]
 fn tool_points_lie_on_the_sampled_cylinder() {
-    let tool = Tool { radius: 2.0, length: 10.0, axial_offset: 1.0, axial_step: 4.0, ring_points: 6 };
+    let tool = Tool { axial_offset: 1.0, axial_step: 4.0, ring_points: 6, ..Tool::cylinder(2.0, 10.0) };
     let pts = tool.points(0.3);
     // Rings at 1, 5, 9 and 10 (the last clamped to the length), 7 points each.
     assert_eq!(pts.len(), 4 * 7);
@@ -87,7 +87,7 @@ fn small_cup() -> (s2g_geom::Mesh, Aabb) {
 fn losses_vanish_where_planar_layers_are_clear() {
     let sphere = Sphere { center: Point3::new(0.0, 0.0, 0.0), radius: 10.0 };
     let block = Aabb::new(Point3::new(-20.0, -20.0, -20.0), Point3::new(20.0, 20.0, 20.0));
-    let tool = Tool { radius: 2.0, length: 15.0, axial_offset: 2.0, axial_step: 3.0, ring_points: 8 };
+    let tool = Tool { axial_offset: 2.0, axial_step: 3.0, ring_points: 8, ..Tool::cylinder(2.0, 15.0) };
     let poses = vec![Point3::new(0.0, 0.0, 13.0), Point3::new(15.0, 0.0, -5.0), Point3::new(0.0, 0.0, -15.0)];
     let problem = MillingProblem::with_poses(&sphere, block, tool, poses).unwrap();
     let options = LayerOptions { pretrain_steps: 300, ..LayerOptions::default() };
@@ -114,7 +114,7 @@ fn losses_vanish_where_planar_layers_are_clear() {
     ));
     let bad = MillingProblem::with_poses(&sphere, block, tool, vec![Point3::new(f64::NAN, 0.0, 0.0)]);
     assert!(matches!(bad, Err(FieldError::NonFinite { .. })));
-    let bad_tool = Tool { radius: -1.0, ..tool };
+    let bad_tool = Tool::cylinder(-1.0, 15.0);
     assert!(matches!(
         MillingProblem::with_poses(&sphere, block, bad_tool, vec![]),
         Err(FieldError::InvalidConfig { .. })

@@ -1,5 +1,6 @@
 //! A tiny seeded generator, so a seed means the same numbers on every platform and for every
 //! version of every dependency.
+//! A copy of `s2g_geom::SplitMix64`'s stream: rl depends on no workspace crate (ARCHITECTURE.md).
 
 /// SplitMix64 (Steele, Lea and Flood, "Fast splittable pseudorandom number generators",
 /// OOPSLA 2014): a 64-bit counter stepped by the golden gamma and passed through a mixer.
