@@ -120,7 +120,7 @@ impl ProgramOptions {
         if !(self.vertical_snap_deg.is_finite() && (0.0..90.0).contains(&self.vertical_snap_deg)) {
             return Err(FieldError::config("program.vertical_snap_deg", "must be in [0, 90)"));
         }
-        if !matches!(self.dialect, Dialect::LinuxCnc | Dialect::Fanuc) {
+        if !self.dialect.has_rotary_axes() {
             return Err(FieldError::config("program.dialect", "needs rotary axes: LinuxCnc or Fanuc"));
         }
         Ok(())
