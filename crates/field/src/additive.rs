@@ -43,9 +43,9 @@ use s2g_geom::{Aabb, Mesh, Normalization, Point3, SignedDistance, Vector3, sampl
 use crate::backend::{Backend, host_values};
 use crate::error::{FieldError, Result};
 use crate::layer::{LayerGeometry, layer_normal};
-use crate::milling::LossConstants;
 use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 use crate::tool::{Tool, place_tool, tool_points};
+use crate::train::LossConstants;
 use crate::train::{
     Batcher, LossLog, device_of, fit_planar, layer_collision, loss_values, ramp, regularisers, train,
 };

@@ -46,11 +46,11 @@ use crate::additive::{PrintConstants, PrintProblem, check_indices, nozzle_terms}
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
 use crate::layer::LayerGeometry;
-use crate::milling::LossConstants;
 use crate::path::{
     direction_losses, geodesic_curvature, path_curvature_loss, path_spacing, path_spacing_loss,
 };
 use crate::siren::{Siren, SirenConfig, SirenF64};
+use crate::train::LossConstants;
 use crate::train::{Batcher, LossLog, device_of, fit_planar, loss_values, ramp, regularisers, train};
 
 /// A printing problem with a prescribed direction at each deposition pose.

@@ -103,7 +103,7 @@ pub use layer::{
 };
 pub use mesh_sdf::MeshSdf;
 pub use milling::{
-    CollisionCount, LayerOptions, LayerReport, LossConstants, MillingLosses, MillingProblem, MillingWeights,
+    CollisionCount, LayerOptions, LayerReport, MillingLosses, MillingProblem, MillingWeights,
     colliding_poses, count_collisions, cup_mesh, milling_losses, optimize_layers, pretrain_planar,
 };
 pub use path::{
@@ -118,3 +118,4 @@ pub use program::{
 pub use sdf::{NeuralSdf, SdfLossWeights, SdfOptions, SdfReport, fit_sdf, fit_sdf_opt, fit_sdf_samples};
 pub use siren::{FieldGradient, FieldHessian, Siren, SirenConfig, SirenF64, omega_for_scale};
 pub use tool::Tool;
+pub use train::LossConstants;

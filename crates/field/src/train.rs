@@ -13,7 +13,6 @@ use s2g_geom::{Normalization, SplitMix64};
 use crate::backend::Backend;
 use crate::error::{FieldError, Result};
 use crate::layer::{LayerGeometry, hessian_times_gradient};
-use crate::milling::LossConstants;
 use crate::siren::{FieldHessian, Siren, SirenConfig};
 
 /// One Adam update of `model` down the gradient of `loss` at `learning_rate`.
@@ -272,6 +271,46 @@ impl Batcher {
             if !self.hot.contains(&i) {
                 self.hot.push_back(i);
             }
+        }
+    }
+}
+
+/// Constants inside the individual losses. The seed's text gives their form but not all
+/// their values; the defaults are this crate's choices (documented per field).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LossConstants {
+    /// Slope factor of the collision ReLUs (Eq. 12), applied to distances in unit-cube
+    /// lengths. Default `1.0` (the paper's value is not given; only its product with the
+    /// collision weight matters).
+    pub collision_slope: f64,
+    /// Clearance `ε` of the tool-part constraint (Eq. 14), in part units. Default `0.3`.
+    pub part_clearance: f64,
+    /// Clearance `ε` of the inter-layer constraint (Eq. 13), in unit-cube `G` units.
+    /// Default `0.0`.
+    pub layer_clearance: f64,
+    /// The curvature threshold `κ̄` of Eq. 24, in 1 / part units. Default `0.1`
+    /// (a 10 mm radius).
+    pub max_curvature: f64,
+    /// Intrinsic factor of the curvature loss (Eq. 24: 30).
+    pub curvature_factor: f64,
+    /// The singularity mask (Eq. 52-53): points with `|∇G|` below this (unit-cube units)
+    /// are left out of the curvature loss, by a sigmoid of width a tenth of it. Default
+    /// `0.1` (the planar start has `|∇G| = 1`).
+    pub singular_gradient: f64,
+    /// Zero-gradient loss (Eq. 27): `mean ReLU(min_gradient - |∇G|)`. Default `0.5`.
+    pub min_gradient: f64,
+}
+
+impl Default for LossConstants {
+    fn default() -> Self {
+        Self {
+            collision_slope: 1.0,
+            part_clearance: 0.3,
+            layer_clearance: 0.0,
+            max_curvature: 0.1,
+            curvature_factor: 30.0,
+            singular_gradient: 0.1,
+            min_gradient: 0.5,
         }
     }
 }
