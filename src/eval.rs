@@ -135,7 +135,7 @@ pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<
         Box::new(FixedPolicy(Action {
             tool_radius: space.radii[r],
             layer_height: space.layer_heights[h],
-            strategy: StrategyKind::Zigzag,
+            strategy: StrategyKind::ZIGZAG,
         }))
     };
     if space.is_empty() {
@@ -348,8 +348,9 @@ pub fn evaluate(
         return Ok(tables);
     }
     tables.ablation.push(mean_row("none removed", &heuristic_runs));
-    for removed in StrategyKind::ALL {
-        let strategies: Vec<StrategyKind> = StrategyKind::ALL.into_iter().filter(|&s| s != removed).collect();
+    for removed in StrategyKind::all() {
+        let strategies: Vec<StrategyKind> =
+            StrategyKind::all().into_iter().filter(|&s| s != removed).collect();
         let o = MillOptions { strategies, ..opts.clone() };
         let mut runs = Vec::with_capacity(parts.len());
         for (part, mesh) in parts {

@@ -7,35 +7,35 @@
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
-/// The clearing strategies of seed 000 §3.3.2-3.3.4, as the policy's action vocabulary:
-/// each names a strategy of the toolpath registry ([`s2g_toolpath::strategies`]), which
-/// the pipeline plans with.
+/// A clearing strategy of the toolpath registry ([`s2g_toolpath::strategies`]) as the
+/// policy's action vocabulary: its place in the registry, so the action space's strategies
+/// are the registry's, in its order (seed 000 §3.3.2-3.3.4 names the first three). A
+/// strategy added to the registry is an action the policies can choose with no change here.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum StrategyKind {
-    /// Parallel back-and-forth passes.
-    Zigzag,
-    /// Rings offset inward from the boundary.
-    Periphery,
-    /// One continuous spiral.
-    Spiral,
-}
+pub struct StrategyKind(u8);
 
 impl StrategyKind {
-    /// All strategies, in a fixed order.
-    pub const ALL: [StrategyKind; 3] = [StrategyKind::Zigzag, StrategyKind::Periphery, StrategyKind::Spiral];
+    /// Parallel back-and-forth passes (`zigzag`).
+    pub const ZIGZAG: StrategyKind = StrategyKind(0);
+    /// Rings offset inward from the boundary (`periphery`).
+    pub const PERIPHERY: StrategyKind = StrategyKind(1);
+    /// One continuous spiral (`spiral`).
+    pub const SPIRAL: StrategyKind = StrategyKind(2);
 
-    /// The lower-case name (`zigzag`, `periphery`, `spiral`).
-    pub fn name(self) -> &'static str {
-        match self {
-            StrategyKind::Zigzag => "zigzag",
-            StrategyKind::Periphery => "periphery",
-            StrategyKind::Spiral => "spiral",
-        }
+    /// Every strategy of the registry, in its order.
+    pub fn all() -> Vec<StrategyKind> {
+        (0..s2g_toolpath::strategies().len().min(256)).map(|i| StrategyKind(i as u8)).collect()
     }
 
-    /// Parses a lower-case name.
+    /// The registry's name of the strategy (`zigzag`, `periphery`, `spiral`, ...).
+    pub fn name(self) -> &'static str {
+        s2g_toolpath::strategies().names().nth(self.0 as usize).unwrap_or("zigzag")
+    }
+
+    /// The strategy the registry knows by `name` (any case).
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|s| s.name() == name.to_ascii_lowercase())
+        let i = s2g_toolpath::strategies().names().position(|n| n.eq_ignore_ascii_case(name))?;
+        u8::try_from(i).ok().map(StrategyKind)
     }
 }
 
@@ -68,7 +68,7 @@ impl ActionSpace {
         Self {
             radii: vec![0.001, 0.0025, 0.005, 0.01],
             layer_heights: vec![1.0 / 512.0, 1.0 / 256.0, 1.0 / 128.0, 1.0 / 64.0],
-            strategies: StrategyKind::ALL.to_vec(),
+            strategies: StrategyKind::all(),
         }
     }
 
@@ -78,7 +78,7 @@ impl ActionSpace {
         Self {
             radii: vec![0.5, 1.0, 1.5, 3.0, 6.0],
             layer_heights: vec![0.25, 0.5, 1.0, 2.0],
-            strategies: StrategyKind::ALL.to_vec(),
+            strategies: StrategyKind::all(),
         }
     }
 
@@ -220,7 +220,7 @@ impl Policy for RandomPolicy {
         ctx.space.action(i).unwrap_or(Action {
             tool_radius: 0.0,
             layer_height: 0.0,
-            strategy: StrategyKind::Zigzag,
+            strategy: StrategyKind::ZIGZAG,
         })
     }
     fn name(&self) -> String {
@@ -268,7 +268,7 @@ impl Policy for HeuristicPolicy {
         Action {
             tool_radius: space.radii.get(radius_index).copied().unwrap_or(0.0),
             layer_height,
-            strategy: space.strategies.first().copied().unwrap_or(StrategyKind::Zigzag),
+            strategy: space.strategies.first().copied().unwrap_or(StrategyKind::ZIGZAG),
         }
     }
     fn name(&self) -> String {
@@ -284,9 +284,14 @@ mod tests {
     /// every action's strategy plans (the pipeline looks the name up there).
     #[test]
     fn strategy_kinds_are_the_registry_s_strategies_in_order() {
-        let names: Vec<&str> = StrategyKind::ALL.iter().map(|s| s.name()).collect();
+        let names: Vec<&str> = StrategyKind::all().iter().map(|s| s.name()).collect();
         assert_eq!(names, s2g_toolpath::strategies().names().collect::<Vec<_>>());
-        for s in StrategyKind::ALL {
+        assert_eq!(names[..3], ["zigzag", "periphery", "spiral"]);
+        let consts = [StrategyKind::ZIGZAG, StrategyKind::PERIPHERY, StrategyKind::SPIRAL];
+        assert_eq!(consts.map(|s| s.name()), ["zigzag", "periphery", "spiral"]);
+        assert_eq!(StrategyKind::from_name("Spiral"), Some(StrategyKind::SPIRAL));
+        assert_eq!(StrategyKind::from_name("trochoidal"), None);
+        for s in StrategyKind::all() {
             assert_eq!(
                 s2g_toolpath::strategies().get(s.name()).map(|c| c.name().to_owned()),
                 Ok(s.name().into())

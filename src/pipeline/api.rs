@@ -145,7 +145,7 @@ impl Default for MillOptions {
             seed: 0,
             stock_margin: 0.02,
             paper_scale_mm: 100.0,
-            strategies: StrategyKind::ALL.to_vec(),
+            strategies: StrategyKind::all(),
             residual_smoothing: 8,
             carver: Carver::Exact,
             contour: true,

@@ -21,7 +21,7 @@ fn cheap() -> (Vec<(String, shape2gcode::geom::Mesh)>, MillOptions) {
         orient_points: 512,
         orient_candidates: 32,
         setups: SetupCount::Exactly(2),
-        strategies: vec![shape2gcode::StrategyKind::Zigzag],
+        strategies: vec![shape2gcode::StrategyKind::ZIGZAG],
         metric_samples: 500,
         // 3 mm of stock around the part: material for the tools to remove.
         stock_margin: 0.3,
@@ -292,8 +292,7 @@ fn the_bundled_policy_names_the_heuristic_when_it_chooses_for_it() {
     assert_eq!(b.policy, "heuristic");
     let actions = |m: &shape2gcode::Milled| m.setups.iter().map(|p| p.action).collect::<Vec<_>>();
     assert_eq!(actions(&a), actions(&b));
-    let paper =
-        MillOptions { preset: Preset::Paper, strategies: shape2gcode::StrategyKind::ALL.to_vec(), ..opts };
+    let paper = MillOptions { preset: Preset::Paper, strategies: shape2gcode::StrategyKind::all(), ..opts };
     let mut learned = LearnedPolicy::bundled().unwrap();
     let c = mill(&parts[0].1, &mut learned, &paper, &mut |_| {}).unwrap();
     assert_eq!(c.policy, "learned");

@@ -123,7 +123,7 @@ fn assert_example004_setup_1_safe(resolution: usize, radius: f64, layer: f64) {
     let mesh = load_mesh(data("meshes/openscad/openscad_Old_example004.stl")).unwrap();
     let opts = MillOptions { resolution, ..MillOptions::default() };
     let mut run = MillRun::new(&mesh, &opts, &mut |_| {}).unwrap();
-    let action = Action { tool_radius: radius, layer_height: layer, strategy: StrategyKind::Zigzag };
+    let action = Action { tool_radius: radius, layer_height: layer, strategy: StrategyKind::ZIGZAG };
     run.machine(action, &mut |_| {}).unwrap();
     assert_setup_safe("openscad_Old_example004", 0, &run.machined()[0]);
 }
@@ -155,7 +155,7 @@ fn a_radius_outside_the_action_space_is_simulated_with_its_own_tool() {
     };
     let space = opts.action_space();
     assert!(space.radii.iter().all(|&r| r < 2.0), "{:?}", space.radii);
-    let action = Action { tool_radius: 2.0, layer_height: 0.78125, strategy: StrategyKind::Zigzag };
+    let action = Action { tool_radius: 2.0, layer_height: 0.78125, strategy: StrategyKind::ZIGZAG };
     let m = mill(&mesh, &mut FixedPolicy(action), &opts, &mut |_| {}).unwrap();
     let tool = format!("T{} M6", space.radii.len() + 1);
     for (i, s) in m.setups.iter().enumerate() {
