@@ -8,7 +8,9 @@ use std::time::Instant;
 use super::api::{MillError, SetupProgram, Stage, StageSeconds};
 use super::job::Job;
 use super::pipe::chunk_channel;
-use crate::gcode::{Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, WriterOptions, parse_reader};
+use crate::gcode::{
+    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Tee, WriterOptions, parse_reader,
+};
 use crate::geom::{Mesh, Point3, Setup, VoxelGrid};
 use crate::toolpath::{PlanProgress, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
@@ -73,7 +75,7 @@ pub(super) fn machine_setup(
         let r = sim.report();
         (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>())
     };
-    let mut tee = Tee::new(ctx.sim, trace);
+    let mut tee = simulating(ctx.sim, trace);
     // A 3-axis program per setup: the fixture rotation is in its header comment,
     // so the simulator is told the frame here.
     tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
@@ -86,7 +88,7 @@ pub(super) fn machine_setup(
         None => None,
     };
     let watch = PlanProgress::default();
-    let mut tee = tee.watching(&mut *progress, &watch, i + 1, setups);
+    let mut tee = Tee::new(tee.first.watching(&mut *progress, &watch, i + 1, setups), tee.second);
     let (planned, parsed, waited) = std::thread::scope(|scope| {
         let (mut out, mut reader) = chunk_channel(keep);
         out.copy = copy;
@@ -171,20 +173,48 @@ pub(super) fn machine_setup(
     Ok((program, remaining))
 }
 
-/// Forwards motions to the simulator and records the first setup's path in part units.
-pub(super) struct Tee<'a> {
-    pub(super) sim: &'a RefCell<Simulator>,
+/// The run's simulator as a sink (in a `RefCell`: the run reads its report between setups).
+pub(super) struct SimSink<'a>(pub(super) &'a RefCell<Simulator>);
+
+impl MotionSink for SimSink<'_> {
+    type Error = crate::voxsim::SimError;
+    fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
+        self.0.borrow_mut().motion(m)
+    }
+    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
+        self.0.borrow_mut().source_line(line)
+    }
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        self.0.borrow_mut().finish()
+    }
+}
+
+/// What the simulator is fed through: the motions go to a [`Watcher`] first, then to the
+/// simulator.
+pub(super) type Simulating<'a> = Tee<Watcher<'a>, SimSink<'a>>;
+
+/// The motions fed to the simulator, `trace` recording the first setup's path.
+pub(super) fn simulating<'a>(
+    sim: &'a RefCell<Simulator>,
+    trace: Option<&'a mut PathTrace>,
+) -> Simulating<'a> {
+    Tee::new(Watcher { trace, frame: Setup::top(), setups: 0, last: None, watch: None }, SimSink(sim))
+}
+
+/// Watches the motions on their way to the simulator: records the first setup's path in
+/// part units (the render's trace) and reports [`Stage::Layers`] progress.
+pub(super) struct Watcher<'a> {
     pub(super) trace: Option<&'a mut PathTrace>,
     /// The current frame and how many setups have begun.
     pub(super) frame: Setup,
     pub(super) setups: usize,
     /// The last point, in the part frame and the program's (setup) frame.
     pub(super) last: Option<(Point3, Point3)>,
-    /// Where to report [`Stage::Layers`] ([`Tee::watching`]).
+    /// Where to report [`Stage::Layers`] ([`Watcher::watching`]).
     pub(super) watch: Option<Watch<'a>>,
 }
 
-/// What a [`Tee`] reports progress with.
+/// What a [`Watcher`] reports progress with.
 pub(super) struct Watch<'a> {
     pub(super) progress: &'a mut dyn FnMut(Stage),
     pub(super) planner: &'a PlanProgress,
@@ -193,11 +223,7 @@ pub(super) struct Watch<'a> {
     pub(super) moves: u64,
 }
 
-impl<'a> Tee<'a> {
-    pub(super) fn new(sim: &'a RefCell<Simulator>, trace: Option<&'a mut PathTrace>) -> Self {
-        Self { sim, trace, frame: Setup::top(), setups: 0, last: None, watch: None }
-    }
-
+impl<'a> Watcher<'a> {
     /// Reports [`Stage::Layers`] of setup `setup` (1-based) of `setups` to `progress`
     /// every few thousand moves, with the levels `planner` has emitted.
     pub(super) fn watching<'b>(
@@ -206,12 +232,11 @@ impl<'a> Tee<'a> {
         planner: &'b PlanProgress,
         setup: usize,
         setups: usize,
-    ) -> Tee<'b>
+    ) -> Watcher<'b>
     where
         'a: 'b,
     {
-        Tee {
-            sim: self.sim,
+        Watcher {
             trace: self.trace,
             frame: self.frame,
             setups: self.setups,
@@ -221,7 +246,7 @@ impl<'a> Tee<'a> {
     }
 }
 
-impl MotionSink for Tee<'_> {
+impl MotionSink for Watcher<'_> {
     type Error = crate::voxsim::SimError;
     fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
         if let Motion::Setup { frame, .. } = m {
@@ -249,12 +274,6 @@ impl MotionSink for Tee<'_> {
                 });
             }
         }
-        self.sim.borrow_mut().motion(m)
-    }
-    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
-        self.sim.borrow_mut().source_line(line)
-    }
-    fn finish(&mut self) -> Result<(), Self::Error> {
-        self.sim.borrow_mut().finish()
+        Ok(())
     }
 }

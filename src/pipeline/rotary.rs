@@ -4,11 +4,11 @@ use std::io::{BufRead, Read};
 use std::time::Instant;
 
 use super::api::{MillError, SetupProgram, Stage, StageSeconds};
-use super::per_setup::{Ctx, Tee};
+use super::per_setup::{Ctx, simulating};
 use super::pipe::read_from_buffer;
 use crate::gcode::{
-    GcodeWriter, Motion, MotionSink, ParseOptions, Plane, RotaryAxes, WriterOptions, linearize_arc,
-    parse_reader, rotary_angles, rotary_frame,
+    GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, Transformed, WriterOptions, parse_reader,
+    rotary_angles, rotary_frame,
 };
 use crate::geom::{Isometry3, Point3, Rotation3, Setup, Vector3};
 use crate::toolpath::{PlanSummary, VoxelMaterial, plan_setup_rest};
@@ -141,10 +141,12 @@ impl RotarySource<'_, '_> {
         let up = Point3::new(from.x, from.y, self.turn_z);
         writer.motion(&Motion::Rapid { to: up }).map_err(|e| program_err(&e))?;
         let rest = VoxelMaterial::new(&remaining, job.setup);
-        let mut sink = ToProgram { inner: &mut writer, place, last_in: None, last_out: None };
+        let a = place.angles;
+        let mut sink = Transformed::new(&mut writer, place.to_program)
+            .with_setup(place.frame, [Some(a[0]), Some(a[1]), Some(a[2])]);
         let plan = plan_setup_rest(self.ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut sink)
             .map_err(|source| MillError::Plan { setup: i + 1, source })?;
-        self.last = Some(sink.last_out.unwrap_or(up));
+        self.last = Some(sink.last_point().unwrap_or(up));
         writer.finish().map_err(|e| program_err(&e))?;
         let mut text = String::from_utf8(writer.into_inner()).map_err(|e| program_err(&e))?;
         if i > 0 {
@@ -217,7 +219,7 @@ pub(super) fn mill_rotary(
         plan_seconds: 0.0,
     };
     let popts = ParseOptions { rotary: Some(axes), ..ParseOptions::default() };
-    let mut tee = Tee::new(ctx.sim, Some(trace));
+    let mut tee = simulating(ctx.sim, Some(trace));
     let parsed = parse_reader(&mut source, &popts, &mut tee);
     let section_of = |sections: &[Section], line: u64| sections.iter().rposition(|s| s.first_line <= line);
     let summary = match parsed {
@@ -269,89 +271,4 @@ pub(super) fn mill_rotary(
     times.gcode_translation += source.plan_seconds;
     times.simulation += (t.elapsed().as_secs_f64() - source.plan_seconds).max(0.0);
     Ok(setups)
-}
-
-/// Planning-frame motions of one setup, as program coordinates of its rotary placement;
-/// its `Setup` becomes the placement's kinematic frame with its rotary angles.
-pub(super) struct ToProgram<'a, S> {
-    pub(super) inner: S,
-    pub(super) place: &'a Placement,
-    /// The last programmed point before and after the transform.
-    pub(super) last_in: Option<Point3>,
-    pub(super) last_out: Option<Point3>,
-}
-
-impl<S: MotionSink> MotionSink for ToProgram<'_, S> {
-    type Error = S::Error;
-
-    fn motion(&mut self, m: &Motion<'_>) -> Result<(), S::Error> {
-        let t = self.place.to_program;
-        match m {
-            Motion::Setup { .. } => {
-                let a = self.place.angles;
-                let rotary = [Some(a[0]), Some(a[1]), Some(a[2])];
-                self.inner.motion(&Motion::Setup { frame: self.place.frame, rotary })?;
-                self.last_out = None;
-            }
-            Motion::Rapid { to } => self.inner.motion(&Motion::Rapid { to: t * to })?,
-            Motion::Linear { to, feed, extrude } => {
-                self.inner.motion(&Motion::Linear { to: t * to, feed: *feed, extrude: *extrude })?
-            }
-            Motion::Arc { to, center, plane: Plane::XY, direction, turns, feed, extrude } => {
-                // A turn about Z keeps XY arcs in the XY plane.
-                self.inner.motion(&Motion::Arc {
-                    to: t * to,
-                    center: t * center,
-                    plane: Plane::XY,
-                    direction: *direction,
-                    turns: *turns,
-                    feed: *feed,
-                    extrude: *extrude,
-                })?
-            }
-            Motion::Arc { to, feed, .. } => {
-                // Arcs in the other planes do not survive a turn about Z: straight moves
-                // instead (the planner writes none today). Without a start point, or for
-                // an arc too degenerate to split, the move goes straight to its end, as
-                // the simulator treats a zero-radius arc.
-                let mut points = Vec::new();
-                let ok = self.last_in.is_some_and(|from| {
-                    linearize_arc(&from, m, WriterOptions::default().arc_tolerance, |p| points.push(p))
-                        .is_ok()
-                });
-                if !ok || points.is_empty() {
-                    points = vec![*to];
-                }
-                for p in points {
-                    self.inner.motion(&Motion::Linear { to: t * p, feed: *feed, extrude: None })?;
-                }
-            }
-            Motion::Cycle(c) => {
-                let xy = t * Point3::new(c.x, c.y, 0.0);
-                let dz = t.translation.vector.z;
-                let c = crate::gcode::DrillCycle {
-                    x: xy.x,
-                    y: xy.y,
-                    clearance: c.clearance + dz,
-                    r_plane: c.r_plane + dz,
-                    bottom: c.bottom + dz,
-                    ..*c
-                };
-                self.inner.motion(&Motion::Cycle(c))?;
-                self.last_in = Some(Point3::new(c.x, c.y, c.clearance.max(c.r_plane)));
-                self.last_out = Some(Point3::new(xy.x, xy.y, c.clearance.max(c.r_plane)));
-                return Ok(());
-            }
-            other => self.inner.motion(other)?,
-        }
-        if let Some(p) = m.end_point() {
-            self.last_in = Some(p);
-            self.last_out = Some(t * p);
-        }
-        Ok(())
-    }
-
-    fn source_line(&mut self, line: u64) -> Result<(), S::Error> {
-        self.inner.source_line(line)
-    }
 }

@@ -16,6 +16,7 @@ mod expr;
 mod motion;
 mod parser;
 mod rotary;
+mod sink;
 mod spine;
 mod stats;
 mod writer;
@@ -37,6 +38,7 @@ pub use crate::motion::{
 pub use crate::parser::parse_str_two_stage;
 pub use crate::parser::{ParseDialect, ParseOptions, ParseSummary, parse_file, parse_reader, parse_str};
 pub use crate::rotary::{RotaryAxes, rotary_angles, rotary_frame, rotary_twist};
+pub use crate::sink::{Tee, Transformed};
 pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};
 pub use crate::stats::{Stats, StatsOptions};
 pub use crate::writer::{
