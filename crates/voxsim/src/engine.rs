@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use s2g_geom::{BRICK, Brick, GridSpec, Point3, Vector3, VoxelGrid};
 
 use crate::sweep::{Prim, Seg};
-use crate::tool::{BeadProfile, Cutter, CutterShape};
+use crate::tool::{BeadProfile, Cutter};
 
 /// Flag bit: a rapid move removed material.
 pub(crate) const FLAG_RAPID: u8 = 1;
@@ -56,14 +56,15 @@ impl ToolPrims {
         let (r, lf) = (c.radius, c.flute_length);
         let flat = Prim::Cyl { h0: 0.0, h1: lf, r };
         let ball = [Prim::Capsule { c: r, r }, Prim::Cyl { h0: r, h1: lf, r }];
-        let (cut, ncut) = match c.shape {
-            CutterShape::Flat => ([flat, flat], 1),
-            CutterShape::Ball => (ball, 2),
-            CutterShape::BullNose { corner_radius: rc } if rc <= 0.0 => ([flat, flat], 1),
-            CutterShape::BullNose { corner_radius: rc } if rc >= r => (ball, 2),
-            CutterShape::BullNose { corner_radius: rc } => {
-                ([Prim::RDisc { c: rc, rp: r - rc, rc }, Prim::Cyl { h0: rc, h1: lf, r }], 2)
-            }
+        // Every end shape is a disc rounded by a torus of the corner radius: flat (0) and
+        // ball (the radius) are its extremes, swept by simpler primitives.
+        let rc = c.corner_radius();
+        let (cut, ncut) = if rc <= 0.0 {
+            ([flat, flat], 1)
+        } else if rc >= r {
+            (ball, 2)
+        } else {
+            ([Prim::RDisc { c: rc, rp: r - rc, rc }, Prim::Cyl { h0: rc, h1: lf, r }], 2)
         };
         let mut guard = [flat, flat];
         let mut nguard = 0;
