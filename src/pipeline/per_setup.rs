@@ -9,7 +9,7 @@ use super::api::{MillError, SetupProgram, Stage, StageSeconds};
 use super::job::Job;
 use super::pipe::chunk_channel;
 use crate::gcode::{
-    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Tee, WriterOptions, parse_reader,
+    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Tee, ToolChange, WriterOptions, parse_reader,
 };
 use crate::geom::{Mesh, Point3, Setup, VoxelGrid};
 use crate::toolpath::{PlanProgress, VoxelMaterial, plan_setup_watched};
@@ -79,6 +79,12 @@ pub(super) fn machine_setup(
     // A 3-axis program per setup: the fixture rotation is in its header comment,
     // so the simulator is told the frame here.
     tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
+    // Without a tool changer (grbl) the program pauses (`M0`) for the operator to fit the
+    // tool it names in a comment: the simulator is told that tool here, as it is told the
+    // fixture's frame, or it would cut with the one before.
+    if ctx.dialect.spec().tool_change == ToolChange::Pause {
+        tee.motion(&Motion::ToolChange { tool: job.tool.number }).map_err(sim_error)?;
+    }
     // The planner writes the program on its own thread while this one parses it back
     // and simulates it, chunk by chunk: planning and simulation overlap, and the text is
     // held whole only when it is kept.
