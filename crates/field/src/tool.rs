@@ -87,13 +87,14 @@ impl Tool {
 
     /// Checks the cutter ([`Cutter::validate`]) and every sampling field's range.
     pub fn validate(&self) -> Result<()> {
-        self.cutter.validate().map_err(|e| FieldError::config("tool.cutter", e.to_string()))?;
-        FieldError::check_positive(&[("tool.axial_step", self.axial_step)])?;
+        // The sizes a user gives first, by their names; then the rest of the cutter.
+        FieldError::check_positive(&[("tool.radius", self.radius()), ("tool.axial_step", self.axial_step)])?;
         FieldError::check_non_negative(&[("tool.axial_offset", self.axial_offset)])?;
         let length = self.length();
         if !(length.is_finite() && length > self.axial_offset) {
             return Err(FieldError::config("tool.length", "must be finite and > axial_offset"));
         }
+        self.cutter.validate().map_err(|e| FieldError::config("tool.cutter", e.to_string()))?;
         if (length - self.axial_offset) / self.axial_step > 1e4 {
             return Err(FieldError::config("tool.axial_step", "too many rings (> 10^4)"));
         }
