@@ -4,7 +4,7 @@
 //! tensors.
 
 use burn::tensor::{Tensor, TensorData};
-use s2g_geom::{Cutter, CutterShape, Point3, Vector3};
+use s2g_geom::{Cutter, CutterShape, Flat, Point3, Vector3};
 
 use crate::error::{FieldError, Result};
 use crate::layer::{cross, layer_normal};
@@ -55,7 +55,7 @@ impl Tool {
     /// ([`Tool::from_cutter`]). Not validated here ([`Tool::validate`]).
     pub fn cylinder(radius: f64, length: f64) -> Self {
         Self::from_cutter(Cutter {
-            shape: CutterShape::Flat,
+            shape: CutterShape::Flat(Flat),
             radius,
             flute_length: Self::CYLINDER_FLUTE_LENGTH.min(length),
             shank_radius: radius,

@@ -1,7 +1,7 @@
 //! [`Tool`]: a physical cutter ([`s2g_geom::Cutter`]) and its cutting data, and the
 //! [`Envelope`] the layer planner keeps out of the part.
 
-use s2g_geom::{Cutter, CutterShape};
+use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat};
 
 /// A milling cutter with its cutting data. The programmed point is the tool tip.
 ///
@@ -67,17 +67,17 @@ impl Tool {
     /// and unlimited flute length: flute length and stick-out are `f64::INFINITY` (the
     /// paper's assumption: the tool reaches any depth), shank radius = `radius`, no holder.
     pub fn flat(radius: f64) -> Self {
-        Self::unlimited(CutterShape::Flat, radius)
+        Self::unlimited(CutterShape::Flat(Flat), radius)
     }
 
     /// A ball end mill with the defaults of [`Tool::flat`].
     pub fn ball(radius: f64) -> Self {
-        Self::unlimited(CutterShape::Ball, radius)
+        Self::unlimited(CutterShape::Ball(Ball), radius)
     }
 
     /// A bull-nose end mill with the defaults of [`Tool::flat`].
     pub fn bull(radius: f64, corner_radius: f64) -> Self {
-        Self::unlimited(CutterShape::BullNose { corner_radius }, radius)
+        Self::unlimited(CutterShape::BullNose(BullNose { corner_radius }), radius)
     }
 
     fn unlimited(shape: CutterShape, radius: f64) -> Self {
@@ -137,7 +137,7 @@ impl Tool {
         if !(self.flute_length() > 0.0) {
             return Err(format!("flute_length must be positive, got {}", self.flute_length()));
         }
-        if let CutterShape::BullNose { corner_radius } = self.shape()
+        if let CutterShape::BullNose(BullNose { corner_radius }) = self.shape()
             && !(corner_radius > 0.0 && corner_radius <= self.radius())
         {
             return Err(format!(
@@ -167,7 +167,7 @@ mod tests {
         assert_eq!(t.radius(), 3.0);
         assert_eq!(t.diameter(), 6.0);
         assert_eq!(t.flute_length(), 12.0);
-        assert_eq!(t.shape(), CutterShape::BullNose { corner_radius: 1.0 });
+        assert_eq!(t.shape(), CutterShape::BullNose(BullNose { corner_radius: 1.0 }));
         assert_eq!(t.envelope(), Envelope { radius: 3.0, length: 12.0 });
         assert_eq!((t.feed, t.plunge_feed, t.spindle_rpm, t.number), (1000.0, 300.0, 10_000.0, 1));
         assert!(t.validate().is_ok());
@@ -184,8 +184,8 @@ mod tests {
             assert_eq!(t.envelope(), Envelope { radius: 0.25, length: f64::INFINITY }, "{t:?}");
             assert_eq!(t.validate(), Ok(()), "{t:?}");
         }
-        assert_eq!(Tool::flat(1.0).shape(), CutterShape::Flat);
-        assert_eq!(Tool::ball(1.0).shape(), CutterShape::Ball);
+        assert_eq!(Tool::flat(1.0).shape(), CutterShape::Flat(Flat));
+        assert_eq!(Tool::ball(1.0).shape(), CutterShape::Ball(Ball));
     }
 
     #[test]

@@ -17,6 +17,7 @@ use s2g_geom::{BRICK, Brick, GridSpec, Point3, Vector3, VoxelGrid};
 
 use crate::sweep::{Prim, Seg};
 use crate::tool::{BeadProfile, Cutter};
+use s2g_geom::{Solid, Solids};
 
 /// Flag bit: a rapid move removed material.
 pub(crate) const FLAG_RAPID: u8 = 1;
@@ -45,7 +46,7 @@ pub(crate) enum Op {
 /// The cutting and guard (shank, holder) primitives of a cutter.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct ToolPrims {
-    pub cut: [Prim; 2],
+    pub cut: [Prim; Solids::CAPACITY],
     pub ncut: usize,
     pub guard: [Prim; 2],
     pub nguard: usize,
@@ -53,19 +54,19 @@ pub(crate) struct ToolPrims {
 
 impl ToolPrims {
     pub fn cutter(c: &Cutter) -> Self {
-        let (r, lf) = (c.radius, c.flute_length);
-        let flat = Prim::Cyl { h0: 0.0, h1: lf, r };
-        let ball = [Prim::Capsule { c: r, r }, Prim::Cyl { h0: r, h1: lf, r }];
-        // Every end shape is a disc rounded by a torus of the corner radius: flat (0) and
-        // ball (the radius) are its extremes, swept by simpler primitives.
-        let rc = c.corner_radius();
-        let (cut, ncut) = if rc <= 0.0 {
-            ([flat, flat], 1)
-        } else if rc >= r {
-            (ball, 2)
-        } else {
-            ([Prim::RDisc { c: rc, rp: r - rc, rc }, Prim::Cyl { h0: rc, h1: lf, r }], 2)
-        };
+        let lf = c.flute_length;
+        let flat = Prim::Cyl { h0: 0.0, h1: lf, r: c.radius };
+        // The flutes are the solids the cutter's end shape names, swept exactly.
+        let solids = c.cutting_solids();
+        let mut cut = [flat; Solids::CAPACITY];
+        for (p, s) in cut.iter_mut().zip(solids.as_slice()) {
+            *p = match *s {
+                Solid::Cylinder { h0, h1, r } => Prim::Cyl { h0, h1, r },
+                Solid::Ball { c, r } => Prim::Capsule { c, r },
+                Solid::Torus { c, rp, rc } => Prim::RDisc { c, rp, rc },
+            };
+        }
+        let ncut = solids.as_slice().len();
         let mut guard = [flat, flat];
         let mut nguard = 0;
         if c.stickout > lf {
@@ -85,7 +86,7 @@ impl ToolPrims {
             BeadProfile::Stadium { width, height } => Prim::Cyl { h0: -height, h1: 0.0, r: 0.5 * width },
             BeadProfile::Circle { diameter } => Prim::Capsule { c: -0.5 * diameter, r: 0.5 * diameter },
         };
-        Self { cut: [p, p], ncut: 1, guard: [p, p], nguard: 0 }
+        Self { cut: [p; Solids::CAPACITY], ncut: 1, guard: [p, p], nguard: 0 }
     }
 }
 

@@ -1,0 +1,363 @@
+//! One vocabulary for a milling cutter: its end shape, flutes, shank and holder. The
+//! planner (`s2g-toolpath`), the simulator (`s2g-voxsim`), feature programs and the
+//! field crate's collision model all describe a physical cutter with [`Cutter`], so a
+//! planned tool and a simulated one cannot drift apart.
+//!
+//! Along the tool axis, measured from the tip (the programmed point) towards the spindle,
+//! a cutter is a stack of solids of revolution: the cutting end (flat disc, hemisphere or
+//! torus-rounded disc) and flutes of [`Cutter::radius`] up to [`Cutter::flute_length`];
+//! the shank of [`Cutter::shank_radius`] up to [`Cutter::stickout`]; then the holder's
+//! cylinder, when one is modelled. [`Cutter::radius_at`] gives the stack's radius at any
+//! height.
+//!
+//! # Adding an end shape
+//!
+//! 1. Write one file in this folder, `cutter/<name>.rs`, with a type implementing
+//!    [`EndShape`] (its corner radius, profile and the [`Solid`]s its flutes are swept as).
+//! 2. Add one line `Variant => <name>,` to the `cutter_shapes!` list in `cutter/mod.rs`.
+//!
+//! The simulator sweeps the shape's solids and the planners read its corner radius and
+//! profile, so nothing else changes. A shape that needs a solid this vocabulary lacks (a
+//! cone, for tapered and chamfer mills) needs that solid here and its exact sweep in
+//! voxsim's `sweep.rs` as well.
+
+use crate::error::{GeomError, Result};
+
+/// One solid of revolution about the tool axis, at heights measured from the tip: what a
+/// cutter's fluted part is made of, and what a simulator sweeps along a move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Solid {
+    /// A cylinder of radius `r` between heights `h0` and `h1`.
+    Cylinder {
+        /// Bottom height.
+        h0: f64,
+        /// Top height.
+        h1: f64,
+        /// Radius.
+        r: f64,
+    },
+    /// A ball of radius `r` centred at height `c`.
+    Ball {
+        /// Centre height.
+        c: f64,
+        /// Radius.
+        r: f64,
+    },
+    /// A disc of radius `rp` rounded by a torus of tube radius `rc`, centred at height `c`
+    /// (every point within `rc` of the disc): a bull nose's end.
+    Torus {
+        /// Centre height of the disc.
+        c: f64,
+        /// Radius of the flat disc.
+        rp: f64,
+        /// Tube (corner) radius.
+        rc: f64,
+    },
+}
+
+/// The solids of a cutter's fluted part, tip first: at most [`Solids::CAPACITY`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solids {
+    items: [Solid; Solids::CAPACITY],
+    len: usize,
+}
+
+impl Solids {
+    /// The most solids one cutter's flutes may be made of.
+    pub const CAPACITY: usize = 3;
+
+    /// The solids of `list` (at most [`Solids::CAPACITY`]; more are left out).
+    pub fn new(list: &[Solid]) -> Self {
+        let empty = Solid::Cylinder { h0: 0.0, h1: 0.0, r: 0.0 };
+        let mut items = [empty; Self::CAPACITY];
+        let len = list.len().min(Self::CAPACITY);
+        items[..len].copy_from_slice(&list[..len]);
+        Self { items, len }
+    }
+
+    /// The solids, tip first.
+    pub fn as_slice(&self) -> &[Solid] {
+        &self.items[..self.len]
+    }
+}
+
+/// What a cutter's end shape says about itself: the profile planners read and the solids a
+/// simulator sweeps. One implementation per file in `cutter/`, registered in the
+/// `cutter_shapes!` list of this module.
+pub trait EndShape {
+    /// The name, lower case (`flat`, `ball`, `bull`).
+    fn name(&self) -> &'static str;
+
+    /// The radius of the arc that rounds the end's rim for a cutter of `radius`: 0 for a
+    /// sharp corner, `radius` for a ball.
+    fn corner_radius(&self, radius: f64) -> f64;
+
+    /// The end's radius at height `h` above the tip, for `0 <= h <` [`corner_radius`]
+    /// (where the end meets the flutes' cylinder).
+    ///
+    /// [`corner_radius`]: EndShape::corner_radius
+    fn profile(&self, radius: f64, h: f64) -> f64;
+
+    /// The solids of the fluted part of a cutter of `radius` whose flutes reach
+    /// `flute_length` above the tip, tip first.
+    fn solids(&self, radius: f64, flute_length: f64) -> Solids;
+
+    /// Checks what the shape has beyond its corner radius (which [`Cutter::validate`]
+    /// checks for every shape); the message names the field. Default: nothing to check.
+    fn validate(&self, radius: f64, flute_length: f64) -> std::result::Result<(), String> {
+        let _ = (radius, flute_length);
+        Ok(())
+    }
+}
+
+/// Declares the shape modules, [`CutterShape`] with one variant per shape, and its
+/// dispatch to each shape's [`EndShape`], from one `Variant => module` line per shape (each
+/// module defines the type `Variant`).
+macro_rules! cutter_shapes {
+    ($($(#[doc = $doc:literal])* $variant:ident => $module:ident,)+) => {
+        $(mod $module;)+
+        $(pub use self::$module::$variant;)+
+
+        /// The shape of a cutter's end: one of the shapes of `cutter/`, each an
+        /// [`EndShape`].
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub enum CutterShape {
+            $($(#[doc = $doc])* $variant($variant),)+
+        }
+
+        impl CutterShape {
+            /// The shape as an [`EndShape`].
+            pub fn end(&self) -> &dyn EndShape {
+                match self {
+                    $(CutterShape::$variant(s) => s,)+
+                }
+            }
+        }
+    };
+}
+
+cutter_shapes! {
+    /// Flat end mill: a cylinder whose bottom face is the tip plane.
+    Flat => flat,
+    /// Ball end mill: a hemisphere of the tool radius at the bottom.
+    Ball => ball,
+    /// Bull nose (corner radius) end mill: a flat bottom rounded by a torus.
+    BullNose => bull,
+}
+
+/// The tool holder: a cylinder above the tool's stick-out, used for collision checks only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Holder {
+    /// Radius in mm.
+    pub radius: f64,
+    /// Length along the tool axis in mm, starting at the cutter's `stickout`.
+    pub length: f64,
+}
+
+/// A milling cutter. The programmed point is the tool **tip**, the lowest point along the
+/// tool axis; heights below are measured from the tip along the axis (tip to spindle).
+///
+/// Regions along the axis: flutes (cutting) on `[0, flute_length]`; shank of radius
+/// `shank_radius` on `(flute_length, stickout]`; holder (if any) on
+/// `[stickout, stickout + holder.length]`. Only the flutes remove material; stock met by
+/// the shank or holder is reported as a holder collision.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cutter {
+    /// End shape.
+    pub shape: CutterShape,
+    /// Cutting radius in mm.
+    pub radius: f64,
+    /// Length of the fluted (cutting) part in mm, from the tip.
+    pub flute_length: f64,
+    /// Radius of the non-cutting shank in mm.
+    pub shank_radius: f64,
+    /// Tip to holder face in mm (`>= flute_length`).
+    pub stickout: f64,
+    /// Holder, if modelled.
+    pub holder: Option<Holder>,
+}
+
+impl Cutter {
+    fn with_shape(shape: CutterShape, radius: f64, flute_length: f64) -> Self {
+        Self { shape, radius, flute_length, shank_radius: radius, stickout: 2.0 * flute_length, holder: None }
+    }
+
+    /// A flat end mill; shank radius = `radius`, stick-out = `2 * flute_length`, no holder.
+    pub fn flat(radius: f64, flute_length: f64) -> Self {
+        Self::with_shape(CutterShape::Flat(Flat), radius, flute_length)
+    }
+
+    /// A ball end mill; defaults as for [`Cutter::flat`].
+    pub fn ball(radius: f64, flute_length: f64) -> Self {
+        Self::with_shape(CutterShape::Ball(Ball), radius, flute_length)
+    }
+
+    /// A bull nose end mill; defaults as for [`Cutter::flat`].
+    pub fn bull(radius: f64, corner_radius: f64, flute_length: f64) -> Self {
+        Self::with_shape(CutterShape::BullNose(BullNose { corner_radius }), radius, flute_length)
+    }
+
+    /// The cutting diameter.
+    pub fn diameter(&self) -> f64 {
+        2.0 * self.radius
+    }
+
+    /// The radius of the cutter's stack at height `h` above the tip: the end's profile
+    /// (`radius - corner + sqrt(corner^2 - (corner - h)^2)` below the corner's top), the
+    /// flutes' radius up to [`flute_length`](Self::flute_length), the shank's up to
+    /// [`stickout`](Self::stickout), the holder's above it, and 0 outside the stack.
+    pub fn radius_at(&self, h: f64) -> f64 {
+        let rc = self.corner_radius();
+        if h.is_nan() || h < 0.0 {
+            0.0
+        } else if h < rc {
+            self.shape.end().profile(self.radius, h)
+        } else if h <= self.flute_length {
+            self.radius
+        } else if h <= self.stickout {
+            self.shank_radius
+        } else {
+            match self.holder {
+                Some(holder) if h <= self.stickout + holder.length => holder.radius,
+                _ => 0.0,
+            }
+        }
+    }
+
+    /// The corner radius: 0 for flat, `radius` for ball ([`EndShape::corner_radius`]).
+    pub fn corner_radius(&self) -> f64 {
+        self.shape.end().corner_radius(self.radius)
+    }
+
+    /// The solids of the fluted part, tip first ([`EndShape::solids`]): what a simulator
+    /// sweeps.
+    pub fn cutting_solids(&self) -> Solids {
+        self.shape.end().solids(self.radius, self.flute_length)
+    }
+
+    /// Checks the dimensions: every length finite; `radius > 0`; `0 <= corner_radius <= radius`;
+    /// `flute_length > 0` and `>= 2 * corner_radius` (the rounded end must be all flute);
+    /// `shank_radius > 0`; `stickout >= flute_length`; holder radius and length `> 0`.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(GeomError::InvalidTool(m));
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        if !pos(self.radius) {
+            return bad(format!("radius must be finite and > 0, got {}", self.radius));
+        }
+        let rc = self.corner_radius();
+        if !(rc.is_finite() && rc >= 0.0 && rc <= self.radius) {
+            return bad(format!("corner radius must be in [0, radius = {}], got {rc}", self.radius));
+        }
+        if !pos(self.flute_length) || self.flute_length < 2.0 * rc {
+            return bad(format!(
+                "flute length must be finite, > 0 and >= twice the corner radius ({}), got {}",
+                2.0 * rc,
+                self.flute_length
+            ));
+        }
+        if let Err(m) = self.shape.end().validate(self.radius, self.flute_length) {
+            return bad(m);
+        }
+        if !pos(self.shank_radius) {
+            return bad(format!("shank radius must be finite and > 0, got {}", self.shank_radius));
+        }
+        if !(self.stickout.is_finite() && self.stickout >= self.flute_length) {
+            return bad(format!(
+                "stick-out must be finite and >= flute length {}, got {}",
+                self.flute_length, self.stickout
+            ));
+        }
+        if let Some(h) = self.holder
+            && !(pos(h.radius) && pos(h.length))
+        {
+            return bad(format!("holder radius and length must be finite and > 0, got {h:?}"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stack_s_radius_follows_end_flutes_shank_and_holder() {
+        let mut c = Cutter::bull(3.0, 1.0, 10.0);
+        c.shank_radius = 2.5;
+        c.stickout = 20.0;
+        c.holder = Some(Holder { radius: 8.0, length: 30.0 });
+        assert_eq!(c.radius_at(-0.1), 0.0);
+        assert!((c.radius_at(0.0) - 2.0).abs() < 1e-12, "flat bottom of the bull");
+        assert!((c.radius_at(1.0) - 3.0).abs() < 1e-12, "top of the corner");
+        assert!((c.radius_at(0.5) - (2.0 + 0.75f64.sqrt())).abs() < 1e-12);
+        assert_eq!(c.radius_at(10.0), 3.0);
+        assert_eq!(c.radius_at(15.0), 2.5);
+        assert_eq!(c.radius_at(49.0), 8.0);
+        assert_eq!(c.radius_at(50.1), 0.0);
+        let ball = Cutter::ball(2.0, 8.0);
+        assert_eq!(ball.radius_at(0.0), 0.0);
+        assert!((ball.radius_at(2.0) - 2.0).abs() < 1e-12);
+        assert_eq!(Cutter::flat(2.0, 8.0).radius_at(0.0), 2.0);
+        assert_eq!(ball.diameter(), 4.0);
+    }
+
+    /// The radius of the union of `solids` at height `h`.
+    fn solids_radius_at(solids: &Solids, h: f64) -> f64 {
+        let cap =
+            |r: f64, d: f64| if d.abs() <= r { (r * r - d * d).max(0.0).sqrt() } else { f64::NEG_INFINITY };
+        solids
+            .as_slice()
+            .iter()
+            .map(|s| match *s {
+                Solid::Cylinder { h0, h1, r } if (h0..=h1).contains(&h) => r,
+                Solid::Cylinder { .. } => f64::NEG_INFINITY,
+                Solid::Ball { c, r } => cap(r, h - c),
+                Solid::Torus { c, rp, rc } => rp + cap(rc, h - c),
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Every shape's solids are its profile: the union's radius at each height of the
+    /// flutes is [`Cutter::radius_at`] (what the planners read is what the simulator cuts).
+    #[test]
+    fn every_shape_s_solids_have_its_profile() {
+        let cutters = [
+            Cutter::flat(3.0, 10.0),
+            Cutter::ball(3.0, 10.0),
+            Cutter::bull(3.0, 1.0, 10.0),
+            Cutter::bull(3.0, 0.0, 10.0),
+            Cutter::bull(3.0, 3.0, 10.0),
+        ];
+        for c in cutters {
+            assert!(c.validate().is_ok(), "{c:?}");
+            let solids = c.cutting_solids();
+            assert!(!solids.as_slice().is_empty());
+            for i in 0..=1000 {
+                let h = c.flute_length * i as f64 / 1000.0;
+                let (want, got) = (c.radius_at(h), solids_radius_at(&solids, h));
+                assert!(
+                    (want - got).abs() < 1e-9,
+                    "{}: at h = {h}: profile {want}, solids {got}",
+                    c.shape.end().name()
+                );
+            }
+        }
+        assert_eq!(
+            [Cutter::flat(1.0, 2.0), Cutter::ball(1.0, 2.0), Cutter::bull(1.0, 0.5, 2.0)]
+                .map(|c| c.shape.end().name()),
+            ["flat", "ball", "bull"]
+        );
+    }
+
+    #[test]
+    fn impossible_cutters_are_refused_with_the_field_named() {
+        assert!(Cutter::flat(1.0, 4.0).validate().is_ok());
+        let msg = |c: Cutter| c.validate().unwrap_err().to_string();
+        assert!(msg(Cutter::flat(f64::NAN, 4.0)).contains("radius"));
+        assert!(msg(Cutter::bull(1.0, 1.5, 4.0)).contains("corner radius"));
+        assert!(msg(Cutter::ball(1.0, 1.5)).contains("flute length"));
+        assert!(msg(Cutter { stickout: 1.0, ..Cutter::flat(1.0, 4.0) }).contains("stick-out"));
+        let holder = Some(Holder { radius: 0.0, length: 1.0 });
+        assert!(msg(Cutter { holder, ..Cutter::flat(1.0, 4.0) }).contains("holder"));
+    }
+}
