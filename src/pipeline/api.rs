@@ -176,12 +176,15 @@ pub enum MillError {
         source: crate::toolpath::ToolpathError<crate::gcode::WriteError>,
     },
     /// Writing or re-reading a program failed.
-    #[error("program of setup {setup}: {message}")]
+    #[error("program of setup {setup}: {what}")]
     Program {
         /// 1-based setup.
         setup: usize,
-        /// What went wrong.
-        message: String,
+        /// What was being done (`writing the program`, `re-reading the program`).
+        what: String,
+        /// The writer's, reader's or parser's error, where one failed.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
     /// The simulation failed.
     #[error("simulation")]
@@ -275,6 +278,17 @@ pub enum MillError {
         /// The machine's tilt range, in degrees.
         range_deg: [f64; 2],
     },
+}
+
+impl MillError {
+    /// A [`MillError::Program`] of setup `setup` (1-based): `what` failed with `source`.
+    pub(crate) fn program(
+        setup: usize,
+        what: &str,
+        source: impl Into<Box<dyn std::error::Error + Send + Sync>>,
+    ) -> Self {
+        MillError::Program { setup, what: what.to_owned(), source: Some(source.into()) }
+    }
 }
 
 /// A stage of the pipeline, for progress reports and timings (seed 000 Table A1).

@@ -90,7 +90,9 @@ pub(super) fn machine_setup(
     // held whole only when it is kept.
     let (part, dialect, wopts, keep) = (ctx.part, ctx.dialect, ctx.wopts.clone(), ctx.keep_programs);
     let copy = match ctx.outputs {
-        Some(open) => Some(open(i).map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?),
+        Some(open) => {
+            Some(open(i).map_err(|e| MillError::program(i + 1, "opening the program's output", e))?)
+        }
         None => None,
     };
     let watch = PlanProgress::default();
@@ -108,11 +110,11 @@ pub(super) fn machine_setup(
                 plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
                     .map_err(|source| MillError::Plan { setup: i + 1, source });
             plan.and_then(|plan| {
-                writer.finish().map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+                writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
                 let (text, blocked) = writer
                     .into_inner()
                     .finish()
-                    .map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+                    .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
                 Ok((plan, text, t.elapsed().saturating_sub(blocked)))
             })
         });
@@ -137,23 +139,24 @@ pub(super) fn machine_setup(
             limit_s,
         });
     }
-    let (plan, text, planning) = match (planned, &parsed) {
-        (Ok(done), _) => done,
+    let (plan, text, planning) = match planned {
+        Ok(done) => done,
         // A parser that stopped hung up on the planner: its error is the cause.
-        (Err(_), Err(e)) => {
-            return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") });
+        Err(e) => {
+            return Err(match parsed {
+                Err(p) => MillError::program(i + 1, "re-reading the program", p),
+                Ok(_) => e,
+            });
         }
-        (Err(e), Ok(_)) => return Err(e),
     };
     let text =
-        String::from_utf8(text).map_err(|e| MillError::Program { setup: i + 1, message: e.to_string() })?;
+        String::from_utf8(text).map_err(|e| MillError::program(i + 1, "reading the program's text", e))?;
     // Planning ran beside the simulation: each stage counts the time its side was busy.
     times.gcode_translation += planning.as_secs_f64();
     progress(Stage::Simulation { setup: i + 1, setups });
-    let summary = parsed
-        .map_err(|e| MillError::Program { setup: i + 1, message: format!("re-reading the program: {e}") })?;
+    let summary = parsed.map_err(|e| MillError::program(i + 1, "re-reading the program", e))?;
     if let Some(err) = summary.errors.first() {
-        return Err(MillError::Program { setup: i + 1, message: format!("re-reading the program: {err}") });
+        return Err(MillError::program(i + 1, "re-reading the program", err.clone()));
     }
     // Flushes the simulator, so its report is complete for this setup.
     let remaining = ctx.excess()?;

@@ -7,8 +7,8 @@ use super::api::{MillError, SetupProgram, Stage, StageSeconds};
 use super::per_setup::{Ctx, simulating};
 use super::pipe::read_from_buffer;
 use crate::gcode::{
-    GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, Transformed, WriterOptions, parse_reader,
-    rotary_angles, rotary_frame,
+    GcodeWriter, Motion, MotionSink, ParseOptions, RotaryAxes, Transformed, WriteError, WriterOptions,
+    parse_reader, rotary_angles, rotary_frame,
 };
 use crate::geom::{Isometry3, Point3, Rotation3, Setup, Vector3};
 use crate::toolpath::{PlanSummary, VoxelMaterial, plan_setup_rest};
@@ -123,8 +123,7 @@ impl RotarySource<'_, '_> {
         let gouges_before = self.ctx.sim.borrow().report().gouge_voxels;
         (self.progress)(Stage::GcodeTranslation { setup: i + 1, setups: self.ctx.jobs.len() });
         let t = Instant::now();
-        let program_err =
-            |e: &dyn std::fmt::Display| MillError::Program { setup: i + 1, message: e.to_string() };
+        let program_err = |what: &str, e: WriteError| MillError::program(i + 1, what, e);
         // A writer per section, so that its text is complete when the parser needs it; the
         // first writes the header, the last the footer, and every axis word and feed is
         // stated again after a rotation anyway.
@@ -139,7 +138,7 @@ impl RotarySource<'_, '_> {
         // origin before the first), high enough for the stock to turn under it.
         let from = self.last.unwrap_or_else(Point3::origin);
         let up = Point3::new(from.x, from.y, self.turn_z);
-        writer.motion(&Motion::Rapid { to: up }).map_err(|e| program_err(&e))?;
+        writer.motion(&Motion::Rapid { to: up }).map_err(|e| program_err("writing the program", e))?;
         let rest = VoxelMaterial::new(&remaining, job.setup);
         let a = place.angles;
         let mut sink = Transformed::new(&mut writer, place.to_program)
@@ -147,8 +146,9 @@ impl RotarySource<'_, '_> {
         let plan = plan_setup_rest(self.ctx.part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut sink)
             .map_err(|source| MillError::Plan { setup: i + 1, source })?;
         self.last = Some(sink.last_point().unwrap_or(up));
-        writer.finish().map_err(|e| program_err(&e))?;
-        let mut text = String::from_utf8(writer.into_inner()).map_err(|e| program_err(&e))?;
+        writer.finish().map_err(|e| program_err("writing the program", e))?;
+        let mut text = String::from_utf8(writer.into_inner())
+            .map_err(|e| MillError::program(i + 1, "reading the program's text", e))?;
         if i > 0 {
             // Each section's writer counts its setup as the first.
             text = text.replacen("SETUP 1: ", &format!("SETUP {}: ", i + 1), 1);
@@ -225,22 +225,22 @@ pub(super) fn mill_rotary(
     let summary = match parsed {
         Ok(summary) => summary,
         Err(e) => {
-            return Err(source.error.take().unwrap_or_else(|| MillError::Program {
-                setup: source.sections.len().max(1),
-                message: format!("re-reading the program: {e}"),
-            }));
+            let setup = source.sections.len().max(1);
+            return Err(source
+                .error
+                .take()
+                .unwrap_or_else(|| MillError::program(setup, "re-reading the program", e)));
         }
     };
     if let Some(err) = summary.errors.first() {
-        return Err(MillError::Program {
-            setup: section_of(&source.sections, err.line).map_or(1, |s| s + 1),
-            message: format!("re-reading the program: {err}"),
-        });
+        let setup = section_of(&source.sections, err.line).map_or(1, |s| s + 1);
+        return Err(MillError::program(setup, "re-reading the program", err.clone()));
     }
     if source.sections.len() < ctx.jobs.len() {
         return Err(MillError::Program {
             setup: source.sections.len() + 1,
-            message: "re-reading the program: it ended before this setup".into(),
+            what: "re-reading the program: it ended before this setup".into(),
+            source: None,
         });
     }
     // The parser finished the simulator, so its report is complete.
