@@ -114,6 +114,14 @@ pub struct MillOptions {
     /// G-code) stops at once with [`MillError::ActionTooLarge`] instead of writing for
     /// days. Default 10,000 h (the shipped policy's bunny estimates at about 140 h).
     pub max_estimated_hours: f64,
+    /// Fit G2/G3 arcs to runs of straight moves, within this distance in program units
+    /// (mm): every planned point and segment midpoint lies within it of the arc written
+    /// ([`ArcFitOptions`](crate::gcode::ArcFitOptions)), and the simulator cuts the arcs
+    /// as written. The walls keep that much more material ([`PlanOptions::
+    /// finishing_allowance`](crate::toolpath::PlanOptions::finishing_allowance)), so no
+    /// arc comes nearer the part than planned, and the simulator follows arcs within 1/64
+    /// of a voxel. `None` (the default, the paper's programs) writes straight moves only.
+    pub arc_tolerance: Option<f64>,
 }
 
 impl MillOptions {
@@ -152,6 +160,7 @@ impl Default for MillOptions {
             roughing_depth_diameters: 1.0,
             flank_walls: true,
             max_estimated_hours: 10_000.0,
+            arc_tolerance: None,
         }
     }
 }

@@ -49,6 +49,10 @@ impl Job {
             layer_height: action.layer_height,
             strategy,
             contour: opts.contour,
+            // A fitted arc may pass up to its tolerance from the planned points, on either
+            // side: the walls keep that much more, so no arc comes nearer the part than
+            // planned.
+            finishing_allowance: opts.arc_tolerance.unwrap_or(0.0),
             roughing_depth: (opts.roughing_depth_diameters > 0.0)
                 .then(|| opts.roughing_depth_diameters * tool.diameter()),
             clearance_height: clearance,

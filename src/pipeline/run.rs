@@ -10,7 +10,7 @@ use super::api::{
 use super::job::{Job, feeds, planned_tool, setup_features};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
-use crate::gcode::{FooterRetract, WriterOptions};
+use crate::gcode::{ArcFitOptions, FooterRetract, WriterOptions};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
@@ -164,8 +164,14 @@ impl MillRun {
         for (i, &r) in space.radii.iter().enumerate() {
             tools = tools.with(i as u32 + 1, planned_tool(r, i as u32 + 1, diag, feed).cutter);
         }
-        let sim_opts =
+        let mut sim_opts =
             SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
+        if opts.arc_tolerance.is_some() {
+            // Arcs along the walls: the simulator's chords (a quarter of a voxel deep by
+            // default, always inside the arc) would cut into the part where an arc runs
+            // around it, so they follow the arc within 1/64 of a voxel.
+            sim_opts.arc_tolerance = 1.0 / 64.0;
+        }
         let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
             .map_err(sim_error)?
             .with_target(&target)
@@ -197,7 +203,16 @@ impl MillRun {
             // `G53 G0 Z0` after it: the program sets no work offset, so a reader (the
             // simulator, `rs274`) takes machine Z0 for work Z0, and where the last pass ends
             // over the part that is a rapid plunge into it.
-            wopts: WriterOptions { decimals, retract: FooterRetract::None, ..WriterOptions::default() },
+            wopts: WriterOptions {
+                decimals,
+                retract: FooterRetract::None,
+                arc_fit: opts.arc_tolerance.map(|tolerance| ArcFitOptions {
+                    tolerance,
+                    xy_only: true,
+                    ..ArcFitOptions::default()
+                }),
+                ..WriterOptions::default()
+            },
             keep_programs: true,
             keep_trace: true,
             outputs: None,
@@ -528,6 +543,11 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
                 "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
             )));
         }
+    }
+    if let Some(t) = opts.arc_tolerance
+        && !(t.is_finite() && t > 0.0)
+    {
+        return Err(MillError::InvalidOption(format!("arc tolerance must be finite and > 0, got {t}")));
     }
     Ok(())
 }

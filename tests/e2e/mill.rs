@@ -651,3 +651,31 @@ fn grbl_programs_are_simulated_with_the_tool_the_operator_fits() {
         lcnc.metrics.iou
     );
 }
+
+/// With an arc tolerance, runs of moves on a circle become G2/G3 arcs: fewer lines, the
+/// part milled as safely (the walls keep the tolerance as allowance, so no arc comes
+/// nearer the part than planned; without it the bunny's arcs gouged), `rs274` accepts the
+/// programs, and the part comes out as without arcs.
+#[test]
+fn arc_fitted_programs_are_shorter_and_as_safe() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = data("meshes/classic/gearwheel_40t.bin.stl");
+    let opts = MillOptions { resolution: 96, ..MillOptions::default() };
+    let (_, lines) = mill_file(&path, &opts);
+    let (_, arcs) = mill_file(&path, &MillOptions { arc_tolerance: Some(0.01), ..opts });
+    let count = |m: &Milled| m.setups.iter().map(|s| s.lines).sum::<u64>();
+    let arc_blocks: usize = arcs
+        .setups
+        .iter()
+        .map(|s| s.text.lines().filter(|l| l.starts_with("G2 ") || l.starts_with("G3 ")).count())
+        .sum();
+    assert!(arc_blocks > 100, "{arc_blocks} arcs");
+    assert!(count(&arcs) < count(&lines), "{} lines with arcs, {} without", count(&arcs), count(&lines));
+    assert_programs_safe_and_accepted("gearwheel-arcs", &arcs, dir.path());
+    assert!(
+        (arcs.metrics.iou - lines.metrics.iou).abs() < 5e-3,
+        "IoU {} with arcs, {} without",
+        arcs.metrics.iou,
+        lines.metrics.iou
+    );
+}

@@ -102,6 +102,11 @@ pub struct Args {
     /// many hours by an upper estimate (every layer cleared whole at the stepover).
     #[arg(long, value_name = "HOURS", default_value_t = 10_000.0)]
     max_hours: f64,
+    /// Write G2/G3 arcs where runs of straight moves lie on a circle within this distance
+    /// (mm; the walls keep as much more material, so no arc comes nearer the part than
+    /// planned); 0 writes straight moves only, as the paper's programs
+    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    arc_tolerance: f64,
 }
 
 /// `--setups auto|N`.
@@ -268,6 +273,7 @@ fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
         max_estimated_hours: args.max_hours,
+        arc_tolerance: (args.arc_tolerance != 0.0).then_some(args.arc_tolerance),
         ..MillOptions::default()
     })
 }

@@ -225,6 +225,9 @@ pub struct ArcFitOptions {
     /// Relative tolerance on extrusion per mm for runs with extrusion to count as
     /// one arc (the extrusion rate must be this close to constant). Default 0.05.
     pub extrusion_rate_tolerance: f64,
+    /// Fit arcs in the XY plane only (runs at one Z), as a 3-axis mill's layers are cut;
+    /// otherwise runs in the ZX and YZ planes count too. Default false.
+    pub xy_only: bool,
 }
 
 impl Default for ArcFitOptions {
@@ -236,6 +239,7 @@ impl Default for ArcFitOptions {
             max_radius: 1000.0,
             max_segment_angle: PI / 4.0,
             extrusion_rate_tolerance: 0.05,
+            xy_only: false,
         }
     }
 }
@@ -400,7 +404,8 @@ fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
 /// segment midpoint against the tolerance and the monotonic turn.
 fn fit_arc(pts: &[Point3<f64>], opts: &ArcFitOptions) -> Option<(Point3<f64>, Plane, ArcDirection)> {
     let first = pts[0];
-    let plane = [Plane::XY, Plane::ZX, Plane::YZ].into_iter().find(|&pl| {
+    let planes: &[Plane] = if opts.xy_only { &[Plane::XY] } else { &[Plane::XY, Plane::ZX, Plane::YZ] };
+    let plane = planes.iter().copied().find(|&pl| {
         let (_, _, w) = plane_axes(pl);
         pts.iter().all(|p| (p[w] - first[w]).abs() <= 1e-9)
     })?;

@@ -221,6 +221,17 @@ fn arc_fitter_recovers_circles() {
     }
 }
 
+/// `xy_only` fits the XY plane's circles and leaves the other planes' as lines.
+#[test]
+fn arc_fitter_xy_only_leaves_vertical_circles_as_lines() {
+    let opts = ArcFitOptions { xy_only: true, ..ArcFitOptions::default() };
+    for (plane, want) in [(Plane::XY, true), (Plane::ZX, false), (Plane::YZ, false)] {
+        let pts = circle_points(plane, [3.0, -2.0, 1.5], 5.0, 0.3, PI / 2.0, 30);
+        let (_, arcs) = fit_and_check(&format!("{plane:?}"), &pts, None, opts);
+        assert_eq!(arcs > 0, want, "{plane:?}: {arcs} arcs");
+    }
+}
+
 #[test]
 fn arc_fitter_keeps_proportional_extrusion() {
     let pts = circle_points(Plane::XY, [100.0, 100.0, 0.2], 8.0, 0.0, PI, 60);
