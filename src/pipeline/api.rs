@@ -77,6 +77,10 @@ pub struct MillOptions {
     pub stock_margin: f64,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
+    /// Millimetres per unit of the input mesh in the shop preset (25.4 for a mesh in
+    /// inches, 1000 for one in metres, or any scale of the part): mesh files carry no unit.
+    /// The paper preset normalises the part and does not read it. Default 1.
+    pub input_scale: f64,
     /// Clearing strategies the policy may choose from. Default: all three.
     pub strategies: Vec<StrategyKind>,
     /// Taubin smoothing iterations (lambda 0.5, mu -0.53) applied to the residual mesh
@@ -160,6 +164,7 @@ impl Default for MillOptions {
             roughing_depth_diameters: 1.0,
             flank_walls: true,
             max_estimated_hours: 10_000.0,
+            input_scale: 1.0,
             arc_tolerance: None,
         }
     }

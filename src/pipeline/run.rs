@@ -574,9 +574,20 @@ fn part_and_stock(
             (part, stock, norm)
         }
         Preset::Shop => {
-            let bbox = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
+            let k = opts.input_scale;
+            if !(k.is_finite() && k > 0.0) {
+                return Err(MillError::InvalidOption(format!("input_scale must be positive, got {k}")));
+            }
+            // Millimetres from here on; a scale of 1 leaves the mesh as it is.
+            let (part, norm) = if k == 1.0 {
+                (mesh.clone(), Normalization::identity())
+            } else {
+                let norm = Normalization { scale: k, translation: Vector3::zeros() };
+                (mesh.transformed(&norm.as_similarity()), norm)
+            };
+            let bbox = part.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
             let margin = opts.stock_margin.max(0.0) * bbox.extent().max();
-            (mesh.clone(), bbox.inflated(margin), Normalization::identity())
+            (part, bbox.inflated(margin), norm)
         }
     };
     Ok((unit, part, stock, to_input))

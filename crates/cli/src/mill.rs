@@ -35,6 +35,16 @@ pub struct Args {
     /// Units and action space: `paper` (unit cube) or `shop` (mm, shop tools).
     #[arg(long, default_value = "paper")]
     preset: String,
+    /// Unit of the mesh's coordinates (shop preset; mesh files carry none): `mm`, `in` or
+    /// `m`. The paper preset normalises the part to 100 mm instead
+    #[arg(long, value_name = "UNIT")]
+    units: Option<String>,
+    /// Scale the part by this factor after `--units` (shop preset)
+    #[arg(long, value_name = "FACTOR", conflicts_with = "size")]
+    scale: Option<f64>,
+    /// Scale the part so that its longest side is this many millimetres (shop preset)
+    #[arg(long, value_name = "MM", conflicts_with = "units")]
+    size: Option<f64>,
     /// Number of setups: `auto` or a count.
     #[arg(long, default_value = "auto")]
     setups: String,
@@ -161,7 +171,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let started = std::time::Instant::now();
     let mesh_path = args.mesh.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MESH));
     let mesh = load_mesh(&mesh_path)?;
-    let opts = mill_options(&args)?;
+    let opts = mill_options(&args, &mesh)?;
     let mut policy = choose_policy(&args, &mesh, &mesh_path, &opts)?;
     let limit = match args.time_limit {
         Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
@@ -249,7 +259,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 }
 
 /// The library's options from the command line.
-fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
+fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
     let preset = match args.preset.as_str() {
         "paper" => Preset::Paper,
         "shop" => Preset::Shop,
@@ -261,8 +271,10 @@ fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
         "bc" => ProgramLayout::Rotary(RotaryAxes::BC),
         l => bail!("unknown layout {l:?} (per-setup, ac or bc)"),
     };
+    let input_scale = input_scale(args, mesh, preset)?;
     Ok(MillOptions {
         preset,
+        input_scale,
         setups: parse_setups(&args.setups)?,
         dialect: args.dialect,
         layout,
@@ -276,6 +288,38 @@ fn mill_options(args: &Args) -> anyhow::Result<MillOptions> {
         arc_tolerance: (args.arc_tolerance != 0.0).then_some(args.arc_tolerance),
         ..MillOptions::default()
     })
+}
+
+/// Millimetres per mesh unit from `--units`, `--scale` and `--size` (shop preset only).
+fn input_scale(args: &Args, mesh: &Mesh, preset: Preset) -> anyhow::Result<f64> {
+    if preset == Preset::Paper {
+        if args.units.is_some() || args.scale.is_some() || args.size.is_some() {
+            bail!(
+                "--units, --scale and --size size the part in the shop preset; the paper preset normalises it to 100 mm"
+            );
+        }
+        return Ok(1.0);
+    }
+    let unit = match args.units.as_deref() {
+        None | Some("mm") => 1.0,
+        Some("in") => 25.4,
+        Some("m") => 1000.0,
+        Some(u) => bail!("unknown unit {u:?} (mm, in or m)"),
+    };
+    if let Some(size) = args.size {
+        let longest = mesh.bbox().map_or(0.0, |b| b.extent().max());
+        if !(size.is_finite() && size > 0.0 && longest > 0.0) {
+            bail!(
+                "--size must be a positive length of a mesh with extent, got {size} for a mesh {longest} long"
+            );
+        }
+        return Ok(size / longest);
+    }
+    let scale = args.scale.unwrap_or(1.0);
+    if !(scale.is_finite() && scale > 0.0) {
+        bail!("--scale must be a positive number, got {scale}");
+    }
+    Ok(unit * scale)
 }
 
 /// The policy `--policy` names, fine-tuned on the mesh first when `--finetune` asks.

@@ -265,3 +265,39 @@ fn an_absurdly_fine_action_is_refused_before_planning() {
     assert!(stderr.contains("time limit of 2 s reached"), "{stderr}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "nothing written");
 }
+
+/// The X extent of a program's moves.
+fn x_extent(program: &str) -> f64 {
+    let xs: Vec<f64> = program
+        .lines()
+        .filter(|l| l.starts_with('G'))
+        .flat_map(|l| l.split_whitespace().filter_map(|w| w.strip_prefix('X')?.parse::<f64>().ok()))
+        .collect();
+    xs.iter().copied().fold(f64::MIN, f64::max) - xs.iter().copied().fold(f64::MAX, f64::min)
+}
+
+/// `--units`, `--scale` and `--size` size the part in the shop preset (the 65 mm cube read
+/// as inches and scaled by 0.1 is 65 x 25.4 x 0.1 = 165 mm wide; `--size 20` makes it
+/// 20 mm), and the paper preset refuses them in one line.
+#[test]
+fn units_scale_and_size_set_the_part_s_size_in_the_shop_preset() {
+    let dir = tempfile::tempdir().unwrap();
+    let action = "fixed:4,8,zigzag";
+    let shop = ["--preset", "shop", "--res", "48"];
+    for (extra, side) in
+        [(&["--units", "in", "--scale", "0.1"][..], 65.0 * 2.54), (&["--size", "20"][..], 20.0)]
+    {
+        let args: Vec<&str> = shop.iter().chain(extra).copied().collect();
+        let out = mill_cube_with(dir.path(), action, &args);
+        assert!(out.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let program = std::fs::read_to_string(dir.path().join("cube.ngc")).unwrap();
+        let x = x_extent(&program);
+        // The tool centre runs around the part, one radius (4 mm) out and some clearance.
+        assert!(x > side && x < side + 30.0, "{extra:?}: X extent {x} for a part {side} mm wide");
+    }
+    let out = mill_cube_with(dir.path(), action, &["--units", "in"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("shop preset"), "{err}");
+}
