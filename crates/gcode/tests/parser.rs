@@ -148,33 +148,25 @@ fn odd_files_give_the_right_errors() {
     let unclosed: Vec<_> = s.errors.iter().filter(|e| e.kind == GcodeErrorKind::UnclosedComment).collect();
     assert_eq!(unclosed.len(), 1, "{:?}", s.errors);
     assert_eq!((unclosed[0].line, unclosed[0].column), (8, 2));
-    assert!(
-        s.errors.iter().any(|e| matches!(&e.kind, GcodeErrorKind::Unsupported(m) if m.contains("O-word")))
-    );
     assert!(s.errors.iter().any(|e| e.line == 46 && matches!(e.kind, GcodeErrorKind::NotGcode(_))));
-    // Every O-word line outside skipped blocks is an Unsupported error or (a subroutine
-    // definition) a warning; no motion comes from inside a skipped block.
-    let text = std::fs::read_to_string(data("cnc/odd/gcodeLexer_samples_comments.ngc")).expect("read");
+    // O-word control flow runs: the calls of subroutines the file does not define are
+    // errors on their lines (o100, o<loadtool>, a computed label); conditions reading
+    // parameters never set are errors at the parameter; the rest runs without error.
     let o_err: Vec<u64> = s
         .errors
         .iter()
-        .filter(|e| matches!(&e.kind, GcodeErrorKind::Unsupported(m) if m.contains("O-word")))
+        .filter(|e| matches!(&e.kind, GcodeErrorKind::ControlFlow(m) if m.contains("undefined subroutine")))
         .map(|e| e.line)
         .collect();
-    assert_eq!(o_err, [128, 145, 151, 154, 169, 171, 175, 187, 193], "{:?}", s.errors);
-    let o_warn: Vec<u64> = s
-        .warnings
+    assert_eq!(o_err, [128, 151, 193], "{:?}", s.errors);
+    let undefined: Vec<(u64, u32)> = s
+        .errors
         .iter()
-        .filter(|e| matches!(&e.kind, GcodeErrorKind::Unsupported(m) if m.contains("O-word subroutine")))
-        .map(|e| e.line)
+        .filter(|e| e.line > 128 && matches!(&e.kind, GcodeErrorKind::UndefinedParameter(_)))
+        .map(|e| (e.line, e.column))
         .collect();
-    assert_eq!(o_warn, [161]);
-    let mut rec = MotionRecorder::default();
-    parse_str(&text, &o, &mut rec).expect("parse");
-    let skipped = [145..=148, 154..=159, 161..=167, 175..=183, 187..=190];
-    for (line, m) in &rec.motions {
-        assert!(!skipped.iter().any(|r| r.contains(line)), "motion {m:?} from skipped line {line}");
-    }
+    assert_eq!(undefined, [(145, 11), (154, 13)], "{:?}", s.errors);
+    assert!(s.errors.iter().all(|e| !(160..=187).contains(&e.line)), "{:?}", s.errors);
 }
 
 #[test]
@@ -196,38 +188,38 @@ fn o_words_and_program_numbers() {
         assert_eq!(s.errors.len(), 1, "{text:?}: {:?}", s.errors);
         assert!(m.is_empty(), "{text:?}: {m:?}");
     }
-    // Subroutine definitions are skipped with a warning (they run nothing); calls and
-    // control flow are errors, and the body of a block is skipped, never run unconditionally.
-    type Case = (&'static str, usize, usize, &'static [[f64; 3]]);
+    // Control flow runs (the unit tests of each construct are in `o_word_control_flow`);
+    // misplaced or unmatched O-words are errors on their lines.
+    type Case = (&'static str, usize, &'static [[f64; 3]]);
     let cases: &[Case] = &[
-        ("o100 sub\nG0 X5\no100 endsub\nG0 X1", 0, 1, &[[1.0, 0.0, 0.0]]),
-        ("O0100 SUB\nG0 X5\n  o 100 EndSub\nG0 X1", 0, 1, &[[1.0, 0.0, 0.0]]),
-        ("o<s> sub\no1 if [1]\nG0 X5\no1 endif\no<s> endsub\no<s> call\nG0 X1", 1, 1, &[[1.0, 0.0, 0.0]]),
-        ("o100 if [1]\nG0 X5\no100 else\nG0 X6\no100 endif\nG0 X1", 1, 0, &[[1.0, 0.0, 0.0]]),
-        ("o<a> do\nG0 X5\no<a> while [0]\nG0 X2", 1, 0, &[[2.0, 0.0, 0.0]]),
-        ("o7 repeat [3]\nG0 X5\nN20 o7 endrepeat\nG0 X3", 1, 0, &[[3.0, 0.0, 0.0]]),
-        ("o8 while [1]\nG0 X5\no8 endwhile\nG0 X4", 1, 0, &[[4.0, 0.0, 0.0]]),
-        ("o100 call [1]\nG0 X1", 1, 0, &[[1.0, 0.0, 0.0]]),
-        ("o100 endsub\nG0 X1", 1, 0, &[[1.0, 0.0, 0.0]]),
-        // A '%' ends the skipped block and the program.
-        ("%\no9 if [1]\nG0 X5\n%\nG0 X1", 1, 0, &[]),
-        // A block never closed: one more error, at the last line.
-        ("G0 X1\no9 while [1]\nG0 X5", 2, 0, &[[1.0, 0.0, 0.0]]),
+        ("o100 sub\nG0 X5\no100 endsub\nG0 X1", 0, &[[1.0, 0.0, 0.0]]),
+        ("O0100 SUB\nG0 X5\n  o 100 EndSub\nG0 X1", 0, &[[1.0, 0.0, 0.0]]),
+        (
+            "o<s> sub\no1 if [1]\nG0 X5\no1 endif\no<s> endsub\no<s> call\nG0 X1",
+            0,
+            &[[5.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+        ),
+        ("o100 if [1]\nG0 X5\no100 else\nG0 X6\no100 endif\nG0 X1", 0, &[[5.0, 0.0, 0.0], [1.0, 0.0, 0.0]]),
+        ("o<a> do\nG0 X5\no<a> while [0]\nG0 X2", 0, &[[5.0, 0.0, 0.0], [2.0, 0.0, 0.0]]),
+        (
+            "o7 repeat [3]\nG0 X5\nN20 o7 endrepeat\nG0 X3",
+            0,
+            &[[5.0, 0.0, 0.0], [5.0, 0.0, 0.0], [5.0, 0.0, 0.0], [3.0, 0.0, 0.0]],
+        ),
+        ("o100 call [1]\nG0 X1", 1, &[[1.0, 0.0, 0.0]]),
+        // An unmatched O-word: the program does not run.
+        ("o100 endsub\nG0 X1", 1, &[]),
+        ("G0 X1\no9 while [1]\nG0 X5", 1, &[[1.0, 0.0, 0.0]]),
+        ("o9 if [1]\no8 endif\no9 endif", 1, &[]),
+        ("G0 X1 o9 if [1]", 1, &[]),
     ];
-    for (text, errors, warnings, want) in cases {
+    for (text, errors, want) in cases {
         let (s, m) = run(text, &ParseOptions::default());
         assert_eq!(s.errors.len(), *errors, "{text:?}: {:?}", s.errors);
-        assert_eq!(s.warnings.len(), *warnings, "{text:?}: {:?}", s.warnings);
+        assert!(s.warnings.is_empty(), "{text:?}: {:?}", s.warnings);
         let lines: Vec<&str> = text.lines().collect();
-        let unclosed = |e: &s2g_gcode::GcodeError| {
-            e.line as usize == lines.len()
-                && matches!(&e.kind, GcodeErrorKind::Unsupported(m) if m.contains("not closed"))
-        };
         assert!(
-            s.errors
-                .iter()
-                .chain(&s.warnings)
-                .all(|e| lines[e.line as usize - 1].to_lowercase().starts_with('o') || unclosed(e)),
+            s.errors.iter().all(|e| lines[e.line as usize - 1].to_lowercase().contains('o')),
             "{text:?}: errors on O-word lines only: {:?}",
             s.errors
         );
@@ -335,7 +327,7 @@ fn lexing_errors() {
         ("G0 X1 @", 1, 7, |k| matches!(k, GcodeErrorKind::NotGcode(_))),
         ("G0 X.", 1, 5, |k| matches!(k, GcodeErrorKind::BadNumber(_))),
         ("G1.55 X1", 1, 1, |k| matches!(k, GcodeErrorKind::UnknownCode(_))),
-        ("o100 if [1]", 1, 1, |k| matches!(k, GcodeErrorKind::Unsupported(_))),
+        ("o100 if [1]", 1, 1, |k| matches!(k, GcodeErrorKind::ControlFlow(_))),
         ("N1 G0 X1*99", 1, 9, |k| matches!(k, GcodeErrorKind::BadChecksum { stated: 99, .. })),
         ("\nG0 X[1/0]", 2, 7, |k| matches!(k, GcodeErrorKind::Expression(_))),
         ("G0 X#<nope>", 1, 5, |k| matches!(k, GcodeErrorKind::UndefinedParameter(n) if n == "nope")),

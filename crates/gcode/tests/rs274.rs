@@ -321,3 +321,76 @@ fn feature_programs_agree_with_rs274() {
         s.errors
     );
 }
+
+/// LinuxCNC's sample programs that use O-word control flow and agree with `rs274` (same
+/// moves, or the same first error line and the same moves before it).
+const O_WORD_SAMPLES_AGREEING: &[&str] = &[
+    "factorial.ngc",
+    "flowsnake.ngc",
+    "g20sub.ngc",
+    "g881.ngc",
+    "g881min.ngc",
+    "g882.ngc",
+    "increment.ngc",
+    "m250.ngc",
+    "m61demo.ngc",
+    "m6demo.ngc",
+    "m6remap.ngc",
+    "m70m72-demo.ngc",
+    "m73-demo.ngc",
+    "m75.ngc",
+    "m76.ngc",
+    "nestedcall.ngc",
+    "offsets.ngc",
+    "probe-hole.ngc",
+    "retval.ngc",
+    "touchoff.ngc",
+];
+
+/// Every sample program LinuxCNC ships that has an O-word line, compared with `rs274`;
+/// those in [`O_WORD_SAMPLES_AGREEING`] must agree (the others are listed with why not).
+#[test]
+fn linuxcnc_o_word_samples_agree_with_rs274() {
+    let src = Path::new("/usr/share/linuxcnc/ncfiles");
+    let Ok(entries) = std::fs::read_dir(src) else {
+        panic!("{} missing: install the Debian package linuxcnc-uspace", src.display());
+    };
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut files: Vec<PathBuf> = entries.map(|e| e.expect("entry").path()).filter(|p| p.is_file()).collect();
+    files.sort();
+    let mut agree = Vec::new();
+    let mut differ = Vec::new();
+    for f in &files {
+        let name = f.file_name().and_then(|n| n.to_str()).expect("name").to_string();
+        let text = String::from_utf8_lossy(&std::fs::read(f).expect("read")).replace("\r\n", "\n");
+        let has_o = text.lines().any(|l| {
+            let t = l.trim_start().as_bytes();
+            matches!(t.first(), Some(b'o' | b'O'))
+                && t.get(1).is_some_and(|c| c.is_ascii_digit() || *c == b'<')
+        });
+        if !has_o {
+            continue;
+        }
+        let d = dir.path().to_path_buf();
+        let r = std::panic::catch_unwind(|| check(&d, &name, &text));
+        match r {
+            Ok(_) => agree.push(name),
+            Err(e) => {
+                let why = e
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| e.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_default();
+                differ.push(format!("{name}: {}", why.chars().take(300).collect::<String>()));
+            }
+        }
+    }
+    eprintln!("agree ({}): {agree:?}\ndiffer ({}):\n{}", agree.len(), differ.len(), differ.join("\n"));
+    for want in O_WORD_SAMPLES_AGREEING {
+        assert!(
+            agree.iter().any(|a| a == want),
+            "{want} no longer agrees with rs274:\n{}",
+            differ.join("\n")
+        );
+    }
+}

@@ -147,6 +147,11 @@ pub(super) struct Interp<'o> {
     pub(super) pending_layer: bool,
     /// An O-word block being skipped: its normalised label and the keyword that closes it.
     pub(super) skip_o: Option<(Vec<u8>, &'static str)>,
+    /// The line just lexed starts O-word control flow: the driver runs the rest with
+    /// [`super::flow`].
+    pub(super) flow_request: bool,
+    /// Lines are run by [`super::flow`], which takes O-word lines itself.
+    pub(super) in_flow: bool,
     // Scratch reused across lines.
     pub(super) comments: Vec<(usize, usize)>,
     pub(super) assigns: Vec<(ParamKey, f64)>,
@@ -195,6 +200,8 @@ impl<'o> Interp<'o> {
             rot: [0.0; 3],
             pending_layer: false,
             skip_o: None,
+            flow_request: false,
+            in_flow: false,
             comments: Vec::new(),
             assigns: Vec::new(),
             block: Block {
@@ -393,6 +400,14 @@ pub(super) fn parse_bytes<S: MotionSink>(
         let rest = &b[i..];
         let end = find_eol(rest).unwrap_or(rest.len());
         it.line(&rest[..end], sink)?;
+        if it.flow_request {
+            let mut j = i + end;
+            if j < b.len() {
+                j += if b[j] == b'\r' && b.get(j + 1) == Some(&b'\n') { 2 } else { 1 };
+            }
+            super::flow::run(&mut it, &rest[..end], &b[j..], sink)?;
+            break;
+        }
         if it.done {
             break;
         }

@@ -51,6 +51,13 @@ pub struct ParseOptions {
     /// are ignored. Default `None`: rotary words are ignored, and a block of rotary words
     /// only is a zero-length move, as `rs274` reports it.
     pub rotary: Option<RotaryAxes>,
+    /// Most blocks one program may execute when it uses O-word control flow (loops and
+    /// calls run lines again); past it the program stops with
+    /// [`GcodeErrorKind::StepLimit`](crate::GcodeErrorKind::StepLimit) at the line
+    /// reached. Default: 10 000 000.
+    pub max_steps: u64,
+    /// Most nested O-word subroutine calls. Default: 100.
+    pub max_call_depth: usize,
 }
 
 impl Default for ParseOptions {
@@ -65,6 +72,8 @@ impl Default for ParseOptions {
             firmware_retract_mm: 1.0,
             max_reported: 10_000,
             rotary: None,
+            max_steps: 10_000_000,
+            max_call_depth: 100,
         }
     }
 }
