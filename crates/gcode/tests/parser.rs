@@ -680,3 +680,92 @@ fn hostile_inputs_do_not_panic() {
     assert!(matches!(s.errors[0].kind, GcodeErrorKind::CannedCycle(_)));
     assert!(m.len() < 200, "{} motions", m.len());
 }
+
+/// End points of a program's moves, with their lines, through [`parse_str`], the reader
+/// and the two-stage path (which must agree).
+fn flow_moves(text: &str, opts: &ParseOptions) -> (ParseSummary, Vec<(u64, [f64; 3])>) {
+    let (s, m) = run(text, opts);
+    let got: Vec<(u64, [f64; 3])> =
+        m.iter().filter_map(|(l, x)| x.end_point().map(|p| (*l, p.coords.into()))).collect();
+    let mut b = MotionRecorder::default();
+    let r = std::io::BufReader::with_capacity(5, text.as_bytes());
+    let sb = parse_reader(r, opts, &mut b).expect("reader");
+    assert_eq!(m, b.motions, "{text:?}: reader");
+    assert_eq!((&s.errors, s.lines), (&sb.errors, sb.lines), "{text:?}: reader");
+    for chunk in [1, 7, 64] {
+        let mut c = MotionRecorder::default();
+        let sc = s2g_gcode::parse_str_two_stage(text, opts, &mut c, chunk).expect("two stages");
+        assert_eq!(m, c.motions, "{text:?}: two stages, chunks of {chunk}");
+        assert_eq!((&s.errors, s.lines), (&sc.errors, sc.lines), "{text:?}: two stages");
+    }
+    (s, got)
+}
+
+#[test]
+fn o_word_control_flow() {
+    let o = ParseOptions::default();
+    let xs = |v: &[(u64, [f64; 3])]| v.iter().map(|(_, p)| p[0]).collect::<Vec<_>>();
+    // A while loop that runs three times gives three moves, on the loop's line.
+    let (s, m) = flow_moves("G0 X9\n#1=0\no1 while [#1 LT 3]\nG0 X#1\n#1=[#1+1]\no1 endwhile\nG0 X7\n", &o);
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    assert_eq!(xs(&m), [9.0, 0.0, 1.0, 2.0, 7.0]);
+    assert_eq!(m.iter().map(|x| x.0).collect::<Vec<_>>(), [1, 4, 4, 4, 7]);
+    assert_eq!(s.lines, 7);
+    // Nested subroutines with positional parameters, local to each call; return values.
+    let text = "o<inner> sub\nG0 X[#1 + #2]\no<inner> return [#1 * 10]\no<inner> endsub\n\
+                o<outer> sub\n#<loc> = 3\no<inner> call [#1] [#<loc>]\nG0 Y#<_value>\nG0 Z#1\no<outer> endsub\n\
+                #1 = 100\no<outer> call [2]\nG0 X#1\n";
+    let (s, m) = flow_moves(text, &o);
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    let want = [[5.0, 0.0, 0.0], [5.0, 20.0, 0.0], [5.0, 20.0, 2.0], [100.0, 20.0, 2.0]];
+    assert_eq!(m.iter().map(|x| x.1).collect::<Vec<_>>(), want);
+    // A local named parameter of a sub is gone after it; a global one stays.
+    let (s, _) = flow_moves("o1 sub\n#<l> = 1\n#<_g> = 2\no1 endsub\no1 call\nG0 X#<_g>\nG0 X#<l>\n", &o);
+    assert_eq!(s.errors.len(), 1, "{:?}", s.errors);
+    assert!(matches!(&s.errors[0].kind, GcodeErrorKind::UndefinedParameter(n) if n == "l"), "{:?}", s.errors);
+    assert_eq!(s.errors[0].line, 7);
+    // if / elseif / else picks the right branch.
+    for (v, want) in [(1.0, 10.0), (2.0, 20.0), (3.0, 30.0)] {
+        let text = format!(
+            "#<v> = {v}\no5 if [#<v> EQ 1]\nG0 X10\no5 elseif [#<v> EQ 2]\nG0 X20\no5 else\nG0 X30\no5 endif\nG0 Y1\n"
+        );
+        let (s, m) = flow_moves(&text, &o);
+        assert!(s.errors.is_empty(), "{:?}", s.errors);
+        assert_eq!(xs(&m), [want, want], "{text}");
+    }
+    // repeat, break and continue (X3 skipped, stop after X5), do-while.
+    let text = "#1 = 0\no2 repeat [10]\n#1 = [#1 + 1]\no3 if [#1 EQ 3]\no2 continue\no3 endif\n\
+                o4 if [#1 GT 5]\no2 break\no4 endif\nG0 X#1\no2 endrepeat\n\
+                o6 do\nG0 Y#1\n#1 = [#1 - 2]\no6 while [#1 GT 0]\n";
+    let (s, m) = flow_moves(text, &o);
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    assert_eq!(xs(&m), [1.0, 2.0, 4.0, 5.0, 5.0, 5.0, 5.0]);
+    assert_eq!(m[4..].iter().map(|x| x.1[1]).collect::<Vec<_>>(), [6.0, 4.0, 2.0]);
+    // repeat [0] runs nothing; a while loop's continue re-tests the condition.
+    let (_, m) = flow_moves(
+        "o1 repeat [0]\nG0 X1\no1 endrepeat\n#1=0\no2 while [#1 LT 2]\n#1=[#1+1]\no2 continue\nG0 X9\no2 endwhile\nG0 Y1\n",
+        &o,
+    );
+    assert_eq!(m.iter().map(|x| x.1).collect::<Vec<_>>(), [[0.0, 1.0, 0.0]]);
+    // A loop that never ends stops at the step limit, with a typed error at the line.
+    let lim = ParseOptions { max_steps: 1000, ..ParseOptions::default() };
+    let (s, m) = flow_moves("G0 X1\no9 while [1]\nG0 X2\no9 endwhile\nG0 X3\n", &lim);
+    assert_eq!(s.errors.len(), 1, "{:?}", s.errors);
+    assert_eq!(s.errors[0].kind, GcodeErrorKind::StepLimit(1000));
+    assert!((2..=4).contains(&s.errors[0].line), "{:?}", s.errors);
+    assert!(m.len() > 100 && m.len() < 1000 && m.iter().all(|x| x.1[0] != 3.0));
+    // Unbounded recursion stops at the call depth limit.
+    let (s, _) = flow_moves("o1 sub\no1 call\no1 endsub\no1 call\n", &o);
+    assert!(
+        matches!(&s.errors[0].kind, GcodeErrorKind::ControlFlow(m) if m.contains("nested")),
+        "{:?}",
+        s.errors
+    );
+    // Calling an undefined subroutine: an error at the O (line and column).
+    let (l, c, k) = first_error("G0 X1\n  o<nope> call [1]\n", &o);
+    assert_eq!((l, c), (2, 3));
+    assert!(matches!(k, GcodeErrorKind::ControlFlow(m) if m.contains("o<nope>")));
+    // Strict mode runs the same.
+    let (s, m) = flow_moves("o1 repeat [2]\nG0 X1\no1 endrepeat\n", &strict());
+    assert!(s.errors.is_empty() && m.len() == 2, "{:?}", s.errors);
+}
