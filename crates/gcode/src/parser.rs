@@ -14,8 +14,10 @@
 //! feed rate, an arc without centre, `G53` without `G0`/`G1`, unknown codes, ...).
 //! [`ParseDialect::Auto`] (the default) accepts the same programs and also the usual
 //! dialect drift of real files: those cases become *warnings* in
-//! [`ParseSummary::warnings`] with a documented fallback (feed 0, a straight move for an
-//! arc without centre, `G70`/`G71` as inch/mm, unknown codes skipped with their line).
+//! [`ParseSummary::warnings`] with a documented fallback (feed 0, `G70`/`G71` as inch/mm,
+//! unknown codes skipped with their line). An arc without centre or radius is an error, as
+//! in `rs274`, until the program shows FDM evidence (then a straight move and a warning);
+//! so is an `E` word glued to a number (`X1e999`: exponent notation) before any.
 //! Auto switches to FDM semantics (`G4 P` in milliseconds, `G10`/`G11` firmware retract,
 //! `G28` homing, `G91` making `E` relative) once the program shows FDM evidence (`M82`,
 //! `M83`, `M104`, `M109`, `M140`, `M190` or an `E` word). [`ParseDialect::Fdm`] has those from

@@ -300,6 +300,16 @@ fn feature_programs_agree_with_rs274() {
         ("no_center", "G21 F10\nG0 X1\nG2 X2 Y1\nM2\n"),
         ("g53_alone", "G21 F10\nG53 G90\nM2\n"),
         ("axes_no_motion", "G21\nX1\nM2\n"),
+        ("exponent", "G21 F100\nG0 X1\nG1 X1e999\nM2\n"),
+        (
+            "o_words",
+            "G21 G90 F100\n#<n> = 0\no100 sub\n  G1 X#1 Y#2\n  #<loc> = 5\n  o100 return [#1 * 2]\no100 endsub\n\
+             o101 while [#<n> LT 3]\n  G0 X#<n>\n  #<n> = [#<n> + 1]\no101 endwhile\no102 repeat [2]\n  G0 Y7\n\
+             o102 endrepeat\no100 call [4] [5]\nG0 X#<_value>\no104 if [#<n> EQ 2]\n  G0 Z1\n\
+             o104 elseif [#<n> EQ 3]\n  G0 Z2\no104 else\n  G0 Z3\no104 endif\n#1 = 0\no105 do\n  G0 Y#1\n\
+             #1 = [#1 + 1]\n  o106 if [#1 GT 5]\n    o105 break\n  o106 endif\n  o107 if [#1 EQ 2]\n\
+             o105 continue\n  o107 endif\n  G2 X[#1 + 10] Y0 R20\no105 while [1]\nM2\n",
+        ),
     ];
     let mut errors = 0;
     for (name, text) in programs {
@@ -307,8 +317,9 @@ fn feature_programs_agree_with_rs274() {
         errors += r.error.is_some() as usize;
         check(dir.path(), &format!("{name}.ngc"), text);
     }
-    // bad_arc, bad_arc_inch, r_too_small, no_feed, no_center, g53_alone, axes_no_motion.
-    assert_eq!(errors, 7, "rs274 should reject exactly the seven bad programs");
+    // bad_arc, bad_arc_inch, r_too_small, no_feed, no_center, g53_alone, axes_no_motion,
+    // exponent.
+    assert_eq!(errors, 8, "rs274 should reject exactly the eight bad programs");
     // The bad arc is rejected by both for the same reason.
     let mut rec = MotionRecorder::default();
     let s = parse_str(programs[7].1, &ParseOptions::default(), &mut rec).expect("parse");

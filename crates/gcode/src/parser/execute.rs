@@ -48,6 +48,9 @@ impl Interp<'_> {
         if !has {
             return Ok(());
         }
+        if self.block.mask & bit(b'e') != 0 && !self.fdm {
+            self.exponent_check(line)?;
+        }
         self.comments_and_markers(line, sink)?;
         if self.block.mask == 0 && self.block.ng == 0 && self.block.nm == 0 {
             self.apply_assignments(line);
@@ -55,6 +58,25 @@ impl Interp<'_> {
         }
         self.execute(sink)?;
         self.apply_assignments(line);
+        Ok(())
+    }
+
+    /// An `E` word glued to the number before it (`X1e999`, `X1E5`) in a program with no
+    /// printer evidence yet: exponent notation, which G-code does not have; `rs274` rejects
+    /// the E word ("E word with no G70, G76, M66, M67 or M68 to use it").
+    #[cold]
+    fn exponent_check<E>(&mut self, line: &[u8]) -> Res<(), E> {
+        let c = self.block.col(b'e');
+        if c > 0 && matches!(line.get(c - 1), Some(b'0'..=b'9' | b'.')) {
+            return Err(Fail::Line(
+                c,
+                GcodeErrorKind::NotGcode(
+                    "E word with no G70, G76, M66, M67 or M68 to use it (exponent notation such as \
+                     1e5 is not G-code)"
+                        .into(),
+                ),
+            ));
+        }
         Ok(())
     }
 
