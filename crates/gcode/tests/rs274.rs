@@ -124,20 +124,23 @@ fn ours(text: &str, opts: &ParseOptions) -> (Vec<Canon>, Option<(u64, String)>) 
     let mut rec = MotionRecorder::default();
     let s = parse_str(text, opts, &mut rec).expect("parse");
     let lines: Vec<&str> = text.lines().collect();
+    let unit_of = |l: &str| -> Option<bool> {
+        let u = l.to_ascii_uppercase().replace(' ', "");
+        let code = u.split(['(', ';']).next().unwrap_or("");
+        if code.contains("G21") {
+            Some(false)
+        } else if code.contains("G20") {
+            Some(true)
+        } else {
+            None
+        }
+    };
+    // Subroutine bodies usually come before the main program's G20/G21 and run after it:
+    // lines before the first unit code take that code's units.
+    let first_unit = lines.iter().find_map(|l| unit_of(l)).unwrap_or(false);
     let inch_at = |line: u64| -> bool {
         // The units in force after a line: the last G20/G21 at or before it.
-        let mut inch = false;
-        for l in lines.iter().take(line as usize) {
-            let u = l.to_ascii_uppercase().replace(' ', "");
-            let code = u.split(['(', ';']).next().unwrap_or("");
-            if code.contains("G20") {
-                inch = true;
-            }
-            if code.contains("G21") {
-                inch = false;
-            }
-        }
-        inch
+        lines.iter().take(line as usize).rev().find_map(|l| unit_of(l)).unwrap_or(first_unit)
     };
     let mut out = Vec::new();
     for (line, m) in &rec.motions {
@@ -366,6 +369,7 @@ const O_WORD_SAMPLES_AGREEING: &[&str] = &[
     "probe-hole.ngc",
     "retval.ngc",
     "touchoff.ngc",
+    "useful-subroutines.ngc",
     "x-trim.ngc",
 ];
 
