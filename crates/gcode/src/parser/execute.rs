@@ -32,13 +32,9 @@ impl Interp<'_> {
         pre: Option<Pre<'_>>,
         sink: &mut S,
     ) -> Res<(), S::Error> {
-        if self.skip_o.is_some() && self.skipped_o_line(line) {
-            return Ok(());
-        }
         let lexed = match pre {
-            // Inside a skipped O-word block the full lexer decides.
-            Some(p) if self.skip_o.is_none() => Ok(self.load_pre(p)),
-            _ => self.lex(line),
+            Some(p) => Ok(self.load_pre(p)),
+            None => self.lex(line),
         };
         let has = match lexed {
             Ok(h) => h,

@@ -145,8 +145,6 @@ pub(super) struct Interp<'o> {
     pub(super) rot: [f64; 3],
     // Slicer markers.
     pub(super) pending_layer: bool,
-    /// An O-word block being skipped: its normalised label and the keyword that closes it.
-    pub(super) skip_o: Option<(Vec<u8>, &'static str)>,
     /// The line just lexed starts O-word control flow: the driver runs the rest with
     /// [`super::flow`].
     pub(super) flow_request: bool,
@@ -199,7 +197,6 @@ impl<'o> Interp<'o> {
             cycle_q: 0.0,
             rot: [0.0; 3],
             pending_layer: false,
-            skip_o: None,
             flow_request: false,
             in_flow: false,
             comments: Vec::new(),
@@ -298,15 +295,6 @@ impl<'o> Interp<'o> {
         mut self,
         sink: &mut S,
     ) -> Result<ParseSummary, ParseError<S::Error>> {
-        if let Some((label, end)) = self.skip_o.take() {
-            let label = String::from_utf8_lossy(&label).into_owned();
-            self.record(
-                0,
-                GcodeErrorKind::Unsupported(format!(
-                    "O-word block o{label} not closed by 'o{label} {end}': the rest of the program was skipped"
-                )),
-            )?;
-        }
         if self.pending_layer {
             self.pending_layer = false;
             self.emit(sink, &Motion::Marker(Marker::Layer { index: None, z: None })).map_err(

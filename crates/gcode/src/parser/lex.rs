@@ -344,36 +344,6 @@ impl Interp<'_> {
         self.flow_request = true;
         Ok(None)
     }
-
-    /// While an O-word block is skipped: `true` when `line` is skipped too (the
-    /// closing line included); `false` for a `%` line, which still ends the program.
-    #[cold]
-    pub(super) fn skipped_o_line(&mut self, line: &[u8]) -> bool {
-        let mut i = 0;
-        let blank = |c: u8| c == b' ' || c == b'\t';
-        while i < line.len() && (blank(line[i]) || line[i] == b'/') {
-            i += 1;
-        }
-        if line.get(i) == Some(&b'%') {
-            self.skip_o = None;
-            return false;
-        }
-        if matches!(line.get(i), Some(b'n' | b'N')) {
-            i += 1;
-            while i < line.len() && (blank(line[i]) || line[i].is_ascii_digit() || line[i] == b'.') {
-                i += 1;
-            }
-        }
-        if matches!(line.get(i), Some(b'o' | b'O'))
-            && let Ok(o) = read_o_word(line, i)
-            && let Some((label, end)) = &self.skip_o
-            && o.norm == *label
-            && o.keyword == *end
-        {
-            self.skip_o = None;
-        }
-        true
-    }
 }
 
 /// Whether `kw` is a LinuxCNC O-word keyword.
