@@ -51,7 +51,8 @@
 //!   numbered (`o100`, leading zeros ignored), named (`o<name>`) and computed (`o[..]`,
 //!   matched as written) labels. From the first O-word line on, the rest of the program is
 //!   read whole and run with a program counter (plain programs keep the streaming path);
-//!   an unmatched O-word stops the program with a
+//!   an unmatched O-word (before anything of the rest runs), a failed condition or call
+//!   (where it is reached) stop the program with a
 //!   [`GcodeErrorKind::ControlFlow`](crate::GcodeErrorKind::ControlFlow) error at its line, as do
 //!   more than [`ParseOptions::max_steps`] executed blocks
 //!   ([`GcodeErrorKind::StepLimit`](crate::GcodeErrorKind::StepLimit)). Calling a subroutine

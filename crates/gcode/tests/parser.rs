@@ -156,24 +156,21 @@ fn odd_files_give_the_right_errors() {
     assert_eq!(unclosed.len(), 1, "{:?}", s.errors);
     assert_eq!((unclosed[0].line, unclosed[0].column), (8, 2));
     assert!(s.errors.iter().any(|e| e.line == 46 && matches!(e.kind, GcodeErrorKind::NotGcode(_))));
-    // O-word control flow runs: the calls of subroutines the file does not define are
-    // errors on their lines (o100, o<loadtool>, a computed label); conditions reading
-    // parameters never set are errors at the parameter; the rest runs without error.
-    let o_err: Vec<u64> = s
-        .errors
-        .iter()
-        .filter(|e| matches!(&e.kind, GcodeErrorKind::ControlFlow(m) if m.contains("undefined subroutine")))
-        .map(|e| e.line)
-        .collect();
-    assert_eq!(o_err, [128, 151, 193], "{:?}", s.errors);
-    let undefined: Vec<(u64, u32)> = s
-        .errors
-        .iter()
-        .filter(|e| e.line > 128 && matches!(&e.kind, GcodeErrorKind::UndefinedParameter(_)))
-        .map(|e| (e.line, e.column))
-        .collect();
-    assert_eq!(undefined, [(145, 11), (154, 13)], "{:?}", s.errors);
-    assert!(s.errors.iter().all(|e| !(160..=187).contains(&e.line)), "{:?}", s.errors);
+    // O-word control flow runs from line 128 on: its call of a subroutine the file does
+    // not define is an error that ends the program, as in `rs274`.
+    let last = s.errors.last().expect("errors");
+    assert_eq!(last.line, 128, "{:?}", s.errors);
+    assert!(matches!(&last.kind, GcodeErrorKind::ControlFlow(m) if m.contains("undefined subroutine o100")));
+    // Without that line, the conditions reading parameters never set are errors at the
+    // parameter and end the program there.
+    let text = std::fs::read_to_string(data("cnc/odd/gcodeLexer_samples_comments.ngc")).expect("read");
+    let without: String =
+        text.lines().filter(|l| !l.starts_with("o100 call")).map(|l| format!("{l}\n")).collect();
+    let mut rec = MotionRecorder::default();
+    let s = parse_str(&without, &o, &mut rec).expect("parse");
+    let last = s.errors.last().expect("errors");
+    assert_eq!((last.line, last.column), (144, 11), "{:?}", s.errors);
+    assert!(matches!(&last.kind, GcodeErrorKind::UndefinedParameter(n) if n == "scale"), "{last}");
 }
 
 #[test]
@@ -213,7 +210,9 @@ fn o_words_and_program_numbers() {
             0,
             &[[5.0, 0.0, 0.0], [5.0, 0.0, 0.0], [5.0, 0.0, 0.0], [3.0, 0.0, 0.0]],
         ),
-        ("o100 call [1]\nG0 X1", 1, &[[1.0, 0.0, 0.0]]),
+        // A control-flow error ends the program, as in `rs274`.
+        ("o100 call [1]\nG0 X1", 1, &[]),
+        ("G0 X2\no1 if\nG0 X1\no1 endif", 1, &[[2.0, 0.0, 0.0]]),
         // An unmatched O-word: the program does not run.
         ("o100 endsub\nG0 X1", 1, &[]),
         ("G0 X1\no9 while [1]\nG0 X5", 1, &[[1.0, 0.0, 0.0]]),

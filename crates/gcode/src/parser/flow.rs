@@ -302,8 +302,10 @@ fn execute<S: MotionSink>(
         match step(it, p, pc, ol, &mut frames) {
             Ok(next) => pc = next,
             Err((col, kind)) => {
+                // As in `rs274`, a control-flow error ends the program (going on would run
+                // a body whose condition failed, or loop on the error).
                 it.record(col, kind)?;
-                pc += 1;
+                it.done = true;
             }
         }
     }
