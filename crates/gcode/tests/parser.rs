@@ -794,3 +794,25 @@ fn o_word_control_flow() {
     let (s, m) = flow_moves("o1 repeat [2]\nG0 X1\no1 endrepeat\n", &strict());
     assert!(s.errors.is_empty() && m.len() == 2, "{:?}", s.errors);
 }
+
+#[test]
+fn o_word_subroutines_from_the_search_path() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let sub = "(square)\no<sq> sub\no<half> call [#1]\nG0 X[#1 * #1] Y#<_value>\no<sq> endsub\n";
+    std::fs::write(dir.path().join("sq.ngc"), sub).expect("write");
+    std::fs::write(dir.path().join("half.ngc"), "o<half> sub\no<half> return [#1 / 2]\no<half> endsub\n")
+        .expect("write");
+    let text = "G21\no<sq> call [3]\nG0 Z1\nM2\n";
+    // Without a search path: an error at the call, the program ends there.
+    let (s, m) = run(text, &ParseOptions::default());
+    assert_eq!((s.errors.len(), s.errors[0].line, m.len()), (1, 2, 0), "{:?}", s.errors);
+    // With one: both files are found (the second called from the first).
+    let o = ParseOptions {
+        subroutine_path: vec![dir.path().join("nope"), dir.path().into()],
+        ..ParseOptions::default()
+    };
+    let (s, m) = flow_moves(text, &o);
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    assert_eq!(m.iter().map(|x| x.1).collect::<Vec<_>>(), [[9.0, 1.5, 0.0], [9.0, 1.5, 1.0]]);
+    assert_eq!(s.lines, 4);
+}

@@ -198,7 +198,7 @@ fn check(dir: &Path, name: &str, text: &str) -> usize {
         }
         Some((msg, src)) => {
             // Same error line, same moves before it.
-            let opts = ParseOptions { stop_at_first_error: false, ..strict };
+            let opts = ParseOptions { stop_at_first_error: false, ..strict.clone() };
             let mut rec = MotionRecorder::default();
             let s = parse_str(text, &opts, &mut rec).expect("parse");
             let first = s

@@ -112,22 +112,29 @@ fn o_line(line: &[u8]) -> Option<OLine> {
     Some(OLine { col: i, label: o.norm, kw, args: o.end })
 }
 
-/// Splits `first` and the lines of `rest` and pairs the O-word lines up; the error is
-/// at a line index and column.
-fn scan<'b>(first: &'b [u8], rest: &'b [u8]) -> Result<Program<'b>, (usize, usize, GcodeErrorKind)> {
-    let mut lines = vec![first];
+/// Splits `text` into lines (LF, CR LF or CR) onto `lines`.
+fn split_lines<'b>(text: &'b [u8], lines: &mut Vec<&'b [u8]>) {
     let mut i = 0;
-    while i < rest.len() {
-        let r = &rest[i..];
+    while i < text.len() {
+        let r = &text[i..];
         let end = find_eol(r).unwrap_or(r.len());
         lines.push(&r[..end]);
         i += end;
-        if i < rest.len() {
-            if rest[i] == b'\r' && rest.get(i + 1) == Some(&b'\n') {
+        if i < text.len() {
+            if text[i] == b'\r' && text.get(i + 1) == Some(&b'\n') {
                 i += 1;
             }
             i += 1;
         }
+    }
+}
+
+/// Splits `first` and the lines of `texts` and pairs the O-word lines up; the error is
+/// at a line index and column.
+fn scan<'b>(first: &'b [u8], texts: &[&'b [u8]]) -> Result<Program<'b>, (usize, usize, GcodeErrorKind)> {
+    let mut lines = vec![first];
+    for t in texts {
+        split_lines(t, &mut lines);
     }
     let n = lines.len();
     let mut o: Vec<Option<OLine>> = lines.iter().map(|l| o_line(l)).collect();
@@ -231,6 +238,37 @@ fn scan<'b>(first: &'b [u8], rest: &'b [u8]) -> Result<Program<'b>, (usize, usiz
     Ok(p)
 }
 
+/// The text of the files, in [`ParseOptions::subroutine_path`](super::ParseOptions::subroutine_path),
+/// of the subroutines the program calls by name (`o<name> call`) without defining them,
+/// and of those these call in turn (at most 100 files).
+fn load_subroutines(it: &Interp<'_>, first: &[u8], rest: &[u8]) -> Vec<Vec<u8>> {
+    let mut loaded: Vec<Vec<u8>> = Vec::new();
+    if it.opts.subroutine_path.is_empty() {
+        return loaded;
+    }
+    let mut tried: Vec<Vec<u8>> = Vec::new();
+    while loaded.len() < 100 {
+        let mut texts = vec![rest];
+        texts.extend(loaded.iter().map(Vec::as_slice));
+        let Ok(p) = scan(first, &texts) else { break };
+        let missing = p.o.iter().flatten().find(|ol| {
+            ol.kw == Kw::Call
+                && ol.label.first() == Some(&b'<')
+                && !p.subs.contains_key(&ol.label)
+                && !tried.contains(&ol.label)
+        });
+        let Some(label) = missing.map(|ol| ol.label.clone()) else { break };
+        let name = String::from_utf8_lossy(&label[1..label.len() - 1]).into_owned();
+        tried.push(label);
+        let found =
+            it.opts.subroutine_path.iter().find_map(|d| std::fs::read(d.join(format!("{name}.ngc"))).ok());
+        if let Some(text) = found {
+            loaded.push(text);
+        }
+    }
+    loaded
+}
+
 /// Reads the expressions `[..]` after an O-word keyword (none when the line ends).
 fn exprs(it: &mut Interp<'_>, line: &[u8], from: usize) -> Result<Vec<f64>, (usize, GcodeErrorKind)> {
     let mut c = Cursor { b: line, i: from };
@@ -256,7 +294,10 @@ pub(super) fn run<S: MotionSink>(
     it.in_flow = true;
     let base = it.lineno;
     let lines_before = it.summary.lines - 1;
-    let p = match scan(first, rest) {
+    let loaded = load_subroutines(it, first, rest);
+    let mut texts = vec![rest];
+    texts.extend(loaded.iter().map(Vec::as_slice));
+    let p = match scan(first, &texts) {
         Ok(p) => p,
         Err((k, col, kind)) => {
             it.lineno = base + k as u64;
@@ -266,7 +307,10 @@ pub(super) fn run<S: MotionSink>(
             return Ok(());
         }
     };
-    let n = p.lines.len();
+    // The program's own lines (subroutine files come after them).
+    let mut own = Vec::new();
+    split_lines(rest, &mut own);
+    let n = 1 + own.len();
     let r = execute(it, &p, base, sink);
     it.summary.lines = lines_before + n as u64;
     r

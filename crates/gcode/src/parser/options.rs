@@ -58,6 +58,11 @@ pub struct ParseOptions {
     pub max_steps: u64,
     /// Most nested O-word subroutine calls. Default: 100.
     pub max_call_depth: usize,
+    /// Folders searched, in order, for `name.ngc` when a program calls `o<name>` without
+    /// defining it (LinuxCNC's `SUBROUTINE_PATH`); the file's `o<name> sub` .. `endsub`
+    /// is added after the program (errors in it are reported past the program's last
+    /// line). Default: none.
+    pub subroutine_path: Vec<std::path::PathBuf>,
 }
 
 impl Default for ParseOptions {
@@ -74,6 +79,7 @@ impl Default for ParseOptions {
             rotary: None,
             max_steps: 10_000_000,
             max_call_depth: 100,
+            subroutine_path: Vec::new(),
         }
     }
 }
