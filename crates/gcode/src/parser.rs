@@ -187,7 +187,7 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
                 let end = start + k;
                 if line.is_empty() && !too_long {
                     it.line(&buf[start..end], sink)?;
-                    if it.flow_request {
+                    if it.done && it.flow_request {
                         line.extend_from_slice(&buf[start..end]);
                     }
                 } else {
@@ -195,7 +195,7 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
                         line.extend_from_slice(&buf[start..end]);
                     }
                     it.line_checked(&line, too_long, sink)?;
-                    if !it.flow_request {
+                    if !(it.done && it.flow_request) {
                         line.clear();
                     }
                     too_long = false;
@@ -223,7 +223,7 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
         };
         bytes += consumed as u64;
         reader.consume(consumed);
-        if it.flow_request {
+        if it.done && it.flow_request {
             // O-word control flow: the rest of the program is read whole and run from here.
             let mut rest = Vec::new();
             loop {

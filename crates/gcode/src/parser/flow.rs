@@ -291,6 +291,7 @@ pub(super) fn run<S: MotionSink>(
     sink: &mut S,
 ) -> Result<(), ParseError<S::Error>> {
     it.flow_request = false;
+    it.done = false;
     it.in_flow = true;
     let base = it.lineno;
     let lines_before = it.summary.lines - 1;

@@ -146,7 +146,7 @@ pub(super) struct Interp<'o> {
     // Slicer markers.
     pub(super) pending_layer: bool,
     /// The line just lexed starts O-word control flow: the driver runs the rest with
-    /// [`super::flow`].
+    /// [`super::flow`]. Set with [`Self::done`], so that drivers test one flag per line.
     pub(super) flow_request: bool,
     /// Lines are run by [`super::flow`], which takes O-word lines itself.
     pub(super) in_flow: bool,
@@ -388,15 +388,14 @@ pub(super) fn parse_bytes<S: MotionSink>(
         let rest = &b[i..];
         let end = find_eol(rest).unwrap_or(rest.len());
         it.line(&rest[..end], sink)?;
-        if it.flow_request {
-            let mut j = i + end;
-            if j < b.len() {
-                j += if b[j] == b'\r' && b.get(j + 1) == Some(&b'\n') { 2 } else { 1 };
-            }
-            super::flow::run(&mut it, &rest[..end], &b[j..], sink)?;
-            break;
-        }
         if it.done {
+            if it.flow_request {
+                let mut j = i + end;
+                if j < b.len() {
+                    j += if b[j] == b'\r' && b.get(j + 1) == Some(&b'\n') { 2 } else { 1 };
+                }
+                super::flow::run(&mut it, &rest[..end], &b[j..], sink)?;
+            }
             break;
         }
         i += end;

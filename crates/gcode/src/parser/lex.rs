@@ -342,6 +342,7 @@ impl Interp<'_> {
         }
         // The driver runs the program from this line on with control flow.
         self.flow_request = true;
+        self.done = true;
         Ok(None)
     }
 }
