@@ -313,6 +313,11 @@ fn feature_programs_agree_with_rs274() {
         ("g53_alone", "G21 F10\nG53 G90\nM2\n"),
         ("axes_no_motion", "G21\nX1\nM2\n"),
         ("exponent", "G21 F100\nG0 X1\nG1 X1e999\nM2\n"),
+        (
+            "polar",
+            "G21 G90 F100\nG0 @10 ^30\nG1 ^90\nG1 @5\nG91 G1 @2 ^45\nG1 ^-90 Z1\nG90 G20 G0 @1 ^180\nG21 G55 G0 @3 ^0\nM2\n",
+        ),
+        ("polar_with_x", "G21 G90 F100\nG0 X1 @10 ^30\nM2\n"),
         ("undefined_call", "G21 F100\nG0 X1\no<nope> call\nG0 X2\nM2\n"),
         (
             "o_words",
@@ -331,8 +336,8 @@ fn feature_programs_agree_with_rs274() {
         check(dir.path(), &format!("{name}.ngc"), text);
     }
     // bad_arc, bad_arc_inch, r_too_small, no_feed, no_center, g53_alone, axes_no_motion,
-    // exponent, undefined_call.
-    assert_eq!(errors, 9, "rs274 should reject exactly the nine bad programs");
+    // exponent, polar_with_x, undefined_call.
+    assert_eq!(errors, 10, "rs274 should reject exactly the ten bad programs");
     // The bad arc is rejected by both for the same reason.
     let mut rec = MotionRecorder::default();
     let s = parse_str(programs[7].1, &ParseOptions::default(), &mut rec).expect("parse");
@@ -368,6 +373,7 @@ const O_WORD_SAMPLES_AGREEING: &[&str] = &[
     "offsets.ngc",
     "probe-hole.ngc",
     "retval.ngc",
+    "spiral.ngc",
     "touchoff.ngc",
     "useful-subroutines.ngc",
     "x-trim.ngc",

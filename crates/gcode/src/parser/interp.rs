@@ -70,13 +70,18 @@ pub(super) enum Mode {
 pub(super) const fn bit(letter: u8) -> u32 {
     1 << (letter - b'a')
 }
+/// The internal letters of the polar words `@` (radius) and `^` (angle): the two slots
+/// after `z`.
+pub(super) const POLAR_R: u8 = b'a' + 26;
+pub(super) const POLAR_A: u8 = b'a' + 27;
 pub(super) const AXES: [u8; 3] = [b'x', b'y', b'z'];
 pub(super) const OFFS: [u8; 3] = [b'i', b'j', b'k'];
 
 /// One line's words.
 pub(super) struct Block {
-    pub(super) vals: [f64; 26],
-    pub(super) cols: [u32; 26],
+    /// Values by letter `a`..`z`, then [`POLAR_R`] (`@`) and [`POLAR_A`] (`^`).
+    pub(super) vals: [f64; 28],
+    pub(super) cols: [u32; 28],
     pub(super) mask: u32,
     pub(super) novalue: u32,
     pub(super) g: [(u16, u32); 16],
@@ -202,8 +207,8 @@ impl<'o> Interp<'o> {
             comments: Vec::new(),
             assigns: Vec::new(),
             block: Block {
-                vals: [0.0; 26],
-                cols: [0; 26],
+                vals: [0.0; 28],
+                cols: [0; 28],
                 mask: 0,
                 novalue: 0,
                 g: [(0, 0); 16],

@@ -1,6 +1,6 @@
 //! Lexing: a line into words, comments and parameter assignments; O words.
 
-use super::interp::{Fail, Interp, Res, bad_code, bit, repeated, too_many};
+use super::interp::{Fail, Interp, POLAR_A, POLAR_R, Res, bad_code, bit, repeated, too_many};
 use super::words::{Pre, plain_code, starts_plain_number};
 use crate::error::GcodeErrorKind;
 use crate::expr::Cursor;
@@ -76,6 +76,20 @@ impl Interp<'_> {
                     break;
                 }
                 b'#' => self.lex_assignment(&mut c, at)?,
+                b'@' | b'^' => {
+                    // Polar coordinates: `@` radius, `^` angle (degrees).
+                    c.i += 1;
+                    if matches!(c.peek(), None | Some(b';' | b'(')) {
+                        let what = format!("expected a number after '{}'", ch as char);
+                        return Err(Fail::Line(at, GcodeErrorKind::NotGcode(what)));
+                    }
+                    let v = c.real_value(&mut self.params, 0)?;
+                    let l = if ch == b'@' { POLAR_R } else { POLAR_A };
+                    if self.block.mask & bit(l) != 0 {
+                        return Err(Fail::Line(at, GcodeErrorKind::RepeatedWord(ch as char)));
+                    }
+                    self.store_word(l, v, at)?;
+                }
                 _ if ch.is_ascii_alphabetic() => {
                     if !self.lex_word(b, &mut c, at, ch, &mut letter_run)? {
                         return Ok(false);
