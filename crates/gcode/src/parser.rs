@@ -46,8 +46,8 @@
 //!   [`ParseDialect::Cnc`]); the X word is the time, not a move.
 //! - Polar coordinates (`@` radius, `^` angle in degrees) give X and Y about the XY origin
 //!   of the work coordinates, as in LinuxCNC; under `G91` they add to the current point's
-//!   radius and angle. A canned cycle's `L` repeats reuse the first repeat's X/Y step (LinuxCNC
-//!   turns the angle again at each repeat: not done).
+//!   radius and angle, and each `L` repeat of a canned cycle in the XY plane adds them again
+//!   (a bolt circle: `G91 G81 R.1 Z-.5 ^60 L6`).
 //! - LinuxCNC O-word control flow runs: `sub`/`endsub`/`call` (arguments in `#1`..`#30`,
 //!   local to the call with the named parameters not starting with `_`), `return [v]`
 //!   and `endsub [v]` (into `#<_value>`, `#<_value_returned>`), `if`/`elseif`/`else`/`endif`,

@@ -97,7 +97,11 @@ impl Interp<'_> {
         };
         let (x, y) = (r * a.cos(), r * a.sin());
         let (x, y) = if absolute { (x, y) } else { (x - cx, y - cy) };
+        let step = (!absolute).then(|| {
+            (blk.get(POLAR_R).unwrap_or(0.0) * scale, blk.get(POLAR_A).map_or(0.0, f64::to_radians))
+        });
         let blk = &mut self.block;
+        blk.polar = step;
         blk.mask &= !(bit(POLAR_R) | bit(POLAR_A));
         for (l, v) in [(b'x', x), (b'y', y)] {
             blk.mask |= bit(l);

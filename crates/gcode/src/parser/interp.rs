@@ -88,6 +88,9 @@ pub(super) struct Block {
     pub(super) ng: usize,
     pub(super) m: [(u16, u32); 8],
     pub(super) nm: usize,
+    /// Under `G91`, the block's polar increments (`@` in program units, `^` in radians):
+    /// each `L` repeat of a canned cycle turns and stretches the point again.
+    pub(super) polar: Option<(f64, f64)>,
 }
 
 impl Block {
@@ -215,6 +218,7 @@ impl<'o> Interp<'o> {
                 ng: 0,
                 m: [(0, 0); 8],
                 nm: 0,
+                polar: None,
             },
         }
     }

@@ -14,6 +14,7 @@ impl Interp<'_> {
         blk.novalue = 0;
         blk.ng = 0;
         blk.nm = 0;
+        blk.polar = None;
         self.comments.clear();
         self.assigns.clear();
     }
