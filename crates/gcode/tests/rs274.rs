@@ -317,6 +317,10 @@ fn feature_programs_agree_with_rs274() {
             "polar",
             "G21 G90 F100\nG0 @10 ^30\nG1 ^90\nG1 @5\nG91 G1 @2 ^45\nG1 ^-90 Z1\nG90 G20 G0 @1 ^180\nG21 G55 G0 @3 ^0\nM2\n",
         ),
+        (
+            "lathe_radius_mode",
+            "G21 G18 G8 F50\nG0 X5.685 Z-8.784\nG3 X7.073 Z-10.296 I-0.98513 K-2.29772\nM2\n",
+        ),
         ("polar_with_x", "G21 G90 F100\nG0 X1 @10 ^30\nM2\n"),
         ("undefined_call", "G21 F100\nG0 X1\no<nope> call\nG0 X2\nM2\n"),
         (
@@ -372,6 +376,7 @@ const SAMPLES_AGREEING: &[&str] = &[
     "gmoccapy_2_tools_with_cutter_radius_compensation.ngc",
     "hole-circle.ngc",
     "increment.ngc",
+    "lathe_pawn.ngc",
     "lathecomp.ngc",
     "m250.ngc",
     "m61demo.ngc",

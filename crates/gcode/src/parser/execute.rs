@@ -235,6 +235,8 @@ impl Interp<'_> {
                 980 | 990 => 9,
                 540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 10,
                 610 | 611 | 640 => 11,
+                // Lathe radius mode, LinuxCNC's default (G7 diameter mode is not supported).
+                80 => 13,
                 110 if self.fdm || !self.strict => 0,
                 40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
                 530 => 12,
