@@ -790,6 +790,16 @@ fn o_word_control_flow() {
     let (l, c, k) = first_error("G0 X1\n  o<nope> call [1]\n", &o);
     assert_eq!((l, c), (2, 3));
     assert!(matches!(k, GcodeErrorKind::ControlFlow(m) if m.contains("o<nope>")));
+    // Polar words, alone and in a G91 bolt circle, read the same by every driver.
+    let (s, m) = flow_moves("G21 F100\nG0 @2 ^90\nG91 G81 R1 Z-1 ^90 L4\n", &o);
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    let holes: Vec<[f64; 2]> =
+        m.iter().filter(|x| x.0 == 3 && x.1[2] == 0.0).map(|x| [x.1[0], x.1[1]]).collect();
+    let want = [[-2.0, 0.0], [0.0, -2.0], [2.0, 0.0], [0.0, 2.0]];
+    assert_eq!(holes.len(), 4, "{m:?}");
+    for (h, w) in holes.iter().zip(want) {
+        assert!((h[0] - w[0]).abs() < 1e-9 && (h[1] - w[1]).abs() < 1e-9, "{holes:?}");
+    }
     // Strict mode runs the same.
     let (s, m) = flow_moves("o1 repeat [2]\nG0 X1\no1 endrepeat\n", &strict());
     assert!(s.errors.is_empty() && m.len() == 2, "{:?}", s.errors);
