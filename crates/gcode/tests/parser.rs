@@ -800,6 +800,10 @@ fn o_word_control_flow() {
     for (h, w) in holes.iter().zip(want) {
         assert!((h[0] - w[0]).abs() < 1e-9 && (h[1] - w[1]).abs() < 1e-9, "{holes:?}");
     }
+    // The read-only position parameters follow the moves of a loop.
+    let (s, m) = flow_moves("G21\no1 while [#5420 LT 3]\nG91 G0 X[#<_x> + 1]\no1 endwhile\n", &o);
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    assert_eq!(xs(&m), [1.0, 3.0]);
     // Strict mode runs the same.
     let (s, m) = flow_moves("o1 repeat [2]\nG0 X1\no1 endrepeat\n", &strict());
     assert!(s.errors.is_empty() && m.len() == 2, "{:?}", s.errors);

@@ -321,6 +321,10 @@ fn feature_programs_agree_with_rs274() {
             "lathe_radius_mode",
             "G21 G18 G8 F50\nG0 X5.685 Z-8.784\nG3 X7.073 Z-10.296 I-0.98513 K-2.29772\nM2\n",
         ),
+        (
+            "read_only_params",
+            "G21 F100\nG0 X1 Y2\nG1 X[#5420+1] Y[#<_y>*2]\nG20\nG0 X[#<_x>+#<_metric>+#<_imperial>*10]\nG91 G0 Z[#<_incremental>+1]\nG0 Z[#<_incremental>]\nM2\n",
+        ),
         ("polar_with_x", "G21 G90 F100\nG0 X1 @10 ^30\nM2\n"),
         ("undefined_call", "G21 F100\nG0 X1\no<nope> call\nG0 X2\nM2\n"),
         (

@@ -271,6 +271,9 @@ fn load_subroutines(it: &Interp<'_>, first: &[u8], rest: &[u8]) -> Vec<Vec<u8>> 
 
 /// Reads the expressions `[..]` after an O-word keyword (none when the line ends).
 fn exprs(it: &mut Interp<'_>, line: &[u8], from: usize) -> Result<Vec<f64>, (usize, GcodeErrorKind)> {
+    // An O-word line is not counted in the lines run: always read the state afresh.
+    it.synced_line = u64::MAX;
+    it.sync_params();
     let mut c = Cursor { b: line, i: from };
     let mut out = Vec::new();
     loop {

@@ -158,6 +158,8 @@ pub(super) struct Interp<'o> {
     pub(super) flow_request: bool,
     /// Lines are run by [`super::flow`], which takes O-word lines itself.
     pub(super) in_flow: bool,
+    /// [`ParseSummary::lines`] when [`Self::sync_params`] last ran.
+    pub(super) synced_line: u64,
     // Scratch reused across lines.
     pub(super) comments: Vec<(usize, usize)>,
     pub(super) assigns: Vec<(ParamKey, f64)>,
@@ -207,6 +209,7 @@ impl<'o> Interp<'o> {
             pending_layer: false,
             flow_request: false,
             in_flow: false,
+            synced_line: 0,
             comments: Vec::new(),
             assigns: Vec::new(),
             block: Block {
@@ -220,6 +223,37 @@ impl<'o> Interp<'o> {
                 nm: 0,
                 polar: None,
             },
+        }
+    }
+
+    /// Sets the read-only parameters a line's expressions may read, once per line, before
+    /// any of them is evaluated (as LinuxCNC, they show the state before the line): the
+    /// position `#5420`..`#5422` and `#<_x>`, `#<_y>`, `#<_z>` in program units,
+    /// `#<_metric>`, `#<_imperial>`, `#<_absolute>`, `#<_incremental>`, `#<_feed>`, `#<_rpm>`.
+    #[cold]
+    pub(super) fn sync_params(&mut self) {
+        // Keyed on the count of lines run, which grows when a loop runs a line again.
+        if self.synced_line == self.summary.lines {
+            return;
+        }
+        self.synced_line = self.summary.lines;
+        let s = self.scale();
+        let bool_v = |b: bool| if b { 1.0 } else { 0.0 };
+        for (i, name) in [b"_x", b"_y", b"_z"].iter().enumerate() {
+            let v = self.work(i) / s;
+            self.params.numbered[5420 + i] = v;
+            self.params.set_named(*name, v);
+        }
+        let named: [(&[u8], f64); 6] = [
+            (b"_metric", bool_v(!self.inch)),
+            (b"_imperial", bool_v(self.inch)),
+            (b"_absolute", bool_v(self.absolute)),
+            (b"_incremental", bool_v(!self.absolute)),
+            (b"_feed", self.feed / s),
+            (b"_rpm", self.rpm),
+        ];
+        for (name, v) in named {
+            self.params.set_named(name, v);
         }
     }
 

@@ -139,6 +139,7 @@ impl Interp<'_> {
 
     /// A parameter assignment `#<key> = <value>` at `at`.
     fn lex_assignment(&mut self, c: &mut Cursor<'_>, at: usize) -> Res<(), ()> {
+        self.sync_params();
         let key = c.param_key(&mut self.params, 0)?;
         if c.peek() != Some(b'=') {
             return Err(Fail::Line(
@@ -209,6 +210,7 @@ impl Interp<'_> {
             );
             return Ok(true);
         }
+        self.sync_params();
         let blk = &mut self.block;
         // A letter followed by another letter: a value-less word, unless a function call follows.
         let nx = c.peek();
