@@ -37,7 +37,14 @@ fuzz_target!(|data: &[u8]| {
         Some(1) => Some(RotaryAxes::BC),
         _ => None,
     };
-    let opts = ParseOptions { dialect, rotary, stop_at_program_end: false, ..ParseOptions::default() };
+    // O-word loops may run long: a small step limit keeps each execution quick.
+    let opts = ParseOptions {
+        dialect,
+        rotary,
+        stop_at_program_end: false,
+        max_steps: 20_000,
+        ..ParseOptions::default()
+    };
     let mut a = Count(0);
     let sa = parse_str(&text, &opts, &mut a).expect("infallible sink");
     // The streaming reader over the raw bytes must see the same number of lines.

@@ -48,6 +48,14 @@ pub enum GcodeErrorKind {
     /// A word has a value out of its range (a negative tool number, `P0` turns, ...).
     #[error("bad value: {0}")]
     BadValue(String),
+    /// O-word control flow that cannot run: an unmatched or misplaced O-word, a call of an
+    /// undefined subroutine, calls nested too deeply, a bad condition.
+    #[error("O-word control flow: {0}")]
+    ControlFlow(String),
+    /// More blocks executed than [`ParseOptions::max_steps`](crate::ParseOptions::max_steps)
+    /// (a loop that never ends): the program stops at this line.
+    #[error("more than {0} blocks executed (a loop that never ends?): program stopped")]
+    StepLimit(u64),
     /// An arc with neither `I`/`J`/`K` nor `R`.
     #[error("arc without centre: I, J, K and R words all missing")]
     ArcMissingCenter,

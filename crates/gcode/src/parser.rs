@@ -14,8 +14,10 @@
 //! feed rate, an arc without centre, `G53` without `G0`/`G1`, unknown codes, ...).
 //! [`ParseDialect::Auto`] (the default) accepts the same programs and also the usual
 //! dialect drift of real files: those cases become *warnings* in
-//! [`ParseSummary::warnings`] with a documented fallback (feed 0, a straight move for an
-//! arc without centre, `G70`/`G71` as inch/mm, unknown codes skipped with their line).
+//! [`ParseSummary::warnings`] with a documented fallback (feed 0, `G70`/`G71` as inch/mm,
+//! unknown codes skipped with their line). An arc without centre or radius is an error, as
+//! in `rs274`, until the program shows FDM evidence (then a straight move and a warning);
+//! so is an `E` word glued to a number (`X1e999`: exponent notation) before any.
 //! Auto switches to FDM semantics (`G4 P` in milliseconds, `G10`/`G11` firmware retract,
 //! `G28` homing, `G91` making `E` relative) once the program shows FDM evidence (`M82`,
 //! `M83`, `M104`, `M109`, `M140`, `M190` or an `E` word). [`ParseDialect::Fdm`] has those from
@@ -42,13 +44,24 @@
 //!   [`ParseDialect::Cnc`] it is an error, as in `rs274`.
 //! - `G4 X<seconds>` without `P` is Fanuc's dwell (a warning, once; an error under
 //!   [`ParseDialect::Cnc`]); the X word is the time, not a move.
-//! - LinuxCNC O-word control flow is not executed. A subroutine definition
-//!   (`o100 sub` .. `o100 endsub`) runs nothing, so its lines are skipped with one
-//!   warning. `if`/`while`/`do`/`repeat` blocks are reported as
-//!   [`GcodeErrorKind::Unsupported`](crate::GcodeErrorKind::Unsupported) on their first line and skipped up to the matching
-//!   `endif`/`endwhile`/`while`/`endrepeat` (their motions are missing, never run
-//!   unconditionally); `call`, `return` and stray closing lines are
-//!   [`GcodeErrorKind::Unsupported`](crate::GcodeErrorKind::Unsupported) too. A `%` line ends a skipped block.
+//! - Polar coordinates (`@` radius, `^` angle in degrees) give X and Y about the XY origin
+//!   of the work coordinates, as in LinuxCNC; under `G91` they add to the current point's
+//!   radius and angle, and each `L` repeat of a canned cycle in the XY plane adds them again
+//!   (a bolt circle: `G91 G81 R.1 Z-.5 ^60 L6`).
+//! - LinuxCNC O-word control flow runs: `sub`/`endsub`/`call` (arguments in `#1`..`#30`,
+//!   local to the call with the named parameters not starting with `_`), `return [v]`
+//!   and `endsub [v]` (into `#<_value>`, `#<_value_returned>`), `if`/`elseif`/`else`/`endif`,
+//!   `while`/`endwhile`, `do`/`while`, `repeat`/`endrepeat`, `break`, `continue`, with
+//!   numbered (`o100`, leading zeros ignored), named (`o<name>`) and computed (`o[..]`,
+//!   matched as written) labels. From the first O-word line on, the rest of the program is
+//!   read whole and run with a program counter (plain programs keep the streaming path);
+//!   an unmatched O-word (before anything of the rest runs), a failed condition or call
+//!   (where it is reached) stop the program with a
+//!   [`GcodeErrorKind::ControlFlow`](crate::GcodeErrorKind::ControlFlow) error at its line, as do
+//!   more than [`ParseOptions::max_steps`] executed blocks
+//!   ([`GcodeErrorKind::StepLimit`](crate::GcodeErrorKind::StepLimit)). Calling a subroutine
+//!   the program does not define is an error at the call (subroutines in other files are
+//!   not searched for).
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -60,6 +73,7 @@ use words::find_eol;
 
 mod cycle;
 mod execute;
+mod flow;
 mod interp;
 mod lex;
 mod moves;
@@ -159,6 +173,9 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
         if buf.is_empty() {
             if pending {
                 it.line_checked(&line, too_long, sink)?;
+                if it.flow_request {
+                    flow::run(&mut it, &line, &[], sink)?;
+                }
             }
             break;
         }
@@ -174,12 +191,17 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
                 let end = start + k;
                 if line.is_empty() && !too_long {
                     it.line(&buf[start..end], sink)?;
+                    if it.done && it.flow_request {
+                        line.extend_from_slice(&buf[start..end]);
+                    }
                 } else {
                     if !too_long {
                         line.extend_from_slice(&buf[start..end]);
                     }
                     it.line_checked(&line, too_long, sink)?;
-                    line.clear();
+                    if !(it.done && it.flow_request) {
+                        line.clear();
+                    }
                     too_long = false;
                 }
                 pending = false;
@@ -205,6 +227,21 @@ fn parse_reader_path<R: BufRead, S: MotionSink>(
         };
         bytes += consumed as u64;
         reader.consume(consumed);
+        if it.done && it.flow_request {
+            // O-word control flow: the rest of the program is read whole and run from here.
+            let mut rest = Vec::new();
+            loop {
+                match reader.read_to_end(&mut rest) {
+                    Ok(_) => break,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(source) => return Err(ParseError::Io { path: io_path, source }),
+                }
+            }
+            bytes += rest.len() as u64;
+            let from = usize::from(skip_lf && rest.first() == Some(&b'\n'));
+            flow::run(&mut it, &line, &rest[from..], sink)?;
+            break;
+        }
         if it.done {
             break;
         }

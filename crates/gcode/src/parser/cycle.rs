@@ -95,9 +95,19 @@ impl Interp<'_> {
         let clear = if self.retract_r_plane { r } else { old_cc };
         // LinuxCNC's CYCLE_MACRO: the first positioning happens at the current height,
         // later ones at the clearance height.
+        let polar = self.block.polar.filter(|_| (ua, ub) == (0, 1));
         for rep in 0..repeats {
-            aa += inc_a;
-            bb += inc_b;
+            match polar {
+                // LinuxCNC turns a polar point again at each repeat.
+                Some((dr, da)) if rep > 0 => {
+                    let (r, a) = (aa.hypot(bb) + dr, bb.atan2(aa) + da);
+                    (aa, bb) = (r * a.cos(), r * a.sin());
+                }
+                _ => {
+                    aa += inc_a;
+                    bb += inc_b;
+                }
+            }
             if rep == 0 && current_cc > r {
                 go!(true, aa, bb, current_cc);
                 go!(true, aa, bb, r);

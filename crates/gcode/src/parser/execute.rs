@@ -2,7 +2,7 @@
 
 use std::borrow::Cow;
 
-use super::interp::{Fail, Interp, Mode, Res, bit, fmt_code};
+use super::interp::{Fail, Interp, Mode, POLAR_A, POLAR_R, Res, bit, fmt_code};
 use super::words::Pre;
 use crate::error::GcodeErrorKind;
 use crate::expr::ParamKey;
@@ -32,13 +32,9 @@ impl Interp<'_> {
         pre: Option<Pre<'_>>,
         sink: &mut S,
     ) -> Res<(), S::Error> {
-        if self.skip_o.is_some() && self.skipped_o_line(line) {
-            return Ok(());
-        }
         let lexed = match pre {
-            // Inside a skipped O-word block the full lexer decides.
-            Some(p) if self.skip_o.is_none() => Ok(self.load_pre(p)),
-            _ => self.lex(line),
+            Some(p) => Ok(self.load_pre(p)),
+            None => self.lex(line),
         };
         let has = match lexed {
             Ok(h) => h,
@@ -48,6 +44,12 @@ impl Interp<'_> {
         if !has {
             return Ok(());
         }
+        if self.block.mask & bit(b'e') != 0 && !self.fdm {
+            self.exponent_check(line)?;
+        }
+        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A)) != 0 {
+            self.polar()?;
+        }
         self.comments_and_markers(line, sink)?;
         if self.block.mask == 0 && self.block.ng == 0 && self.block.nm == 0 {
             self.apply_assignments(line);
@@ -55,6 +57,76 @@ impl Interp<'_> {
         }
         self.execute(sink)?;
         self.apply_assignments(line);
+        Ok(())
+    }
+
+    /// Turns the block's polar words into X and Y words (LinuxCNC): the point at radius `@`
+    /// and angle `^` (degrees, counter-clockwise from +X) about the XY origin of the work
+    /// coordinates; a missing one keeps the current point's. Under `G91` both are added to
+    /// the current point's radius and angle.
+    #[cold]
+    fn polar<E>(&mut self) -> Res<(), E> {
+        let blk = &self.block;
+        let at = [POLAR_R, POLAR_A].iter().filter(|&&l| blk.has(l)).map(|&l| blk.col(l)).min().unwrap_or(0);
+        if blk.has(b'x') || blk.has(b'y') {
+            return Err(Fail::Line(
+                at,
+                GcodeErrorKind::ModalConflict("X or Y words with polar coordinates (@, ^)".into()),
+            ));
+        }
+        let codes = &blk.g[..blk.ng];
+        let absolute = codes.iter().rev().find_map(|&(g, _)| match g {
+            900 => Some(true),
+            910 => Some(false),
+            _ => None,
+        });
+        let inch = codes.iter().rev().find_map(|&(g, _)| match g {
+            200 => Some(true),
+            210 => Some(false),
+            _ => None,
+        });
+        let absolute = absolute.unwrap_or(self.absolute);
+        let scale = if inch.unwrap_or(self.inch) { super::interp::INCH } else { 1.0 };
+        let (cx, cy) = (self.work(0) / scale, self.work(1) / scale);
+        let (r0, a0) = (cx.hypot(cy), cy.atan2(cx));
+        let (r, a) = (blk.get(POLAR_R), blk.get(POLAR_A).map(f64::to_radians));
+        let (r, a) = if absolute {
+            (r.unwrap_or(r0), a.unwrap_or(a0))
+        } else {
+            (r0 + r.unwrap_or(0.0), a0 + a.unwrap_or(0.0))
+        };
+        let (x, y) = (r * a.cos(), r * a.sin());
+        let (x, y) = if absolute { (x, y) } else { (x - cx, y - cy) };
+        let step = (!absolute).then(|| {
+            (blk.get(POLAR_R).unwrap_or(0.0) * scale, blk.get(POLAR_A).map_or(0.0, f64::to_radians))
+        });
+        let blk = &mut self.block;
+        blk.polar = step;
+        blk.mask &= !(bit(POLAR_R) | bit(POLAR_A));
+        for (l, v) in [(b'x', x), (b'y', y)] {
+            blk.mask |= bit(l);
+            blk.vals[(l - b'a') as usize] = v;
+            blk.cols[(l - b'a') as usize] = at as u32;
+        }
+        Ok(())
+    }
+
+    /// An `E` word glued to the number before it (`X1e999`, `X1E5`) in a program with no
+    /// printer evidence yet: exponent notation, which G-code does not have; `rs274` rejects
+    /// the E word ("E word with no G70, G76, M66, M67 or M68 to use it").
+    #[cold]
+    fn exponent_check<E>(&mut self, line: &[u8]) -> Res<(), E> {
+        let c = self.block.col(b'e');
+        if c > 0 && matches!(line.get(c - 1), Some(b'0'..=b'9' | b'.')) {
+            return Err(Fail::Line(
+                c,
+                GcodeErrorKind::NotGcode(
+                    "E word with no G70, G76, M66, M67 or M68 to use it (exponent notation such as \
+                     1e5 is not G-code)"
+                        .into(),
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -163,6 +235,8 @@ impl Interp<'_> {
                 980 | 990 => 9,
                 540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 10,
                 610 | 611 | 640 => 11,
+                // Lathe radius mode, LinuxCNC's default (G7 diameter mode is not supported).
+                80 => 13,
                 110 if self.fdm || !self.strict => 0,
                 40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
                 530 => 12,

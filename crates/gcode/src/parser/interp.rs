@@ -70,19 +70,27 @@ pub(super) enum Mode {
 pub(super) const fn bit(letter: u8) -> u32 {
     1 << (letter - b'a')
 }
+/// The internal letters of the polar words `@` (radius) and `^` (angle): the two slots
+/// after `z`.
+pub(super) const POLAR_R: u8 = b'a' + 26;
+pub(super) const POLAR_A: u8 = b'a' + 27;
 pub(super) const AXES: [u8; 3] = [b'x', b'y', b'z'];
 pub(super) const OFFS: [u8; 3] = [b'i', b'j', b'k'];
 
 /// One line's words.
 pub(super) struct Block {
-    pub(super) vals: [f64; 26],
-    pub(super) cols: [u32; 26],
+    /// Values by letter `a`..`z`, then [`POLAR_R`] (`@`) and [`POLAR_A`] (`^`).
+    pub(super) vals: [f64; 28],
+    pub(super) cols: [u32; 28],
     pub(super) mask: u32,
     pub(super) novalue: u32,
     pub(super) g: [(u16, u32); 16],
     pub(super) ng: usize,
     pub(super) m: [(u16, u32); 8],
     pub(super) nm: usize,
+    /// Under `G91`, the block's polar increments (`@` in program units, `^` in radians):
+    /// each `L` repeat of a canned cycle turns and stretches the point again.
+    pub(super) polar: Option<(f64, f64)>,
 }
 
 impl Block {
@@ -145,8 +153,13 @@ pub(super) struct Interp<'o> {
     pub(super) rot: [f64; 3],
     // Slicer markers.
     pub(super) pending_layer: bool,
-    /// An O-word block being skipped: its normalised label and the keyword that closes it.
-    pub(super) skip_o: Option<(Vec<u8>, &'static str)>,
+    /// The line just lexed starts O-word control flow: the driver runs the rest with
+    /// [`super::flow`]. Set with [`Self::done`], so that drivers test one flag per line.
+    pub(super) flow_request: bool,
+    /// Lines are run by [`super::flow`], which takes O-word lines itself.
+    pub(super) in_flow: bool,
+    /// [`ParseSummary::lines`] when [`Self::sync_params`] last ran.
+    pub(super) synced_line: u64,
     // Scratch reused across lines.
     pub(super) comments: Vec<(usize, usize)>,
     pub(super) assigns: Vec<(ParamKey, f64)>,
@@ -194,19 +207,53 @@ impl<'o> Interp<'o> {
             cycle_q: 0.0,
             rot: [0.0; 3],
             pending_layer: false,
-            skip_o: None,
+            flow_request: false,
+            in_flow: false,
+            synced_line: 0,
             comments: Vec::new(),
             assigns: Vec::new(),
             block: Block {
-                vals: [0.0; 26],
-                cols: [0; 26],
+                vals: [0.0; 28],
+                cols: [0; 28],
                 mask: 0,
                 novalue: 0,
                 g: [(0, 0); 16],
                 ng: 0,
                 m: [(0, 0); 8],
                 nm: 0,
+                polar: None,
             },
+        }
+    }
+
+    /// Sets the read-only parameters a line's expressions may read, once per line, before
+    /// any of them is evaluated (as LinuxCNC, they show the state before the line): the
+    /// position `#5420`..`#5422` and `#<_x>`, `#<_y>`, `#<_z>` in program units,
+    /// `#<_metric>`, `#<_imperial>`, `#<_absolute>`, `#<_incremental>`, `#<_feed>`, `#<_rpm>`.
+    #[cold]
+    pub(super) fn sync_params(&mut self) {
+        // Keyed on the count of lines run, which grows when a loop runs a line again.
+        if self.synced_line == self.summary.lines {
+            return;
+        }
+        self.synced_line = self.summary.lines;
+        let s = self.scale();
+        let bool_v = |b: bool| if b { 1.0 } else { 0.0 };
+        for (i, name) in [b"_x", b"_y", b"_z"].iter().enumerate() {
+            let v = self.work(i) / s;
+            self.params.numbered[5420 + i] = v;
+            self.params.set_named(*name, v);
+        }
+        let named: [(&[u8], f64); 6] = [
+            (b"_metric", bool_v(!self.inch)),
+            (b"_imperial", bool_v(self.inch)),
+            (b"_absolute", bool_v(self.absolute)),
+            (b"_incremental", bool_v(!self.absolute)),
+            (b"_feed", self.feed / s),
+            (b"_rpm", self.rpm),
+        ];
+        for (name, v) in named {
+            self.params.set_named(name, v);
         }
     }
 
@@ -291,15 +338,6 @@ impl<'o> Interp<'o> {
         mut self,
         sink: &mut S,
     ) -> Result<ParseSummary, ParseError<S::Error>> {
-        if let Some((label, end)) = self.skip_o.take() {
-            let label = String::from_utf8_lossy(&label).into_owned();
-            self.record(
-                0,
-                GcodeErrorKind::Unsupported(format!(
-                    "O-word block o{label} not closed by 'o{label} {end}': the rest of the program was skipped"
-                )),
-            )?;
-        }
         if self.pending_layer {
             self.pending_layer = false;
             self.emit(sink, &Motion::Marker(Marker::Layer { index: None, z: None })).map_err(
@@ -394,6 +432,13 @@ pub(super) fn parse_bytes<S: MotionSink>(
         let end = find_eol(rest).unwrap_or(rest.len());
         it.line(&rest[..end], sink)?;
         if it.done {
+            if it.flow_request {
+                let mut j = i + end;
+                if j < b.len() {
+                    j += if b[j] == b'\r' && b.get(j + 1) == Some(&b'\n') { 2 } else { 1 };
+                }
+                super::flow::run(&mut it, &rest[..end], &b[j..], sink)?;
+            }
             break;
         }
         i += end;

@@ -1,6 +1,6 @@
 //! Lexing: a line into words, comments and parameter assignments; O words.
 
-use super::interp::{Fail, Interp, Res, bad_code, bit, repeated, too_many};
+use super::interp::{Fail, Interp, POLAR_A, POLAR_R, Res, bad_code, bit, repeated, too_many};
 use super::words::{Pre, plain_code, starts_plain_number};
 use crate::error::GcodeErrorKind;
 use crate::expr::Cursor;
@@ -14,6 +14,7 @@ impl Interp<'_> {
         blk.novalue = 0;
         blk.ng = 0;
         blk.nm = 0;
+        blk.polar = None;
         self.comments.clear();
         self.assigns.clear();
     }
@@ -76,6 +77,20 @@ impl Interp<'_> {
                     break;
                 }
                 b'#' => self.lex_assignment(&mut c, at)?,
+                b'@' | b'^' => {
+                    // Polar coordinates: `@` radius, `^` angle (degrees).
+                    c.i += 1;
+                    if matches!(c.peek(), None | Some(b';' | b'(')) {
+                        let what = format!("expected a number after '{}'", ch as char);
+                        return Err(Fail::Line(at, GcodeErrorKind::NotGcode(what)));
+                    }
+                    let v = c.real_value(&mut self.params, 0)?;
+                    let l = if ch == b'@' { POLAR_R } else { POLAR_A };
+                    if self.block.mask & bit(l) != 0 {
+                        return Err(Fail::Line(at, GcodeErrorKind::RepeatedWord(ch as char)));
+                    }
+                    self.store_word(l, v, at)?;
+                }
                 _ if ch.is_ascii_alphabetic() => {
                     if !self.lex_word(b, &mut c, at, ch, &mut letter_run)? {
                         return Ok(false);
@@ -124,6 +139,7 @@ impl Interp<'_> {
 
     /// A parameter assignment `#<key> = <value>` at `at`.
     fn lex_assignment(&mut self, c: &mut Cursor<'_>, at: usize) -> Res<(), ()> {
+        self.sync_params();
         let key = c.param_key(&mut self.params, 0)?;
         if c.peek() != Some(b'=') {
             return Err(Fail::Line(
@@ -194,6 +210,7 @@ impl Interp<'_> {
             );
             return Ok(true);
         }
+        self.sync_params();
         let blk = &mut self.block;
         // A letter followed by another letter: a value-less word, unless a function call follows.
         let nx = c.peek();
@@ -327,86 +344,63 @@ impl Interp<'_> {
                 )),
             };
         }
-        let end: Option<&'static str> = match o.keyword.as_str() {
-            "sub" => Some("endsub"),
-            "if" => Some("endif"),
-            "while" => Some("endwhile"),
-            "do" => Some("while"),
-            "repeat" => Some("endrepeat"),
-            _ => None,
-        };
-        let label = String::from_utf8_lossy(&b[o.label.0..o.label.1]).trim().to_string();
-        match end {
-            Some(end) if o.keyword == "sub" => {
-                // A definition runs nothing: skip its body (calls are reported where they are).
-                self.skip_o = Some((o.norm, end));
-                self.warn(
-                    at,
-                    GcodeErrorKind::Unsupported(format!(
-                        "O-word subroutine ({shown}): body up to 'o{label} endsub' skipped; calls are not supported"
-                    )),
-                );
-                Ok(None)
-            }
-            Some(end) => {
-                self.skip_o = Some((o.norm, end));
-                Err(Fail::Line(
-                    at,
-                    GcodeErrorKind::Unsupported(format!(
-                        "O-word control flow ({shown}): lines up to 'o{label} {end}' skipped"
-                    )),
-                ))
-            }
-            None => Err(Fail::Line(
+        if !alone || !rest_empty && !flow_keyword_takes_args(&o.keyword) {
+            return Err(Fail::Line(
                 at,
-                GcodeErrorKind::Unsupported(format!("O-word control flow ({shown}): line skipped")),
-            )),
+                GcodeErrorKind::ControlFlow(format!("{shown}: an O-word must begin its line, alone")),
+            ));
         }
+        if self.in_flow || !is_flow_keyword(&o.keyword) {
+            // Under control flow every O-word line is taken by the flow driver first.
+            return Err(Fail::Line(
+                at,
+                GcodeErrorKind::ControlFlow(format!("{shown}: unknown O-word keyword '{}'", o.keyword)),
+            ));
+        }
+        // The driver runs the program from this line on with control flow.
+        self.flow_request = true;
+        self.done = true;
+        Ok(None)
     }
+}
 
-    /// While an O-word block is skipped: `true` when `line` is skipped too (the
-    /// closing line included); `false` for a `%` line, which still ends the program.
-    #[cold]
-    pub(super) fn skipped_o_line(&mut self, line: &[u8]) -> bool {
-        let mut i = 0;
-        let blank = |c: u8| c == b' ' || c == b'\t';
-        while i < line.len() && (blank(line[i]) || line[i] == b'/') {
-            i += 1;
-        }
-        if line.get(i) == Some(&b'%') {
-            self.skip_o = None;
-            return false;
-        }
-        if matches!(line.get(i), Some(b'n' | b'N')) {
-            i += 1;
-            while i < line.len() && (blank(line[i]) || line[i].is_ascii_digit() || line[i] == b'.') {
-                i += 1;
-            }
-        }
-        if matches!(line.get(i), Some(b'o' | b'O'))
-            && let Ok(o) = read_o_word(line, i)
-            && let Some((label, end)) = &self.skip_o
-            && o.norm == *label
-            && o.keyword == *end
-        {
-            self.skip_o = None;
-        }
-        true
-    }
+/// Whether `kw` is a LinuxCNC O-word keyword.
+pub(super) fn is_flow_keyword(kw: &str) -> bool {
+    matches!(
+        kw,
+        "sub"
+            | "endsub"
+            | "call"
+            | "return"
+            | "if"
+            | "elseif"
+            | "else"
+            | "endif"
+            | "while"
+            | "endwhile"
+            | "do"
+            | "break"
+            | "continue"
+            | "repeat"
+            | "endrepeat"
+    )
+}
+
+/// Whether an O-word keyword may be followed by expressions on its line.
+fn flow_keyword_takes_args(kw: &str) -> bool {
+    matches!(kw, "call" | "return" | "endsub" | "if" | "elseif" | "while" | "repeat")
 }
 
 /// An O word as read by [`read_o_word`].
 pub(super) struct OWord {
-    /// Byte range of the label inside the line (`100`, `<name>`, `[expr]`).
-    label: (usize, usize),
     /// The label lowercased, without blanks and leading zeros: what closing lines must repeat.
-    norm: Vec<u8>,
+    pub(super) norm: Vec<u8>,
     /// The value of an all-digit label.
     number: Option<u32>,
     /// The keyword (`sub`, `if`, ...), lowercased; empty when none.
-    keyword: String,
+    pub(super) keyword: String,
     /// Where the line goes on after the keyword.
-    end: usize,
+    pub(super) end: usize,
 }
 
 /// Reads the O word whose letter is at `at`: its label and keyword.
@@ -451,7 +445,6 @@ pub(super) fn read_o_word(b: &[u8], at: usize) -> Result<OWord, GcodeErrorKind> 
     if i == start {
         return Err(GcodeErrorKind::NotGcode("expected a number or <name> after 'O'".into()));
     }
-    let label = (start, i);
     let mut norm: Vec<u8> = b[start..i].iter().filter(|&&c| !blank(c)).map(u8::to_ascii_lowercase).collect();
     let digits = norm.iter().all(u8::is_ascii_digit);
     if digits {
@@ -471,5 +464,5 @@ pub(super) fn read_o_word(b: &[u8], at: usize) -> Result<OWord, GcodeErrorKind> 
         i += 1;
     }
     let keyword = String::from_utf8_lossy(&b[ks..i]).to_ascii_lowercase();
-    Ok(OWord { label, norm, number, keyword, end: i })
+    Ok(OWord { norm, number, keyword, end: i })
 }

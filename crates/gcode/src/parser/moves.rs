@@ -160,7 +160,13 @@ impl Interp<'_> {
                 // `G2` alone on a line: only the mode changes (grbl, cncjs).
                 return Ok(());
             }
-            self.lenient(col0, GcodeErrorKind::ArcMissingCenter)?;
+            if self.fdm {
+                // Printer firmware drift: a straight move, with a warning.
+                self.warn(col0, GcodeErrorKind::ArcMissingCenter);
+            } else {
+                // `rs274`: "R, I, J, K words all missing for arc".
+                return Err(Fail::Line(col0, GcodeErrorKind::ArcMissingCenter));
+            }
             self.need_feed("arc")?;
             let extrude = self.extrusion();
             self.set_work(end);

@@ -51,6 +51,18 @@ pub struct ParseOptions {
     /// are ignored. Default `None`: rotary words are ignored, and a block of rotary words
     /// only is a zero-length move, as `rs274` reports it.
     pub rotary: Option<RotaryAxes>,
+    /// Most blocks one program may execute when it uses O-word control flow (loops and
+    /// calls run lines again); past it the program stops with
+    /// [`GcodeErrorKind::StepLimit`](crate::GcodeErrorKind::StepLimit) at the line
+    /// reached. Default: 10 000 000.
+    pub max_steps: u64,
+    /// Most nested O-word subroutine calls. Default: 100.
+    pub max_call_depth: usize,
+    /// Folders searched, in order, for `name.ngc` when a program calls `o<name>` without
+    /// defining it (LinuxCNC's `SUBROUTINE_PATH`); the file's `o<name> sub` .. `endsub`
+    /// is added after the program (errors in it are reported past the program's last
+    /// line). Default: none.
+    pub subroutine_path: Vec<std::path::PathBuf>,
 }
 
 impl Default for ParseOptions {
@@ -65,6 +77,9 @@ impl Default for ParseOptions {
             firmware_retract_mm: 1.0,
             max_reported: 10_000,
             rotary: None,
+            max_steps: 10_000_000,
+            max_call_depth: 100,
+            subroutine_path: Vec::new(),
         }
     }
 }

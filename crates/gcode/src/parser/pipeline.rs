@@ -263,6 +263,13 @@ pub(super) fn parse_two_stage<S: MotionSink>(
                 };
                 it.line_pre(line, pre, sink)?;
                 if it.done {
+                    if it.flow_request {
+                        let mut j = r.end;
+                        if j < b.len() {
+                            j += if b[j] == b'\r' && b.get(j + 1) == Some(&b'\n') { 2 } else { 1 };
+                        }
+                        return super::flow::run(&mut it, line, &b[j..], sink);
+                    }
                     return Ok(());
                 }
             }
