@@ -165,12 +165,7 @@ pub fn policy_by_name(name: &str, space: &ActionSpace, seed: u64) -> Option<Box<
 fn learned_by_name(name: &str) -> Option<Box<dyn Policy>> {
     #[cfg(feature = "learn")]
     {
-        let policy = if name == "learned" {
-            LearnedPolicy::bundled()
-        } else {
-            LearnedPolicy::load(std::path::Path::new(name))
-        };
-        policy.ok().map(|p| Box::new(p) as Box<dyn Policy>)
+        LearnedPolicy::named(name).ok().map(|p| Box::new(p) as Box<dyn Policy>)
     }
     #[cfg(not(feature = "learn"))]
     {

@@ -328,7 +328,7 @@ impl Simulator {
     /// Adds (or replaces) tool `number` of the tool table, for the tool changes still to
     /// come. Errors on an invalid cutter.
     pub fn add_tool(&mut self, number: u32, cutter: Cutter) -> Result<()> {
-        cutter.validate().map_err(|e| crate::tool::numbered_tool_error(number, e))?;
+        cutter.validate().map_err(|e| crate::tool::tool_error(Some(number), e))?;
         self.tools.tools.insert(number, cutter);
         Ok(())
     }

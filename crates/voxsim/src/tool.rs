@@ -35,24 +35,21 @@ impl ToolTable {
 
     /// Validates every cutter.
     pub fn validate(&self) -> Result<()> {
-        // The default cutter's error is an invalid tool too, as before the cutter moved to
-        // geom (whose error would otherwise come through as `SimError::Geom`).
-        self.default.validate().map_err(|e| match e {
-            s2g_geom::GeomError::InvalidTool(m) => SimError::InvalidTool(m),
-            e => e.into(),
-        })?;
+        self.default.validate().map_err(|e| tool_error(None, e))?;
         for (&n, c) in &self.tools {
-            c.validate().map_err(|e| numbered_tool_error(n, e))?;
+            c.validate().map_err(|e| tool_error(Some(n), e))?;
         }
         Ok(())
     }
 }
 
-/// `tool N: ...` for a numbered tool's validation error.
-pub(crate) fn numbered_tool_error(number: u32, e: s2g_geom::GeomError) -> SimError {
-    match e {
-        s2g_geom::GeomError::InvalidTool(m) => SimError::InvalidTool(format!("tool {number}: {m}")),
-        e => e.into(),
+/// A cutter's validation error as the simulator's [`SimError::InvalidTool`] (geom's would
+/// otherwise come through as [`SimError::Geom`]), `tool N: ...` for a numbered tool.
+pub(crate) fn tool_error(number: Option<u32>, e: s2g_geom::GeomError) -> SimError {
+    match (e, number) {
+        (s2g_geom::GeomError::InvalidTool(m), None) => SimError::InvalidTool(m),
+        (s2g_geom::GeomError::InvalidTool(m), Some(n)) => SimError::InvalidTool(format!("tool {n}: {m}")),
+        (e, _) => e.into(),
     }
 }
 
