@@ -54,11 +54,6 @@ impl Ring {
     pub(crate) fn area(&self) -> f64 {
         shoelace(&self.0)
     }
-
-    /// The ring translated by `(dx, dy)` and snapped.
-    pub(crate) fn translated(&self, dx: f64, dy: f64) -> Self {
-        Ring::snapped(self.0.iter().map(|p| [p[0] + dx, p[1] + dy]))
-    }
 }
 
 /// Signed area of a closed polygon (shoelace).
