@@ -11,6 +11,7 @@ mod eval;
 mod feature;
 mod field;
 mod gcode;
+mod r#gen;
 mod inspect;
 mod mill;
 mod orient;
@@ -36,6 +37,8 @@ enum Command {
     Field(field::Args),
     /// Mill a mesh: orientations, toolpaths, G-code, then simulate the written G-code and score it.
     Mill(mill::Args),
+    /// Generate CAD-like parts (prismatic, turned, freeform, mix, or the five shop parts) as STL plus a manifest.
+    Gen(r#gen::Args),
     /// Parse a G-code program: `check` errors, `stats`, or `motions` as JSON lines.
     Gcode(gcode::Args),
     /// Load a mesh and print its checks (closed, manifold, volume, bounding box, ...).
@@ -68,6 +71,7 @@ fn main() -> ExitCode {
         Command::Field(args) => field::run(args),
         Command::Mill(args) => mill::run(args),
         Command::Gcode(args) => gcode::run(args),
+        Command::Gen(args) => r#gen::run(args),
         Command::Inspect(args) => inspect::run(args),
         Command::Orient(args) => orient::run(args),
         Command::Reconstruct(args) => reconstruct::run(args),

@@ -208,7 +208,6 @@ impl Prism {
 
     /// A rounded-rectangle pocket of half sides `h`, corner radius `r`, from `z_top`
     /// down to `z_bottom`, its walls drafted by `draft` radians (inset at the floor).
-    #[allow(clippy::too_many_arguments)] // One pocket's parameters, each named in the manifest.
     pub(crate) fn pocket(&mut self, c: P2, h: [f64; 2], r: f64, z_top: f64, z_bottom: f64, draft: f64) {
         let ring = |d: f64| rounded_rect_centered(c, [h[0] - d, h[1] - d], r - d, CORNER_SEGMENTS).reversed();
         let inset = (z_top - z_bottom) * draft.tan();
@@ -230,7 +229,6 @@ impl Prism {
     }
 
     /// An obround slot of `length` (end to end) and `width`.
-    #[allow(clippy::too_many_arguments)] // One slot's parameters, each named in the manifest.
     pub(crate) fn slot(&mut self, c: P2, length: f64, width: f64, along_x: bool, z_top: f64, z_bottom: f64) {
         let ring = stadium(c, (length - width) / 2.0, width / 2.0, along_x, CORNER_SEGMENTS).reversed();
         self.columns.push(Column::straight(ring, z_bottom, z_top));
