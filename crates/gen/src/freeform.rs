@@ -35,7 +35,11 @@ pub(crate) fn freeform(rng: &mut SplitMix64, size: f64) -> Result<HeightField> {
         let c = [draw(rng, -0.5, 0.5) * lx, draw(rng, -0.5, 0.5) * ly];
         let sigma = draw(rng, 0.08, 0.3) * size;
         // Dents are shallow enough that all of them together leave half the base.
-        let a = if rng.unit() < 0.3 { -draw(rng, 0.1, 0.5) * base / count as f64 } else { draw(rng, 0.1, 0.8) * base };
+        let a = if rng.unit() < 0.3 {
+            -draw(rng, 0.1, 0.5) * base / count as f64
+        } else {
+            draw(rng, 0.1, 0.8) * base
+        };
         bumps.push((c, sigma, a));
         features.push(Feature::Bump { center: c, radius: sigma, height: a });
     }
@@ -45,9 +49,12 @@ pub(crate) fn freeform(rng: &mut SplitMix64, size: f64) -> Result<HeightField> {
     let height = |x: f64, y: f64| {
         let b: f64 = bumps
             .iter()
-            .map(|&(c, s, a): &([f64; 2], f64, f64)| a * (-((x - c[0]).powi(2) + (y - c[1]).powi(2)) / (2.0 * s * s)).exp())
+            .map(|&(c, s, a): &([f64; 2], f64, f64)| {
+                a * (-((x - c[0]).powi(2) + (y - c[1]).powi(2)) / (2.0 * s * s)).exp()
+            })
             .sum();
-        let w = amp * (std::f64::consts::TAU * x / wave[0]).sin() * (std::f64::consts::TAU * y / wave[1]).cos();
+        let w =
+            amp * (std::f64::consts::TAU * x / wave[0]).sin() * (std::f64::consts::TAU * y / wave[1]).cos();
         snap(base + b + w)
     };
     let xs: Vec<f64> = (0..=nx).map(|i| snap(-lx / 2.0 + lx * i as f64 / nx as f64)).collect();
@@ -77,8 +84,11 @@ pub(crate) fn freeform(rng: &mut SplitMix64, size: f64) -> Result<HeightField> {
                 let [a, b, c] = tri.map(|k| quad[k]);
                 triangles.push([top(a.0, a.1), top(b.0, b.1), top(c.0, c.1)]);
                 triangles.push([bottom(a.0, a.1), bottom(c.0, c.1), bottom(b.0, b.1)]);
-                let area = 0.5 * ((xs[b.0] - xs[a.0]) * (ys[c.1] - ys[a.1]) - (xs[c.0] - xs[a.0]) * (ys[b.1] - ys[a.1]));
-                let hsum = tops[top(a.0, a.1) as usize] + tops[top(b.0, b.1) as usize] + tops[top(c.0, c.1) as usize];
+                let area = 0.5
+                    * ((xs[b.0] - xs[a.0]) * (ys[c.1] - ys[a.1]) - (xs[c.0] - xs[a.0]) * (ys[b.1] - ys[a.1]));
+                let hsum = tops[top(a.0, a.1) as usize]
+                    + tops[top(b.0, b.1) as usize]
+                    + tops[top(c.0, c.1) as usize];
                 volume += area * hsum / 3.0;
             }
         }

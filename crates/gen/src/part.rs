@@ -129,11 +129,12 @@ pub fn generate(seed: u64, index: u64, options: &GenOptions) -> Result<Part> {
         Kind::Mix => {
             let u = rng.unit();
             let mut acc = 0.0;
-            MIX.iter().find(|(_, p)| {
-                acc += p;
-                u < acc
-            })
-            .map_or(Kind::Freeform, |m| m.0)
+            MIX.iter()
+                .find(|(_, p)| {
+                    acc += p;
+                    u < acc
+                })
+                .map_or(Kind::Freeform, |m| m.0)
         }
         k => k,
     };
@@ -152,7 +153,13 @@ pub fn generate(seed: u64, index: u64, options: &GenOptions) -> Result<Part> {
         _ => {
             let prism = prismatic(&mut rng, size);
             let built = prism.build()?;
-            Ok(Part { name, kind: Kind::Prismatic, features: prism.features, mesh: built.mesh, volume: built.volume })
+            Ok(Part {
+                name,
+                kind: Kind::Prismatic,
+                features: prism.features,
+                mesh: built.mesh,
+                volume: built.volume,
+            })
         }
     }
 }

@@ -88,7 +88,9 @@ impl Prism {
     pub(crate) fn new(outline: Outline, height: f64, edge: Edge) -> Self {
         let height = snap(height);
         let mut features = vec![match outline {
-            Outline::Rect { h, r } => Feature::Block { size: [2.0 * h[0], 2.0 * h[1], height], corner_radius: r },
+            Outline::Rect { h, r } => {
+                Feature::Block { size: [2.0 * h[0], 2.0 * h[1], height], corner_radius: r }
+            }
             Outline::Disc { r } => Feature::Disc { diameter: 2.0 * r, height, segments: DISC_SEGMENTS },
         }];
         match edge {
@@ -132,9 +134,14 @@ impl Prism {
             let ys = intervals(-half[1], half[1], active.iter().filter(|b| b.across_y));
             for &(x0, x1) in &xs {
                 for &(y0, y1) in &ys {
-                    let corner = |x: f64, y: f64| if x.abs() == half[0] && y.abs() == half[1] { r } else { 0.0 };
+                    let corner =
+                        |x: f64, y: f64| if x.abs() == half[0] && y.abs() == half[1] { r } else { 0.0 };
                     let radii = [corner(x1, y0), corner(x1, y1), corner(x0, y1), corner(x0, y0)];
-                    out.push(Column::straight(rounded_rect(x0, y0, x1, y1, radii, CORNER_SEGMENTS), w[0], w[1]));
+                    out.push(Column::straight(
+                        rounded_rect(x0, y0, x1, y1, radii, CORNER_SEGMENTS),
+                        w[0],
+                        w[1],
+                    ));
                 }
             }
         }
@@ -167,7 +174,8 @@ impl Prism {
     pub(crate) fn t_slot(&mut self, y: f64, neck: [f64; 2], head: [f64; 2]) {
         let zn = snap(self.height - neck[1]);
         let zh = snap(zn - head[1]);
-        let band = |w: f64, z0, z1| Band { across_y: true, lo: snap(y - w / 2.0), hi: snap(y + w / 2.0), z0, z1 };
+        let band =
+            |w: f64, z0, z1| Band { across_y: true, lo: snap(y - w / 2.0), hi: snap(y + w / 2.0), z0, z1 };
         self.bands.push(band(neck[0], zn, self.height));
         self.bands.push(band(head[0], zh, zn));
         self.features.push(Feature::TSlot {
@@ -188,7 +196,13 @@ impl Prism {
             Column::straight(ring(0.0), z_bottom, z_top)
         };
         self.columns.push(column);
-        self.features.push(Feature::Hole { center: c, diameter: d, z_top, depth: z_top - z_bottom, countersink: cs });
+        self.features.push(Feature::Hole {
+            center: c,
+            diameter: d,
+            z_top,
+            depth: z_top - z_bottom,
+            countersink: cs,
+        });
     }
 
     /// A counterbored hole: hole `d` from `z_bottom` up, bore `bd` for the top `bdepth`.
@@ -225,14 +239,26 @@ impl Prism {
     /// A round pocket of diameter `d`.
     pub(crate) fn circular_pocket(&mut self, c: P2, d: f64, z_top: f64, z_bottom: f64) {
         self.columns.push(Column::straight(circle(c, d / 2.0, CIRCLE_SEGMENTS).reversed(), z_bottom, z_top));
-        self.features.push(Feature::CircularPocket { center: c, diameter: d, z_top, depth: z_top - z_bottom });
+        self.features.push(Feature::CircularPocket {
+            center: c,
+            diameter: d,
+            z_top,
+            depth: z_top - z_bottom,
+        });
     }
 
     /// An obround slot of `length` (end to end) and `width`.
     pub(crate) fn slot(&mut self, c: P2, length: f64, width: f64, along_x: bool, z_top: f64, z_bottom: f64) {
         let ring = stadium(c, (length - width) / 2.0, width / 2.0, along_x, CORNER_SEGMENTS).reversed();
         self.columns.push(Column::straight(ring, z_bottom, z_top));
-        self.features.push(Feature::Slot { center: c, length, width, along_x, z_top, depth: z_top - z_bottom });
+        self.features.push(Feature::Slot {
+            center: c,
+            length,
+            width,
+            along_x,
+            z_top,
+            depth: z_top - z_bottom,
+        });
     }
 
     /// A round boss of diameter `d` on the face at `z_base`, `height` tall, with a top
@@ -265,7 +291,8 @@ impl Prism {
 
 /// `[lo, hi]` minus the bands' `lo..hi` ranges, as sorted intervals.
 fn intervals<'a>(lo: f64, hi: f64, bands: impl Iterator<Item = &'a &'a Band>) -> Vec<(f64, f64)> {
-    let mut cuts: Vec<(f64, f64)> = bands.map(|b| (b.lo.max(lo), b.hi.min(hi))).filter(|c| c.0 < c.1).collect();
+    let mut cuts: Vec<(f64, f64)> =
+        bands.map(|b| (b.lo.max(lo), b.hi.min(hi))).filter(|c| c.0 < c.1).collect();
     cuts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
     let mut at = lo;

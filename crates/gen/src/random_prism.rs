@@ -46,7 +46,10 @@ impl Layout {
         };
         let g = self.gap;
         inside
-            && self.taken.iter().all(|t| b[2] + g <= t[0] || t[2] + g <= b[0] || b[3] + g <= t[1] || t[3] + g <= b[1])
+            && self
+                .taken
+                .iter()
+                .all(|t| b[2] + g <= t[0] || t[2] + g <= b[0] || b[3] + g <= t[1] || t[3] + g <= b[1])
     }
 
     /// A centre where a box of half extents `e` fits, from up to 24 tries, and the box
@@ -211,7 +214,10 @@ fn pocket(rng: &mut SplitMix64, part: &mut Prism, layout: &mut Layout, s: f64) {
     let room = [half[0] - inset - layout.gap, half[1] - inset - layout.gap];
     if chance(rng, 0.4) {
         let sub = [snap(room[0] * rng.uniform(0.3, 0.6)), snap(room[1] * rng.uniform(0.3, 0.6))];
-        let off = [snap((room[0] - sub[0]) * rng.uniform(-1.0, 1.0)), snap((room[1] - sub[1]) * rng.uniform(-1.0, 1.0))];
+        let off = [
+            snap((room[0] - sub[0]) * rng.uniform(-1.0, 1.0)),
+            snap((room[1] - sub[1]) * rng.uniform(-1.0, 1.0)),
+        ];
         let rr = snap(sub[0].min(sub[1]) * rng.uniform(0.2, 0.45));
         let bottom = snap((floor - h * rng.uniform(0.1, 0.3)).max(0.15 * h));
         part.pocket([c[0] + off[0], c[1] + off[1]], sub, rr, floor, bottom, 0.0);

@@ -120,8 +120,13 @@ pub(crate) fn stadium(c: P2, half_length: f64, r: f64, along_x: bool, segments: 
     let (u, a0) = if along_x { ([1.0, 0.0], -FRAC_PI_2) } else { ([0.0, 1.0], 0.0) };
     let c1 = [c[0] + u[0] * half_length, c[1] + u[1] * half_length];
     let c0 = [c[0] - u[0] * half_length, c[1] - u[1] * half_length];
-    let pts = arc(c1, r, a0, std::f64::consts::PI, segments)
-        .chain(arc(c0, r, a0 + std::f64::consts::PI, std::f64::consts::PI, segments));
+    let pts = arc(c1, r, a0, std::f64::consts::PI, segments).chain(arc(
+        c0,
+        r,
+        a0 + std::f64::consts::PI,
+        std::f64::consts::PI,
+        segments,
+    ));
     Ring::snapped(pts)
 }
 

@@ -5,7 +5,8 @@
 use crate::prism::{Edge, Outline, Prism};
 
 /// The shop parts' names, in the order [`crate::shop_parts`] returns them.
-pub const SHOP_PARTS: [&str; 5] = ["flanged_bushing", "l_bracket", "pocketed_plate", "stepped_boss", "t_slot_block"];
+pub const SHOP_PARTS: [&str; 5] =
+    ["flanged_bushing", "l_bracket", "pocketed_plate", "stepped_boss", "t_slot_block"];
 
 /// The shop part at `index` (in [`SHOP_PARTS`] order).
 pub(crate) fn shop_prism(index: usize) -> Option<Prism> {

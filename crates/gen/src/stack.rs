@@ -167,7 +167,8 @@ pub(crate) fn build(columns: &[Column]) -> Result<Built> {
             levels.iter().map(|&z| (z >= lo && z <= hi).then(|| c.ring_at(z))).collect()
         })
         .collect();
-    let spans = |c: usize, l: usize| rings[c][l].is_some() && rings[c].get(l + 1).is_some_and(Option::is_some);
+    let spans =
+        |c: usize, l: usize| rings[c][l].is_some() && rings[c].get(l + 1).is_some_and(Option::is_some);
     let points: Vec<LevelPoints> = (0..levels.len())
         .map(|l| {
             let present = (0..columns.len())
@@ -181,15 +182,19 @@ pub(crate) fn build(columns: &[Column]) -> Result<Built> {
     let mut volume = 0.0;
     for l in 0..levels.len().saturating_sub(1) {
         for c in (0..columns.len()).filter(|&c| spans(c, l)) {
-            let (rb, rt) = (rings[c][l].as_ref().unwrap_or(&EMPTY), rings[c][l + 1].as_ref().unwrap_or(&EMPTY));
+            let (rb, rt) =
+                (rings[c][l].as_ref().unwrap_or(&EMPTY), rings[c][l + 1].as_ref().unwrap_or(&EMPTY));
             walls(&mut mesh, (rb, &points[l], levels[l]), (rt, &points[l + 1], levels[l + 1]));
             volume += slab_volume(rb, rt, levels[l + 1] - levels[l]);
         }
     }
     for (l, &z) in levels.iter().enumerate() {
-        let below: Vec<&Ring> =
-            (0..columns.len()).filter(|&c| l > 0 && spans(c, l - 1)).filter_map(|c| rings[c][l].as_ref()).collect();
-        let above: Vec<&Ring> = (0..columns.len()).filter(|&c| spans(c, l)).filter_map(|c| rings[c][l].as_ref()).collect();
+        let below: Vec<&Ring> = (0..columns.len())
+            .filter(|&c| l > 0 && spans(c, l - 1))
+            .filter_map(|c| rings[c][l].as_ref())
+            .collect();
+        let above: Vec<&Ring> =
+            (0..columns.len()).filter(|&c| spans(c, l)).filter_map(|c| rings[c][l].as_ref()).collect();
         level_faces(&below, &above, &points[l], z, &mut mesh)?;
     }
     Ok(Built { mesh: mesh.finish()?, volume })

@@ -48,7 +48,8 @@ impl Profile {
         if p.len() < 3 || p.iter().any(|q| q[0] < 0.0 || !q[0].is_finite() || !q[1].is_finite()) {
             return Err(geometry("a turned profile needs three or more points with r >= 0"));
         }
-        let (cos, sin): (Vec<f64>, Vec<f64>) = (0..n).map(|k| (TAU * k as f64 / n as f64).sin_cos()).map(|(s, c)| (c, s)).unzip();
+        let (cos, sin): (Vec<f64>, Vec<f64>) =
+            (0..n).map(|k| (TAU * k as f64 / n as f64).sin_cos()).map(|(s, c)| (c, s)).unzip();
         let mut vertices = Vec::new();
         // first[i]: index of profile point i's vertex at angle 0 (a pole has one).
         let mut first = Vec::with_capacity(p.len());
@@ -93,12 +94,14 @@ pub(crate) fn turned(rng: &mut SplitMix64, size: f64) -> (Profile, Vec<Feature>)
     let mut zs: Vec<f64> = (0..=sections)
         .map(|k| {
             let t = k as f64 / sections as f64;
-            let jitter = if k == 0 || k == sections { 0.0 } else { rng.uniform(-0.25, 0.25) / sections as f64 };
+            let jitter =
+                if k == 0 || k == sections { 0.0 } else { rng.uniform(-0.25, 0.25) / sections as f64 };
             snap(len * (t + jitter))
         })
         .collect();
     zs.dedup();
-    let radii: Vec<f64> = (0..zs.len() - 1).map(|k| if k == 0 { r_max } else { draw(rng, 0.5, 1.0) * r_max }).collect();
+    let radii: Vec<f64> =
+        (0..zs.len() - 1).map(|k| if k == 0 { r_max } else { draw(rng, 0.5, 1.0) * r_max }).collect();
     let min_r = radii.iter().copied().fold(f64::INFINITY, f64::min);
     let bore = match rng.below(3) {
         0 => None,
@@ -106,7 +109,8 @@ pub(crate) fn turned(rng: &mut SplitMix64, size: f64) -> (Profile, Vec<Feature>)
         _ => Some((draw(rng, 0.2, 0.5) * min_r, draw(rng, 0.3, 0.7) * len)),
     };
     let r_in = bore.map_or(0.0, |b| b.0);
-    let mut features = vec![Feature::Revolved { length: len, max_diameter: 2.0 * r_max, segments: TURNED_SEGMENTS }];
+    let mut features =
+        vec![Feature::Revolved { length: len, max_diameter: 2.0 * r_max, segments: TURNED_SEGMENTS }];
     let end_chamfer = snap(0.25 * (min_r - r_in).min(len / sections as f64 / 8.0) * rng.uniform(0.2, 1.0));
     // The outer side, bottom to top.
     let mut outer: Vec<[f64; 2]> = vec![[radii[0] - end_chamfer, 0.0], [radii[0], end_chamfer]];

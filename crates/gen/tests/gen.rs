@@ -8,11 +8,19 @@ use s2g_geom::{Mesh, report, write_stl};
 fn check(mesh: &Mesh, volume: f64, size: f64, what: &str) {
     let r = report(mesh);
     assert!(r.closed, "{what}: not closed ({} boundary edges)", r.boundary_edges);
-    assert!(r.manifold, "{what}: not manifold ({} edges, {} vertices)", r.non_manifold_edges, r.non_manifold_vertices);
+    assert!(
+        r.manifold,
+        "{what}: not manifold ({} edges, {} vertices)",
+        r.non_manifold_edges, r.non_manifold_vertices
+    );
     assert!(r.consistently_oriented, "{what}: not consistently oriented");
     assert_eq!(r.degenerate_faces, 0, "{what}: degenerate faces");
     assert!(volume > 0.0, "{what}: volume {volume}");
-    assert!((r.volume - volume).abs() <= 1e-9 * volume, "{what}: mesh volume {} vs formula {volume}", r.volume);
+    assert!(
+        (r.volume - volume).abs() <= 1e-9 * volume,
+        "{what}: mesh volume {} vs formula {volume}",
+        r.volume
+    );
     let b = r.bbox.expect("a non-empty mesh");
     let longest = b.extent().max();
     assert!(longest <= size * (1.0 + 1e-9), "{what}: longest side {longest} > {size}");
