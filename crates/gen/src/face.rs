@@ -16,8 +16,8 @@ use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
 use crate::error::{Result, geometry};
+use crate::level::{LevelPoints, MeshBuilder};
 use crate::ring::Ring;
-use crate::stack::{LevelPoints, MeshBuilder};
 
 /// The chain `∂below - ∂above` at a level, as net multiplicities of directed edges
 /// between level points (`(a, b)` with `a < b`; positive runs `a -> b`).

@@ -32,6 +32,7 @@ mod error;
 mod face;
 mod feature;
 mod freeform;
+mod level;
 mod part;
 mod prism;
 mod random_prism;
