@@ -47,7 +47,10 @@ pub use crate::math::{Isometry3, Point3, Real, Rotation3, Similarity3, SplitMix6
 pub use crate::mesh::Mesh;
 pub use crate::metrics::{MetricOptions, ShapeMetrics, chamfer_and_normals, compare, occupancy_iou};
 pub use crate::normalize::{Normalization, normalize_unit_cube, unit_cube_normalization};
-pub use crate::query::{ClosestPoint, MeshIndex, OccluderCache, ParallelRays, RayHit};
+pub use crate::query::{
+    ClosestPoint, DropCutter, DropCutterOptions, MeshIndex, OccluderCache, ParallelRays, RayHit,
+    WaterlineOptions,
+};
 pub use crate::sample::{SurfaceSamples, sample_surface};
 pub use crate::sdf::{BoxShape, SignedDistance, Sphere};
 pub use crate::setup::Setup;
