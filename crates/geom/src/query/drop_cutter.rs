@@ -121,6 +121,20 @@ impl<'a> DropCutter<'a> {
         (h > f64::NEG_INFINITY).then_some(h + self.bvh.center[2])
     }
 
+    /// [`DropCutter::height`] by testing every triangle of the mesh in turn, without the
+    /// BVH or its pruning: the same answer, in time proportional to the mesh. A reference
+    /// for checks and the baseline of `benches/drop_cutter.rs`.
+    pub fn height_all_triangles(&self, x: f64, y: f64) -> Option<f64> {
+        if !(x.is_finite() && y.is_finite()) {
+            return None;
+        }
+        let c = self.bvh.center;
+        let q = [x - c[0], y - c[1]];
+        let h =
+            self.bvh.tris.iter().fold(f64::NEG_INFINITY, |best, t| triangle_drop(t, q, &self.profile, best));
+        (h > f64::NEG_INFINITY).then_some(h + c[2])
+    }
+
     /// [`DropCutter::height`] at many points, in parallel (rayon), in input order.
     pub fn heights(&self, points: &[[f64; 2]]) -> Vec<Option<f64>> {
         points.par_iter().with_min_len(64).map(|p| self.height(p[0], p[1])).collect()

@@ -145,7 +145,7 @@ impl DropCutter<'_> {
                     self.interferes(m[0] + 0.5 * step, m[1] + 0.5 * step, z)
                 };
                 for k in 0..4 {
-                    if !(c[k] && !c[(k + 1) % 4]) {
+                    if !c[k] || c[(k + 1) % 4] {
                         continue;
                     }
                     // Pair the edge leaving the inside with the one entering it.

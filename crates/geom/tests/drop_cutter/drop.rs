@@ -2,6 +2,8 @@
 
 use s2g_geom::{Aabb, Cutter, DropCutter, GeomError, Mesh, MeshIndex, Point3, SplitMix64};
 
+use crate::shapes::{cylinder, sphere};
+
 /// The cutter's surface height above the tip at distance `d` from the axis (independent
 /// of the library's profile code).
 fn lift(c: &Cutter, d: f64) -> Option<f64> {
@@ -170,6 +172,7 @@ fn pruned_search_equals_the_maximum_over_triangles() {
                 .filter_map(|s| DropCutter::new(s, &c).unwrap().height(p[0], p[1]))
                 .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.max(h))));
             assert_eq!(*b, dc.height(p[0], p[1]), "batch and single differ at {p:?}");
+            assert_eq!(*b, dc.height_all_triangles(p[0], p[1]), "pruned and exhaustive differ at {p:?}");
             match (want, *b) {
                 (None, None) => {}
                 (Some(w), Some(g)) => assert!((w - g).abs() < 1e-9, "at {p:?}: {g} vs {w}"),
@@ -186,13 +189,13 @@ fn pruned_search_equals_the_maximum_over_triangles() {
 /// A large tilted plane: the tip is `plane(q) + (R - r) tan(a) + r / cos(a) - r`.
 #[test]
 fn tilted_plane_matches_the_normal_offset() {
-    let (gx, gy) = (0.3, -0.45);
+    let (gx, gy): (f64, f64) = (0.3, -0.45);
     let plane = |x: f64, y: f64| 2.0 + gx * x + gy * y;
     let corners = [(-50.0, -50.0), (50.0, -50.0), (50.0, 50.0), (-50.0, 50.0)]
         .map(|(x, y)| Point3::new(x, y, plane(x, y)));
     let mesh = Mesh::new(corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).unwrap();
     let index = MeshIndex::new(&mesh).unwrap();
-    let tan: f64 = (gx * gx + gy * gy as f64).sqrt();
+    let tan: f64 = (gx * gx + gy * gy).sqrt();
     let cos = 1.0 / (1.0 + tan * tan).sqrt();
     for c in cutters() {
         let dc = DropCutter::new(&index, &c).unwrap();
@@ -203,51 +206,6 @@ fn tilted_plane_matches_the_normal_offset() {
             assert!((got - want).abs() < 1e-10, "{c:?} at ({x}, {y}): {got} vs {want}");
         }
     }
-}
-
-/// A UV sphere of radius `r` at the origin with `n` segments around and `n / 2` rings.
-fn sphere(r: f64, n: usize) -> Mesh {
-    let m = n / 2;
-    let mut v = vec![Point3::new(0.0, 0.0, -r)];
-    for i in 1..m {
-        let th = std::f64::consts::PI * i as f64 / m as f64 - std::f64::consts::FRAC_PI_2;
-        for k in 0..n {
-            let ph = std::f64::consts::TAU * k as f64 / n as f64;
-            v.push(Point3::new(r * th.cos() * ph.cos(), r * th.cos() * ph.sin(), r * th.sin()));
-        }
-    }
-    v.push(Point3::new(0.0, 0.0, r));
-    let top = (v.len() - 1) as u32;
-    let ring = |i: usize, k: usize| (1 + (i - 1) * n + k % n) as u32;
-    let mut t = Vec::new();
-    for k in 0..n {
-        t.push([0, ring(1, k + 1), ring(1, k)]);
-        t.push([top, ring(m - 1, k), ring(m - 1, k + 1)]);
-        for i in 1..m - 1 {
-            t.push([ring(i, k), ring(i, k + 1), ring(i + 1, k + 1)]);
-            t.push([ring(i, k), ring(i + 1, k + 1), ring(i + 1, k)]);
-        }
-    }
-    Mesh::new(v, t).unwrap()
-}
-
-/// A closed vertical cylinder of radius `r` from `z = 0` to `h`, `n` segments.
-fn cylinder(r: f64, h: f64, n: usize) -> Mesh {
-    let mut v = vec![Point3::new(0.0, 0.0, 0.0), Point3::new(0.0, 0.0, h)];
-    for k in 0..n {
-        let a = std::f64::consts::TAU * k as f64 / n as f64;
-        v.push(Point3::new(r * a.cos(), r * a.sin(), 0.0));
-        v.push(Point3::new(r * a.cos(), r * a.sin(), h));
-    }
-    let (b, tp) = (|k: usize| (2 + 2 * (k % n)) as u32, |k: usize| (3 + 2 * (k % n)) as u32);
-    let mut t = Vec::new();
-    for k in 0..n {
-        t.push([0, b(k + 1), b(k)]);
-        t.push([1, tp(k), tp(k + 1)]);
-        t.push([b(k), b(k + 1), tp(k + 1)]);
-        t.push([b(k), tp(k + 1), tp(k)]);
-    }
-    Mesh::new(v, t).unwrap()
 }
 
 /// A ball over a sphere: the tip is `sqrt((Rs + r)^2 - rho^2) - r`, less at most the
