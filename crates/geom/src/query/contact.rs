@@ -18,8 +18,8 @@
 
 use super::bvh::{Tri, cross};
 
-/// Most bisection steps of the bull-nose edge test (enough to halve any interval to f64's
-/// resolution).
+/// Most steps of the bull-nose edge test's root search (bisection alone would reach f64's
+/// resolution in fewer).
 const MAX_BISECTIONS: usize = 200;
 
 /// Relative rounding slack under which an edge counts as tangent to the cutter's rim.
@@ -198,8 +198,9 @@ fn ball_edge(
 
 /// The bull nose's (torus') edge contact: the contact height `f` is concave along the
 /// edge, so its derivative is non-increasing and the maximum is where the derivative
-/// changes sign, found by bisection to `edge_tolerance` along the edge (the height's
-/// error is second order in that, as the derivative vanishes there). `-inf` when the
+/// changes sign, bracketed (Illinois regula falsi, bisection where a slope is infinite)
+/// until the bracket is `edge_tolerance` long along the edge (the height's error is second
+/// order in that, as the derivative vanishes there). `-inf` when the
 /// maximum is at an end of `range` (which the caller evaluated).
 #[inline]
 fn bull_edge(
@@ -227,19 +228,40 @@ fn bull_edge(
         dz - e / root.sqrt() * dd
     };
     let (mut lo, mut hi) = range;
-    if !(slope(lo) > 0.0) || !(slope(hi) < 0.0) {
+    let (mut glo, mut ghi) = (slope(lo), slope(hi));
+    if !(glo > 0.0) || !(ghi < 0.0) {
         return f64::NEG_INFINITY;
     }
     let len = (u[0] * u[0] + u[1] * u[1] + dz * dz).sqrt();
+    // Regula falsi with the Illinois modification (superlinear) while both ends' slopes are
+    // finite, bisection otherwise; the bracket always holds the sign change.
+    let mut last_side = 0i8;
     for _ in 0..MAX_BISECTIONS {
         if (hi - lo) * len <= p.edge_tolerance {
             break;
         }
-        let mid = 0.5 * (lo + hi);
-        if slope(mid) > 0.0 {
-            lo = mid;
+        let mut mid = 0.5 * (lo + hi);
+        if glo.is_finite() && ghi.is_finite() {
+            let m = lo + (hi - lo) * glo / (glo - ghi);
+            if m > lo && m < hi {
+                mid = m;
+            }
+        }
+        let g = slope(mid);
+        if g > 0.0 {
+            (lo, glo) = (mid, g);
+            if last_side == 1 {
+                ghi *= 0.5;
+            }
+            last_side = 1;
+        } else if g < 0.0 {
+            (hi, ghi) = (mid, g);
+            if last_side == -1 {
+                glo *= 0.5;
+            }
+            last_side = -1;
         } else {
-            hi = mid;
+            return f(mid);
         }
     }
     f(0.5 * (lo + hi))

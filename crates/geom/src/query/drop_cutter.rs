@@ -17,8 +17,9 @@
 //! - **Edge, flat end**: exact (the contact is where the edge leaves the disc, or a vertex).
 //! - **Edge, ball end**: exact (closed form in the edge's vertical plane).
 //! - **Edge, bull nose (torus)**: the contact height is concave along the edge (the
-//!   cutter's profile is convex in the distance from the axis), so the maximum is found by
-//!   bisection on the sign of its derivative until the bracket is
+//!   cutter's profile is convex in the distance from the axis), so the maximum is where its
+//!   derivative changes sign, bracketed (Illinois regula falsi, bisection where the
+//!   derivative is infinite) until the bracket is
 //!   [`DropCutterOptions::edge_tolerance`] long (default 1e-9, in mesh units) along the
 //!   edge; the height's error is second order in that (the derivative vanishes at the
 //!   maximum), far below 1e-9 for any cutter of practical size.
@@ -41,7 +42,7 @@ use crate::error::{GeomError, Result};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DropCutterOptions {
     /// Length, along the edge and in mesh units, of the bracket at which the bull nose's
-    /// edge-contact bisection stops (the other contacts are exact). Default `1e-9`.
+    /// edge-contact root search stops (the other contacts are exact). Default `1e-9`.
     pub edge_tolerance: f64,
 }
 
