@@ -140,18 +140,26 @@ def main():
     exe, tmp = sys.argv[1], sys.argv[2]
     cases = [
         # (mesh, drop step, cutters, waterline heights, waterline step)
-        (f"{tmp}/bunny100.stl", 0.5, ["ball:2", "flat:3"], [10.0, 40.0, 70.0], 0.5),
-        (f"{tmp}/gear60.stl", 0.25, ["ball:1.5", "flat:2"], [2.0, 10.0], 0.25),
+        (f"{tmp}/bunny100.stl", 0.5, ["ball:2", "flat:3"], "bull:3:1", [5.0, 20.0, 40.0, 60.0, 75.0], 0.5),
+        (f"{tmp}/gear60.stl", 0.25, ["ball:1.5", "flat:2"], "bull:2:0.5", [1.0, 4.0, 10.0], 0.25),
     ]
     print(f"OpenCAMLib {ocl.version()}, one thread each; times are the queries only")
     worst, ratios, wl_ok, wl_ratios = 0.0, [], True, []
-    for stl, step, cutters, zs, wstep in cases:
+    for stl, step, cutters, bull, zs, wstep in cases:
         tris = read_stl(stl)
         surf = ocl_surface(tris)
         print(f"-- {stl}: {len(tris)} triangles")
         for spec in cutters:
             d, r = bench_drop(exe, stl, tris, surf, spec, step, tmp)
             worst, ratios = max(worst, d), ratios + [r]
+        pts = grid(tris, float(bull.split(":")[1]), step)
+        gpath = f"{tmp}/grid.txt"
+        with open(gpath, "w") as f:
+            f.writelines(f"{x!r} {y!r}\n" for x, y in pts)
+        out = subprocess.run([exe, "drop", stl, bull, gpath, f"{tmp}/bull.txt"], check=True, capture_output=True,
+                             text=True)
+        print(f"drop-cutter {bull:12s} points {len(pts):7d}  ours {len(pts) / float(out.stdout.split()[3]):10.0f} pt/s"
+              "  (no OpenCAMLib figure: its BullCutter crashes in BatchDropCutter, see this script)")
         for z in zs:
             same, d, r = bench_waterline(exe, stl, surf, cutters[0], z, wstep, tmp)
             wl_ok = wl_ok and same and d <= wstep
