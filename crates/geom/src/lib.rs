@@ -4,7 +4,9 @@
 //! nalgebra types in f64 are the vocabulary ([`Point3`], [`Vector3`]). Spatial queries run
 //! on this crate's own binned-SAH BVH rather than parry3d's `TriMesh`: about twice as fast
 //! on orientation-style rays (`benches/rays.rs` measures both in one run), with any-hit
-//! queries and a winding-number inside test that parry does not offer.
+//! queries and a winding-number inside test that parry does not offer. The same BVH
+//! carries drop-cutter and waterline for flat, ball and bull-nose cutters ([`DropCutter`]),
+//! the cutter-location queries of 3-axis finishing.
 
 mod aabb;
 mod atomic;
