@@ -159,3 +159,45 @@ fn bad_waterline_arguments_are_refused() {
     assert!(matches!(dc.waterline_opt(0.0, &o), Err(GeomError::InvalidArgument(_))));
     assert!(dc.waterline(5.0).unwrap().is_empty());
 }
+
+/// On a random soup of triangles (many loops, holes, ambiguous cells) the loops' signed
+/// areas add up to the area where the cutter would cut in, measured on a fine grid: every
+/// loop is closed, oriented with that region on its left, and none is missing.
+#[test]
+fn random_soup_loops_bound_the_interference_region() {
+    let mut rng = s2g_geom::SplitMix64::new(11, 2);
+    let soup: Vec<[Point3; 3]> = (0..80)
+        .map(|_| {
+            let c = Point3::new(20.0 * rng.unit(), 20.0 * rng.unit(), 4.0 * rng.unit());
+            [0; 3].map(|_| {
+                c + nalgebra::Vector3::new(
+                    3.0 * rng.unit() - 1.5,
+                    3.0 * rng.unit() - 1.5,
+                    3.0 * rng.unit() - 1.5,
+                )
+            })
+        })
+        .collect();
+    let index = MeshIndex::new(&Mesh::from_soup(&soup).unwrap()).unwrap();
+    for c in [Cutter::ball(0.6, 4.0), Cutter::bull(0.8, 0.3, 4.0), Cutter::flat(0.5, 4.0)] {
+        let dc = DropCutter::new(&index, &c).unwrap();
+        let z = 2.5;
+        let wl = dc.waterline_opt(z, &WaterlineOptions { step: 0.1, ..WaterlineOptions::default() }).unwrap();
+        assert!(wl.len() >= 3, "{c:?}: {} loops", wl.len());
+        let total: f64 = wl.iter().map(|l| area(l)).sum();
+        let h = 0.02;
+        let mut inside = 0usize;
+        for i in 0..1300 {
+            for j in 0..1300 {
+                let (x, y) = (-3.0 + (i as f64 + 0.5) * h, -3.0 + (j as f64 + 0.5) * h);
+                inside += dc.interferes(x, y, z) as usize;
+            }
+        }
+        let want = inside as f64 * h * h;
+        assert!(
+            (total - want).abs() < 0.005 * want,
+            "{c:?}: loops enclose {total}, the region is {want}, {} loops",
+            wl.len()
+        );
+    }
+}
