@@ -185,10 +185,10 @@ fn random_soup_loops_bound_the_interference_region() {
         let wl = dc.waterline_opt(z, &WaterlineOptions { step: 0.1, ..WaterlineOptions::default() }).unwrap();
         assert!(wl.len() >= 3, "{c:?}: {} loops", wl.len());
         let total: f64 = wl.iter().map(|l| area(l)).sum();
-        let h = 0.02;
+        let h = 0.04;
         let mut inside = 0usize;
-        for i in 0..1300 {
-            for j in 0..1300 {
+        for i in 0..650 {
+            for j in 0..650 {
                 let (x, y) = (-3.0 + (i as f64 + 0.5) * h, -3.0 + (j as f64 + 0.5) * h);
                 inside += dc.interferes(x, y, z) as usize;
             }
