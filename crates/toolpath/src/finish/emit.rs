@@ -15,7 +15,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use s2g_gcode::{Coolant, Motion, MotionSink, SpindleDirection};
-use s2g_geom::{DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
+use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
 
 use super::{FinishContext, FinishingStrategy};
 use crate::error::ToolpathError;
@@ -121,14 +121,15 @@ pub fn finish_setup_opt<S: MotionSink>(
 ) -> Result<FinishSummary, ToolpathError<S::Error>> {
     tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     check(opts)?;
-    let dc = DropCutter::new(part, &tool.cutter).map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
+    let cutter = profile_cutter(&tool.cutter);
+    let dc = DropCutter::new(part, &cutter).map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     let (lo, hi) = dc.bounds();
     let r = tool.radius();
     let [min, max] = opts.region.unwrap_or([[lo[0] - r, lo[1] - r], [hi[0] + r, hi[1] + r]]);
     let floor = opts.floor.unwrap_or(lo[2]);
     let ctx = FinishContext {
         drop_cutter: &dc,
-        cutter: &tool.cutter,
+        cutter: &cutter,
         min,
         max,
         z_range: [floor, hi[2]],
@@ -149,6 +150,20 @@ pub fn finish_setup_opt<S: MotionSink>(
     }
     em.end()?;
     Ok(em.sum)
+}
+
+/// The cutter the drop-cutter and the scallop formulas see: `c` with an unlimited flute
+/// length and stick-out (the paper's assumption, [`Tool::ball`]'s default) made finite, as
+/// both read only the radius and the corner radius.
+fn profile_cutter(c: &Cutter) -> Cutter {
+    let mut c = *c;
+    if !c.flute_length.is_finite() {
+        c.flute_length = 2.0 * c.radius;
+    }
+    if !c.stickout.is_finite() {
+        c.stickout = c.flute_length;
+    }
+    c
 }
 
 fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
