@@ -95,8 +95,14 @@ fn pass_ys(index: &MeshIndex, tool: &Tool, strategy: &Parallel, opts: &FinishOpt
     let dc = DropCutter::new(index, &cutter).unwrap();
     let [min, max] = opts.region.unwrap();
     let (lo, hi) = dc.bounds();
-    let ctx =
-        FinishContext { drop_cutter: &dc, cutter: &cutter, min, max, z_range: [lo[2], hi[2]], scallop: opts.scallop };
+    let ctx = FinishContext {
+        drop_cutter: &dc,
+        cutter: &cutter,
+        min,
+        max,
+        z_range: [lo[2], hi[2]],
+        scallop: opts.scallop,
+    };
     let mut ys: Vec<f64> = strategy
         .paths(&ctx)
         .unwrap()
@@ -122,12 +128,19 @@ fn sphere_and_cylinder_scallops_match_the_analytic_cusp() {
     let strategy = Parallel { tolerance: 1e-4, ..Parallel::default() };
     let s = strategy.stepover(&Cutter::ball(r, 30.0), target).unwrap();
     assert!((s - 2.0 * (2.0 * r * target - target * target).sqrt()).abs() < 1e-12);
-    let opts = FinishOptions { scallop: target, region: Some([[-8.0, -10.0], [8.0, 10.0]]), ..Default::default() };
+    let opts =
+        FinishOptions { scallop: target, region: Some([[-8.0, -10.0], [8.0, 10.0]]), ..Default::default() };
     for (name, mesh) in [("sphere", sphere(big, 720, 360)), ("cylinder", cylinder_x(big, 60.0, 1440))] {
         let index = MeshIndex::new(&mesh).unwrap();
         let (rec, _) = finish(&index, &tool, &strategy, &opts);
         let fo = HeightFieldOptions { spacing: 0.005, ..Default::default() };
-        let mut field = HeightField::new_opt([0.0, -10.0], [0.0, 10.0], ToolTable::single(Cutter::ball(tool.radius(), 30.0)), &fo).unwrap();
+        let mut field = HeightField::new_opt(
+            [0.0, -10.0],
+            [0.0, 10.0],
+            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
+            &fo,
+        )
+        .unwrap();
         replay(&rec, &mut field);
         let ys = pass_ys(&index, &tool, &strategy, &opts);
         assert!(ys.len() >= 15, "{name}: {ys:?}");
@@ -194,7 +207,11 @@ fn finish_setup_motions_are_safe_and_summed() {
                 Motion::Rapid { to } => {
                     if let Some(p) = pos {
                         let horizontal = (to.xy() - p.xy()).norm() > 1e-12;
-                        assert!(!horizontal || (p.z == sum.clear_z && to.z == sum.clear_z), "{}: rapid {p} -> {to}", st.name());
+                        assert!(
+                            !horizontal || (p.z == sum.clear_z && to.z == sum.clear_z),
+                            "{}: rapid {p} -> {to}",
+                            st.name()
+                        );
                         rapid += (to - p).norm();
                     }
                     pos = Some(*to);
@@ -203,7 +220,10 @@ fn finish_setup_motions_are_safe_and_summed() {
             }
         }
         assert!(sum.passes > 0 && sum.cutting_length > 0.0, "{}: {sum:?}", st.name());
-        assert!((feed - sum.cutting_length).abs() < 1e-6 * feed && (rapid - sum.rapid_length).abs() < 1e-6 * rapid.max(1.0));
+        assert!(
+            (feed - sum.cutting_length).abs() < 1e-6 * feed
+                && (rapid - sum.rapid_length).abs() < 1e-6 * rapid.max(1.0)
+        );
         assert!(sum.time_s > 60.0 * sum.cutting_length / tool.feed, "{}: {sum:?}", st.name());
     }
 }
@@ -226,7 +246,12 @@ fn waterline_and_steep_shallow_meet_the_scallop_on_a_sphere() {
     for st in strategies {
         let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
         let (rec, _) = finish(&index, &tool, st, &opts);
-        let mut field = HeightField::new([-12.0, -12.0], [12.0, 12.0], ToolTable::single(Cutter::ball(tool.radius(), 30.0))).unwrap();
+        let mut field = HeightField::new(
+            [-12.0, -12.0],
+            [12.0, 12.0],
+            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
+        )
+        .unwrap();
         replay(&rec, &mut field);
         let d = surface_deviation(&field, &index);
         assert!(d.gouge_depth <= 2.5e-3, "{}: {d:?}", st.name());
@@ -264,11 +289,26 @@ fn bad_finishing_options_are_errors() {
     ];
     for o in bad {
         let mut rec = MotionRecorder::default();
-        assert!(finish_setup_opt(&index, &Setup::top(), &tool, &Parallel::default(), &o, &mut rec).is_err(), "{o:?}");
+        assert!(
+            finish_setup_opt(&index, &Setup::top(), &tool, &Parallel::default(), &o, &mut rec).is_err(),
+            "{o:?}"
+        );
     }
     let mut rec = MotionRecorder::default();
     let wrong = SteepShallow { threshold: 1.0, overlap: 2.0, ..Default::default() };
-    assert!(finish_setup_opt(&index, &Setup::top(), &tool, &wrong, &FinishOptions::default(), &mut rec).is_err());
+    assert!(
+        finish_setup_opt(&index, &Setup::top(), &tool, &wrong, &FinishOptions::default(), &mut rec).is_err()
+    );
     let no_tool = Tool { feed: 0.0, ..tool };
-    assert!(finish_setup_opt(&index, &Setup::top(), &no_tool, &Parallel::default(), &FinishOptions::default(), &mut rec).is_err());
+    assert!(
+        finish_setup_opt(
+            &index,
+            &Setup::top(),
+            &no_tool,
+            &Parallel::default(),
+            &FinishOptions::default(),
+            &mut rec
+        )
+        .is_err()
+    );
 }

@@ -15,11 +15,11 @@
 
 use rayon::prelude::*;
 use s2g_gcode::{ArcSpec, Motion, MotionSink};
-use s2g_geom::{Isometry3, MeshIndex, Point3, Vector3};
+use s2g_geom::{Isometry3, MeshIndex, Point3, Solids, Vector3};
 
 use crate::engine::ToolPrims;
 use crate::error::{Result, SimError};
-use crate::sweep::Seg;
+use crate::sweep::{Prim, Seg};
 use crate::tool::{ToolTable, tool_error};
 
 /// Options of [`HeightField::new_opt`].
@@ -71,7 +71,7 @@ impl HeightField {
     pub fn new_opt(min: [f64; 2], max: [f64; 2], tools: ToolTable, o: &HeightFieldOptions) -> Result<Self> {
         tools.validate()?;
         let ok = min.iter().chain(&max).all(|v| v.is_finite()) && min[0] <= max[0] && min[1] <= max[1];
-        if !ok || !(o.spacing.is_finite() && o.spacing > 0.0) || !(o.arc_tolerance > 0.0) {
+        if !(ok && o.spacing.is_finite() && o.spacing > 0.0 && o.arc_tolerance > 0.0) {
             return Err(SimError::InvalidOption(format!(
                 "height field over {min:?} .. {max:?} at spacing {} (arc tolerance {})",
                 o.spacing, o.arc_tolerance
@@ -79,7 +79,11 @@ impl HeightField {
         }
         let n = |a: usize| ((max[a] - min[a]) / o.spacing + 1e-9).floor() + 1.0;
         if n(0) * n(1) > o.max_columns as f64 {
-            return Err(SimError::InvalidOption(format!("{} columns, more than {}", n(0) * n(1), o.max_columns)));
+            return Err(SimError::InvalidOption(format!(
+                "{} columns, more than {}",
+                n(0) * n(1),
+                o.max_columns
+            )));
         }
         let (nx, ny) = (n(0) as usize, n(1) as usize);
         let prims = ToolPrims::cutter(&tools.default);
@@ -116,7 +120,8 @@ impl HeightField {
     /// Lowers the columns the cutter swept from `a` to `b` (part frame, axis +Z) reaches.
     fn sweep(&mut self, a: Point3, b: Point3) {
         let seg = Seg::new(a, b, Vector3::z());
-        let prims = &self.prims.cut[..self.prims.ncut];
+        let (lower, n) = lower_prims(&self.prims);
+        let prims = &lower[..n];
         let reach = prims.iter().map(|p| p.bound().2).fold(0.0, f64::max);
         let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
         let range = |lo: f64, hi: f64, m: f64, n: usize| {
@@ -160,6 +165,29 @@ impl HeightField {
     }
 }
 
+/// The cutting primitives that can be lowest in a column: a cylinder of the flutes above a
+/// ball or rounded-disc end at least as wide, starting no lower than the end's centre,
+/// contains its bottom disc in the end's sweep, so it never reaches lower and is left out.
+fn lower_prims(t: &ToolPrims) -> ([Prim; Solids::CAPACITY], usize) {
+    let cut = &t.cut[..t.ncut];
+    let covered = |h0: f64, r: f64| {
+        cut.iter().any(|q| match *q {
+            Prim::Capsule { c, r: rq } => c <= h0 && rq >= r,
+            Prim::RDisc { c, rp, rc } => c <= h0 && rp + rc >= r,
+            _ => false,
+        })
+    };
+    let mut out = t.cut;
+    let mut n = 0;
+    for p in cut {
+        if !matches!(*p, Prim::Cyl { h0, r, .. } if covered(h0, r)) {
+            out[n] = *p;
+            n += 1;
+        }
+    }
+    (out, n)
+}
+
 impl MotionSink for HeightField {
     type Error = SimError;
 
@@ -194,7 +222,9 @@ impl MotionSink for HeightField {
                 if !(axis.z > 1.0 - 1e-9) {
                     return Err(SimError::InvalidMotion {
                         line: 0,
-                        message: format!("a height field needs a 3-axis setup (tool axis +Z), got axis {axis}"),
+                        message: format!(
+                            "a height field needs a 3-axis setup (tool axis +Z), got axis {axis}"
+                        ),
                     });
                 }
                 self.frame = *frame;
@@ -248,7 +278,11 @@ pub fn surface_deviation(field: &HeightField, part: &MeshIndex) -> SurfaceDeviat
 /// `reach` straight below it, the distance of the cut point from the part's
 /// surface (closest point); and the deepest cut point inside the part over all columns.
 /// The result is the same whatever the number of threads.
-pub fn surface_deviation_opt(field: &HeightField, part: &MeshIndex, o: &DeviationOptions) -> SurfaceDeviation {
+pub fn surface_deviation_opt(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+) -> SurfaceDeviation {
     let down = Vector3::new(0.0, 0.0, -1.0);
     let per_row: Vec<(f64, f64, f64, usize)> = (0..field.ny)
         .into_par_iter()
@@ -269,7 +303,9 @@ pub fn surface_deviation_opt(field: &HeightField, part: &MeshIndex, o: &Deviatio
                 // Outside the part, the first surface straight below is its top there (the
                 // ray starts a little above, so that a point on the surface finds it).
                 let lift = 2.0 * o.on_surface;
-                let Some(hit) = part.cast_ray(&Point3::new(x, y, t + lift), &down, f64::INFINITY) else { continue };
+                let Some(hit) = part.cast_ray(&Point3::new(x, y, t + lift), &down, f64::INFINITY) else {
+                    continue;
+                };
                 if hit.distance - lift <= o.reach {
                     max = max.max(d);
                     sum += d;
@@ -279,7 +315,8 @@ pub fn surface_deviation_opt(field: &HeightField, part: &MeshIndex, o: &Deviatio
             (max, sum, gouge, n)
         })
         .collect();
-    let (max, sum, gouge, n) =
-        per_row.into_iter().fold((0.0f64, 0.0, 0.0f64, 0), |a, r| (a.0.max(r.0), a.1 + r.1, a.2.max(r.2), a.3 + r.3));
+    let (max, sum, gouge, n) = per_row
+        .into_iter()
+        .fold((0.0f64, 0.0, 0.0f64, 0), |a, r| (a.0.max(r.0), a.1 + r.1, a.2.max(r.2), a.3 + r.3));
     SurfaceDeviation { max, mean: if n > 0 { sum / n as f64 } else { 0.0 }, gouge_depth: gouge, columns: n }
 }

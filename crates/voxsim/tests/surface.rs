@@ -64,7 +64,8 @@ fn raster(field: &mut HeightField, x: [f64; 2], y: [f64; 2], step: f64, z: f64) 
 fn a_flat_pocket_floor_cut_by_a_flat_end_mill_has_no_deviation() {
     let part = MeshIndex::new(&pocket_block()).unwrap();
     let r = 2.0;
-    let mut field = HeightField::new([-1.0, -1.0], [31.0, 31.0], ToolTable::single(Cutter::flat(r, 20.0))).unwrap();
+    let mut field =
+        HeightField::new([-1.0, -1.0], [31.0, 31.0], ToolTable::single(Cutter::flat(r, 20.0))).unwrap();
     // Tool centres inside the pocket by the radius, 3 apart (< 2r), with a last pass at
     // the far wall.
     raster(&mut field, [5.0 + r, 25.0 - r], [5.0 + r, 25.0 - r], 3.2, 5.0);
@@ -74,23 +75,30 @@ fn a_flat_pocket_floor_cut_by_a_flat_end_mill_has_no_deviation() {
     let floor = (20.0 / 0.05 + 1.0) * (20.0 / 0.05 + 1.0);
     let fillets = (4.0 - std::f64::consts::PI) * r * r / (0.05 * 0.05);
     let feet = 4.0 * (20.0 / 0.05 + 1.0);
-    assert!(d.columns as f64 > floor - fillets - feet - 100.0 && d.columns as f64 <= floor, "{d:?}, floor {floor}");
+    assert!(
+        d.columns as f64 > floor - fillets - feet - 100.0 && d.columns as f64 <= floor,
+        "{d:?}, floor {floor}"
+    );
     assert!(d.max < 1e-9 && d.mean < 1e-9 && d.gouge_depth < 1e-9, "{d:?}");
 }
 
 #[test]
 fn a_ball_raster_on_a_plane_leaves_the_analytic_scallop() {
-    let part = MeshIndex::new(&Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap())
-        .unwrap();
+    let part = MeshIndex::new(
+        &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
+    )
+    .unwrap();
     for (r, s) in [(3.0, 1.0), (1.5, 0.5), (3.0, 2.0)] {
-        let mut field = HeightField::new([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0))).unwrap();
+        let mut field =
+            HeightField::new([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0))).unwrap();
         raster(&mut field, [-4.0, 24.0], [-4.0, 24.0 + s], s, 5.0);
         let d = surface_deviation(&field, &part);
         let h = r - (r * r - s * s / 4.0).sqrt();
         assert!((d.max - h).abs() < 1e-9, "r {r} s {s}: max {} vs analytic {h}", d.max);
         // The mean over the columns of one period (spacing 0.05 divides s), by the profile.
         let m = (s / 0.05).round() as usize;
-        let mean = (0..m).map(|k| r - (r * r - (k as f64 * 0.05 - s / 2.0).powi(2)).sqrt()).sum::<f64>() / m as f64;
+        let mean =
+            (0..m).map(|k| r - (r * r - (k as f64 * 0.05 - s / 2.0).powi(2)).sqrt()).sum::<f64>() / m as f64;
         let mean = mean.max(0.0);
         assert!((d.mean - mean).abs() < 1e-3 * h.max(1e-3), "r {r} s {s}: mean {} vs {mean}", d.mean);
         assert!(d.gouge_depth < 1e-9, "{d:?}");
@@ -99,9 +107,12 @@ fn a_ball_raster_on_a_plane_leaves_the_analytic_scallop() {
 
 #[test]
 fn a_pass_below_the_surface_is_a_gouge_of_its_depth() {
-    let part = MeshIndex::new(&Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap())
-        .unwrap();
-    let mut field = HeightField::new([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(2.0, 20.0))).unwrap();
+    let part = MeshIndex::new(
+        &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
+    )
+    .unwrap();
+    let mut field =
+        HeightField::new([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(2.0, 20.0))).unwrap();
     raster(&mut field, [-4.0, 24.0], [-4.0, 24.0], 1.0, 5.0);
     for to in [Point3::new(10.0, 10.0, 4.9), Point3::new(12.0, 10.0, 4.9)] {
         field.motion(&Motion::Linear { to, feed: 500.0, extrude: None }).unwrap();
@@ -118,7 +129,8 @@ fn bad_grids_and_tilted_setups_are_errors() {
     assert!(HeightField::new([0.0, f64::NAN], [1.0, 1.0], tools.clone()).is_err());
     assert!(HeightField::new([2.0, 0.0], [1.0, 1.0], tools.clone()).is_err());
     let mut field = HeightField::new([0.0, 0.0], [1.0, 1.0], tools).unwrap();
-    let tilted = s2g_geom::Setup::from_direction(&s2g_geom::UnitVector3::new_normalize(s2g_geom::Vector3::x()));
+    let tilted =
+        s2g_geom::Setup::from_direction(&s2g_geom::UnitVector3::new_normalize(s2g_geom::Vector3::x()));
     let e = field.motion(&Motion::Setup { frame: tilted.frame, rotary: [None; 3] });
     assert!(matches!(e, Err(SimError::InvalidMotion { .. })), "{e:?}");
     let e = field.motion(&Motion::Rapid { to: Point3::new(f64::NAN, 0.0, 0.0) });

@@ -3,8 +3,11 @@
 //! links at cutting height.
 //!
 //! Safety argument: every pass point is a drop-cutter height over the part (the finisher
-//! keeps the part exactly, allowance 0), so feeds along passes touch the part without
-//! cutting it (up to the strategy's chord tolerance). Between passes the tool either feeds
+//! keeps the part exactly, allowance 0), and every feed, along a pass or between passes, is
+//! checked by the drop-cutter at samples [`FinishOptions::link_check_step`] apart: a chord
+//! that would cut in (where the cutter-location surface jumps at a wall, or across a corner
+//! of a waterline loop) becomes a step up, across and down when that is clear, else a
+//! retract and a new entry, so a feed gouges at most between samples. Between passes the tool either feeds
 //! straight at cutting height, when the link is short and the drop-cutter finds no
 //! interference at samples [`FinishOptions::link_check_step`] apart along it, or it goes up
 //! to the clearance plane, across, and down by rapid to [`FinishOptions::approach`] above
@@ -275,16 +278,51 @@ impl<S: MotionSink> Emitter<'_, S> {
 
     /// Whether the straight feed from `a` to `b` is short and gouge-free.
     fn can_link(&self, a: &Point3, b: &Point3) -> bool {
+        (b - a).xy().norm() <= self.opts.max_link && self.clear(a, b)
+    }
+
+    /// Whether the drop-cutter finds no interference at samples
+    /// [`FinishOptions::link_check_step`] apart along `a`-`b`.
+    fn clear(&self, a: &Point3, b: &Point3) -> bool {
         let d = b - a;
-        let len = d.xy().norm();
-        if !(len <= self.opts.max_link) {
+        let n = (d.xy().norm() / self.opts.link_check_step).ceil();
+        if !(n <= 1e7) {
             return false;
         }
-        let n = (len / self.opts.link_check_step).ceil().max(1.0) as usize;
+        let n = n.max(1.0) as usize;
         (0..=n).all(|k| {
             let p = a + d * (k as f64 / n as f64);
             !self.dc.interferes(p.x, p.y, p.z + self.opts.link_tolerance)
         })
+    }
+
+    /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
+    /// up (or down) to the higher end's height, across and down when that is; else by a
+    /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
+    /// where it jumps at a wall or cuts a corner of a waterline loop).
+    fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
+        if self.clear(&a, &b) {
+            return self.feed(b, self.tool.feed);
+        }
+        let top = a.z.max(b.z);
+        let (up, over) = (Point3::new(a.x, a.y, top), Point3::new(b.x, b.y, top));
+        if self.clear(&up, &over) {
+            self.feed(up, self.tool.feed)?;
+            self.feed(over, self.tool.feed)?;
+            return self.feed(b, self.tool.feed);
+        }
+        self.enter(b)
+    }
+
+    /// Retract, rapid over `s` on the clearance plane, down to the approach height, and
+    /// plunge at the plunge feed.
+    fn enter(&mut self, s: Point3) -> Result<(), ToolpathError<S::Error>> {
+        self.retract()?;
+        let clear = self.sum.clear_z;
+        self.rapid(Point3::new(s.x, s.y, clear))?;
+        let top = (s.z + self.opts.approach).min(clear);
+        self.rapid(Point3::new(s.x, s.y, top))?;
+        self.feed(s, self.tool.plunge_feed)
     }
 
     fn pass(&mut self, path: &[Point3]) -> Result<(), ToolpathError<S::Error>> {
@@ -294,18 +332,11 @@ impl<S: MotionSink> Emitter<'_, S> {
                 self.sum.links += 1;
                 self.feed(s, self.tool.feed)?;
             }
-            _ => {
-                self.retract()?;
-                let clear = self.sum.clear_z;
-                self.rapid(Point3::new(s.x, s.y, clear))?;
-                let top = (s.z + self.opts.approach).min(clear);
-                self.rapid(Point3::new(s.x, s.y, top))?;
-                self.feed(s, self.tool.plunge_feed)?;
-            }
+            _ => self.enter(s)?,
         }
         self.sum.passes += 1;
-        for q in &path[1..] {
-            self.feed(*q, self.tool.feed)?;
+        for w in path.windows(2) {
+            self.step(w[0], w[1])?;
         }
         Ok(())
     }

@@ -96,7 +96,8 @@ impl FinishingStrategy for Parallel {
 }
 
 /// Waterline finishing: the constant-Z loops of the cutter-location surface
-/// (`DropCutter::waterline`), top down, at a Z step that keeps the scallop under the target
+/// (`DropCutter::waterline`, each point moved out by twice the tolerance so that it is
+/// clear), top down, at a Z step that keeps the scallop under the target
 /// on walls at least [`Waterline::min_slope`] steep: on a plane at slope `a`, passes `dz`
 /// apart in Z are `dz / tan(a)` apart horizontally, so `dz = stepover_for_scallop(a) tan(a)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -123,7 +124,9 @@ impl Waterline {
     pub fn z_step(&self, cutter: &Cutter, scallop: f64) -> Result<f64, FinishError> {
         let a = self.min_slope;
         if !(a > 0.0 && a < std::f64::consts::FRAC_PI_2) {
-            return Err(FinishError::InvalidOptions(format!("min_slope must be in (0, 90) degrees, got {a} rad")));
+            return Err(FinishError::InvalidOptions(format!(
+                "min_slope must be in (0, 90) degrees, got {a} rad"
+            )));
         }
         Ok(stepover_for_scallop(cutter, scallop, a)? * a.tan())
     }
@@ -134,11 +137,16 @@ impl Waterline {
         let dz = self.z_step(ctx.cutter, ctx.scallop)?;
         let [lo, hi] = ctx.z_range;
         if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-            return Err(FinishError::InvalidOptions(format!("z range must be finite and ordered, got {lo} .. {hi}")));
+            return Err(FinishError::InvalidOptions(format!(
+                "z range must be finite and ordered, got {lo} .. {hi}"
+            )));
         }
         let n = ((hi - lo) / dz).ceil().max(1.0);
         if n > self.max_levels as f64 {
-            return Err(FinishError::InvalidOptions(format!("{n} waterline levels, more than {}", self.max_levels)));
+            return Err(FinishError::InvalidOptions(format!(
+                "{n} waterline levels, more than {}",
+                self.max_levels
+            )));
         }
         let n = n as usize;
         Ok((0..n).map(|k| hi - (hi - lo) * (k + 1) as f64 / n as f64).collect())
@@ -154,7 +162,8 @@ impl Waterline {
         let (min, max) = (ctx.min, ctx.max);
         let inside = |p: &Point3| p.x >= min[0] && p.x <= max[0] && p.y >= min[1] && p.y <= max[1];
         let mut out = Vec::new();
-        for mut ring in per_level?.into_iter().flatten() {
+        for ring in per_level?.into_iter().flatten() {
+            let mut ring = outward(&ring, 2.0 * self.tolerance);
             if let Some(&first) = ring.first() {
                 ring.push(first);
             }
@@ -236,6 +245,26 @@ impl FinishingStrategy for SteepShallow {
         out.extend(split_par(par.raw_paths(ctx)?, shallow));
         Ok(out)
     }
+}
+
+/// A closed loop (the cutter cuts on its left) moved `d` to its right, out of the
+/// interference region: its points are on the contour only within the bisection
+/// tolerance, on either side, and this puts them (and chords along straight walls) on the
+/// clear side.
+fn outward(ring: &[Point3], d: f64) -> Vec<Point3> {
+    let n = ring.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (ring[(i + n - 1) % n], ring[(i + 1) % n]);
+            let t = (b - a).xy();
+            let l = t.norm();
+            let p = ring[i];
+            if !(l > 0.0) {
+                return p;
+            }
+            Point3::new(p.x + d * t.y / l, p.y - d * t.x / l, p.z)
+        })
+        .collect()
 }
 
 /// [`split_runs`] with the predicate evaluated in parallel.
