@@ -1,7 +1,7 @@
 //! Finishes the bundled bunny, scaled to 100 mm, from the top with a 6 mm ball end mill at
 //! a 0.01 mm scallop by each strategy, and prints passes, lengths, machining time at
 //! 1500 mm/min, computing time and the surface deviation of the result (height field at
-//! 0.1 mm columns): `cargo run --release -p s2g-toolpath --example finish_bunny [scallop]`.
+//! 0.2 mm columns): `cargo run --release -p s2g-toolpath --example finish_bunny [scallop]`.
 
 use std::time::Instant;
 
@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         println!("{:>13}: deepest feed below the drop-cutter surface {worst:.5} on {at:?}", st.name());
         let t = Instant::now();
-        let fo = HeightFieldOptions { spacing: 0.1, ..Default::default() };
+        let fo = HeightFieldOptions { spacing: 0.2, ..Default::default() };
         let r = 3.5;
         let mut field = HeightField::new_opt(
             [bb.min.x - r, bb.min.y - r],
@@ -72,7 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let d = surface_deviation(&field, &index);
         println!(
             "{:>13}: {} passes, {} links, {} retracts, cutting {:.0} mm, rapid {:.0} mm, time {:.1} min, \
-             {} motions, planned in {:.2} s; deviation (0.1 mm columns, {:.1} s): max {:.4} mean {:.4} gouge {:.4} over {} columns",
+             {} motions, planned in {:.2} s; deviation (0.2 mm columns, {:.1} s): max {:.4} mean {:.4} gouge {:.4} over {} columns",
             st.name(),
             sum.passes,
             sum.links,

@@ -297,14 +297,28 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
-    /// up (or down) to the higher end's height, across and down when that is; else by a
+    /// up to the highest drop-cutter height along it (when that is at most
+    /// [`FinishOptions::approach`] above both ends), across and down when that is; else by a
     /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
     /// where it jumps at a wall or cuts a corner of a waterline loop).
     fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
         if self.clear(&a, &b) {
             return self.feed(b, self.tool.feed);
         }
-        let top = a.z.max(b.z);
+        // Lift to the highest drop-cutter height along the chord (a small lift across a
+        // waterline corner, the wall's top where the surface jumps), if within the approach.
+        let d = b - a;
+        let n = ((d.xy().norm() / self.opts.link_check_step).ceil().clamp(1.0, 1e6)) as usize;
+        let top = (0..=n)
+            .filter_map(|k| {
+                let p = a + d * (k as f64 / n as f64);
+                self.dc.height(p.x, p.y)
+            })
+            .fold(a.z.max(b.z), f64::max)
+            + self.opts.link_tolerance;
+        if top - a.z.max(b.z) > self.opts.approach {
+            return self.enter(b);
+        }
         let (up, over) = (Point3::new(a.x, a.y, top), Point3::new(b.x, b.y, top));
         if self.clear(&up, &over) {
             self.feed(up, self.tool.feed)?;
