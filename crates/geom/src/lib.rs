@@ -4,7 +4,9 @@
 //! nalgebra types in f64 are the vocabulary ([`Point3`], [`Vector3`]). Spatial queries run
 //! on this crate's own binned-SAH BVH rather than parry3d's `TriMesh`: about twice as fast
 //! on orientation-style rays (`benches/rays.rs` measures both in one run), with any-hit
-//! queries and a winding-number inside test that parry does not offer.
+//! queries and a winding-number inside test that parry does not offer. The same BVH
+//! carries drop-cutter and waterline for flat, ball and bull-nose cutters ([`DropCutter`]),
+//! the cutter-location queries of 3-axis finishing.
 
 mod aabb;
 mod atomic;
@@ -47,7 +49,10 @@ pub use crate::math::{Isometry3, Point3, Real, Rotation3, Similarity3, SplitMix6
 pub use crate::mesh::Mesh;
 pub use crate::metrics::{MetricOptions, ShapeMetrics, chamfer_and_normals, compare, occupancy_iou};
 pub use crate::normalize::{Normalization, normalize_unit_cube, unit_cube_normalization};
-pub use crate::query::{ClosestPoint, MeshIndex, OccluderCache, ParallelRays, RayHit};
+pub use crate::query::{
+    ClosestPoint, DropCutter, DropCutterOptions, MeshIndex, OccluderCache, ParallelRays, RayHit,
+    WaterlineOptions,
+};
 pub use crate::sample::{SurfaceSamples, sample_surface};
 pub use crate::sdf::{BoxShape, SignedDistance, Sphere};
 pub use crate::setup::Setup;

@@ -13,9 +13,14 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub(crate) mod bvh;
+mod contact;
+mod drop_cutter;
 mod parallel;
+mod waterline;
 
+pub use drop_cutter::{DropCutter, DropCutterOptions};
 pub use parallel::ParallelRays;
+pub use waterline::WaterlineOptions;
 
 use rayon::prelude::*;
 

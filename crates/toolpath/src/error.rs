@@ -20,6 +20,9 @@ pub enum ToolpathError<E> {
     /// Planning was cancelled ([`PlanProgress::cancel`](crate::PlanProgress::cancel)).
     #[error("cancelled")]
     Cancelled,
+    /// A finishing strategy failed (its error says why).
+    #[error("finishing strategy failed")]
+    Finish(#[source] crate::finish::FinishError),
     /// The motion sink refused a motion.
     #[error("the motion sink failed: {0}")]
     Sink(E),

@@ -114,6 +114,7 @@
 pub mod baseline;
 mod error;
 pub mod features;
+pub mod finish;
 mod layer;
 mod link;
 mod options;

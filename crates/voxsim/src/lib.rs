@@ -47,6 +47,12 @@
 //! and its minimum is found by bisection on the derivative to machine precision: exact up
 //! to rounding. This is why the flute length must be at least twice the corner radius.
 //!
+//! # Surface deviation
+//! [`HeightField`] is a second sink for 3-axis programs: columns at a fine spacing (default
+//! 0.05 mm), each cut to the lowest point of the swept cutter on its line (exact in Z), and
+//! [`surface_deviation`] measures the cut points' distance from the part (max, mean, gouge
+//! depth): a finishing pass's scallops are far below a voxel, so IoU cannot see them.
+//!
 //! # Additive mode
 //! [`Simulator::depositor`] deposits a bead ([`BeadProfile`]) below the nozzle tip along every
 //! extrusion move, for the FDM reconstruction.
@@ -61,6 +67,7 @@ mod engine;
 mod error;
 mod paper;
 mod sim;
+mod surface;
 mod sweep;
 mod tool;
 
@@ -70,5 +77,9 @@ pub use crate::error::{Result, SimError};
 pub use crate::sim::{
     Carver, RewardWeights, Rewards, SimOptions, SimReport, Simulation, Simulator, rewards, simulate_file,
     simulate_str,
+};
+pub use crate::surface::{
+    DeviationOptions, HeightField, HeightFieldOptions, SurfaceDeviation, surface_deviation,
+    surface_deviation_opt,
 };
 pub use crate::tool::{BeadProfile, Cutter, CutterShape, Holder, ToolTable};

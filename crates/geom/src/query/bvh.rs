@@ -23,7 +23,7 @@ const BINS: usize = 16;
 /// Depth after which splits become median splits, so depth stays below the stack size.
 const SAH_DEPTH: usize = 64;
 /// Traversal stack size (depth is at most `SAH_DEPTH + 32` for 2^32 triangles).
-const STACK: usize = 128;
+pub(crate) const STACK: usize = 128;
 /// Relative cost of a node visit against a triangle test in the SAH.
 const TRAVERSAL_COST: f64 = 1.0;
 

@@ -1,0 +1,5 @@
+//! Drop-cutter and waterline against brute force, analytic answers and moved meshes.
+
+mod drop;
+mod shapes;
+mod waterline;

@@ -1,0 +1,357 @@
+//! [`finish_setup`]: a finishing strategy's cutter-location polylines as motions, with the
+//! tool change, rapids on a clearance plane, a plunge into each pass and gouge-checked
+//! links at cutting height.
+//!
+//! Safety argument: every pass point is a drop-cutter height over the part (the finisher
+//! keeps the part exactly, allowance 0), and every feed, along a pass or between passes, is
+//! checked by the drop-cutter at samples [`FinishOptions::link_check_step`] apart: a chord
+//! that would cut in (where the cutter-location surface jumps at a wall, or across a corner
+//! of a waterline loop) becomes a step up, across and down when that is clear, else a
+//! retract and a new entry, so a feed gouges at most between samples. Between passes the tool either feeds
+//! straight at cutting height, when the link is short and the drop-cutter finds no
+//! interference at samples [`FinishOptions::link_check_step`] apart along it, or it goes up
+//! to the clearance plane, across, and down by rapid to [`FinishOptions::approach`] above
+//! the next pass's start, then feeds in at the plunge feed. The approach must exceed what
+//! the roughing left above the part (its allowance plus its layer steps).
+
+// NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use s2g_gcode::{Coolant, Motion, MotionSink, SpindleDirection};
+use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
+
+use super::{FinishContext, FinishingStrategy};
+use crate::error::ToolpathError;
+use crate::tool::Tool;
+
+/// Options of [`finish_setup_opt`] (lengths in the mesh's units, mm for real parts).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FinishOptions {
+    /// Scallop height allowed. Default `0.01`.
+    pub scallop: f64,
+    /// XY rectangle `[min, max]` of tool-centre positions to finish; `None` (default): the
+    /// part's bounding box grown by the tool radius.
+    pub region: Option<[[f64; 2]; 2]>,
+    /// Lowest tip height finished; `None` (default): the part's lowest point.
+    pub floor: Option<f64>,
+    /// Height of the clearance plane above the part's top, where rapids cross. Default `5`.
+    pub clearance: f64,
+    /// Height above a pass's start down to which the tool rapids before feeding in.
+    /// Default `1`.
+    pub approach: f64,
+    /// Longest link between passes fed straight at cutting height. Default `2.0`.
+    pub max_link: f64,
+    /// Spacing of the drop-cutter checks along such a link. Default `0.05`.
+    pub link_check_step: f64,
+    /// A link point may dip this far below the drop-cutter height. Default `1e-4`.
+    pub link_tolerance: f64,
+    /// Rapid rate for the time estimate (units per minute). Default `5000`.
+    pub rapid_feed: f64,
+    /// Flood coolant on during finishing. Default `true`.
+    pub coolant: bool,
+}
+
+impl Default for FinishOptions {
+    fn default() -> Self {
+        Self {
+            scallop: 0.01,
+            region: None,
+            floor: None,
+            clearance: 5.0,
+            approach: 1.0,
+            max_link: 2.0,
+            link_check_step: 0.05,
+            link_tolerance: 1e-4,
+            rapid_feed: 5000.0,
+            coolant: true,
+        }
+    }
+}
+
+/// What [`finish_setup_opt`] emitted.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FinishSummary {
+    /// Passes (polylines) machined.
+    pub passes: usize,
+    /// Links fed at cutting height between passes.
+    pub links: usize,
+    /// Retracts to the clearance plane.
+    pub retracts: usize,
+    /// Length of feed moves (passes, links and plunges).
+    pub cutting_length: f64,
+    /// Length of rapid moves.
+    pub rapid_length: f64,
+    /// Machining time in seconds: feeds at the tool's feed (plunges at its plunge feed),
+    /// rapids at [`FinishOptions::rapid_feed`].
+    pub time_s: f64,
+    /// The clearance plane's height (setup frame).
+    pub clear_z: f64,
+}
+
+/// The part mesh, given in the part frame, in `setup`'s frame (tool axis +Z): what
+/// [`finish_setup`] takes, indexed.
+pub fn part_in_setup_frame(part: &Mesh, setup: &Setup) -> Mesh {
+    part.transformed(&Similarity3::from_isometry(setup.frame.inverse(), 1.0))
+}
+
+/// [`finish_setup_opt`] with the default options.
+pub fn finish_setup<S: MotionSink>(
+    part: &MeshIndex,
+    setup: &Setup,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    sink: &mut S,
+) -> Result<FinishSummary, ToolpathError<S::Error>> {
+    finish_setup_opt(part, setup, tool, strategy, &FinishOptions::default(), sink)
+}
+
+/// Finishes `part` (indexed in the setup frame: see [`part_in_setup_frame`]) in `setup`
+/// with `tool` and `strategy`, writing to `sink`: the setup frame, a comment, the tool
+/// change, spindle and coolant on, then each pass (rapid over it on the clearance plane,
+/// rapid down to [`FinishOptions::approach`] above it, plunge at the plunge feed, feed
+/// along it), short gouge-free links fed at cutting height, and at the end a retract,
+/// coolant and spindle off. The finisher keeps the part exactly (allowance 0).
+/// [`ToolpathError::InvalidTool`] for an impossible tool, [`ToolpathError::InvalidOptions`]
+/// for an option out of range, [`ToolpathError::Finish`] for a strategy that failed, [`ToolpathError::Sink`] when the
+/// sink refuses a motion. Same input, same motions.
+pub fn finish_setup_opt<S: MotionSink>(
+    part: &MeshIndex,
+    setup: &Setup,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    opts: &FinishOptions,
+    sink: &mut S,
+) -> Result<FinishSummary, ToolpathError<S::Error>> {
+    tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
+    check(opts)?;
+    let cutter = profile_cutter(&tool.cutter);
+    let dc = DropCutter::new(part, &cutter).map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
+    let (lo, hi) = dc.bounds();
+    let r = tool.radius();
+    let [min, max] = opts.region.unwrap_or([[lo[0] - r, lo[1] - r], [hi[0] + r, hi[1] + r]]);
+    let floor = opts.floor.unwrap_or(lo[2]);
+    let ctx = FinishContext {
+        drop_cutter: &dc,
+        cutter: &cutter,
+        min,
+        max,
+        z_range: [floor, hi[2]],
+        scallop: opts.scallop,
+    };
+    let paths = strategy.paths(&ctx).map_err(ToolpathError::Finish)?;
+    let mut em = Emitter {
+        sink,
+        dc: &dc,
+        tool,
+        opts,
+        pos: None,
+        sum: FinishSummary { clear_z: hi[2] + opts.clearance, ..Default::default() },
+    };
+    em.begin(setup, strategy.name())?;
+    for path in paths.iter().filter(|p| !p.is_empty()) {
+        em.pass(path)?;
+    }
+    em.end()?;
+    Ok(em.sum)
+}
+
+/// The cutter the drop-cutter and the scallop formulas see: `c` with an unlimited flute
+/// length and stick-out (the paper's assumption, [`Tool::ball`]'s default) made finite, as
+/// both read only the radius and the corner radius.
+fn profile_cutter(c: &Cutter) -> Cutter {
+    let mut c = *c;
+    if !c.flute_length.is_finite() {
+        c.flute_length = 2.0 * c.radius;
+    }
+    if !c.stickout.is_finite() {
+        c.stickout = c.flute_length;
+    }
+    c
+}
+
+fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
+    let bad = |m: String| Err(ToolpathError::InvalidOptions(m));
+    let positive = [
+        ("scallop", o.scallop),
+        ("clearance", o.clearance),
+        ("approach", o.approach),
+        ("link_check_step", o.link_check_step),
+        ("rapid_feed", o.rapid_feed),
+    ];
+    for (name, v) in positive {
+        if !(v.is_finite() && v > 0.0) {
+            return bad(format!("{name} must be finite and > 0, got {v}"));
+        }
+    }
+    for (name, v) in [("max_link", o.max_link), ("link_tolerance", o.link_tolerance)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return bad(format!("{name} must be finite and >= 0, got {v}"));
+        }
+    }
+    if let Some([a, b]) = o.region
+        && !(a.iter().chain(&b).all(|v| v.is_finite()) && a[0] <= b[0] && a[1] <= b[1])
+    {
+        return bad(format!("region must be finite with min <= max, got {a:?} .. {b:?}"));
+    }
+    if o.floor.is_some_and(|z| !z.is_finite()) {
+        return bad(format!("floor must be finite, got {:?}", o.floor));
+    }
+    Ok(())
+}
+
+struct Emitter<'a, S: MotionSink> {
+    sink: &'a mut S,
+    dc: &'a DropCutter<'a>,
+    tool: &'a Tool,
+    opts: &'a FinishOptions,
+    pos: Option<Point3>,
+    sum: FinishSummary,
+}
+
+impl<S: MotionSink> Emitter<'_, S> {
+    fn send(&mut self, m: Motion<'_>) -> Result<(), ToolpathError<S::Error>> {
+        self.sink.motion(&m).map_err(ToolpathError::Sink)
+    }
+
+    fn rapid(&mut self, to: Point3) -> Result<(), ToolpathError<S::Error>> {
+        if let Some(p) = self.pos {
+            if p == to {
+                return Ok(());
+            }
+            let l = (to - p).norm();
+            self.sum.rapid_length += l;
+            self.sum.time_s += l / self.opts.rapid_feed * 60.0;
+        }
+        self.pos = Some(to);
+        self.send(Motion::Rapid { to })
+    }
+
+    fn feed(&mut self, to: Point3, feed: f64) -> Result<(), ToolpathError<S::Error>> {
+        if let Some(p) = self.pos {
+            if p == to {
+                return Ok(());
+            }
+            let l = (to - p).norm();
+            self.sum.cutting_length += l;
+            self.sum.time_s += l / feed * 60.0;
+        }
+        self.pos = Some(to);
+        self.send(Motion::Linear { to, feed, extrude: None })
+    }
+
+    fn begin(&mut self, setup: &Setup, strategy: &str) -> Result<(), ToolpathError<S::Error>> {
+        self.send(Motion::Setup { frame: setup.frame, rotary: [None; 3] })?;
+        let c = format!(
+            "s2g-toolpath: finishing tool {} radius {} strategy {} scallop {}",
+            self.tool.number,
+            self.tool.radius(),
+            strategy,
+            self.opts.scallop
+        );
+        self.send(Motion::Comment(c.into()))?;
+        self.send(Motion::ToolChange { tool: self.tool.number })?;
+        self.send(Motion::Spindle { rpm: self.tool.spindle_rpm, direction: SpindleDirection::Clockwise })?;
+        if self.opts.coolant {
+            self.send(Motion::Coolant(Coolant::Flood))?;
+        }
+        Ok(())
+    }
+
+    fn end(&mut self) -> Result<(), ToolpathError<S::Error>> {
+        self.retract()?;
+        if self.opts.coolant {
+            self.send(Motion::Coolant(Coolant::Off))?;
+        }
+        self.send(Motion::Spindle { rpm: 0.0, direction: SpindleDirection::Off })
+    }
+
+    fn retract(&mut self) -> Result<(), ToolpathError<S::Error>> {
+        let clear = self.sum.clear_z;
+        if let Some(p) = self.pos
+            && p.z < clear
+        {
+            self.sum.retracts += 1;
+            self.rapid(Point3::new(p.x, p.y, clear))?;
+        }
+        Ok(())
+    }
+
+    /// Whether the straight feed from `a` to `b` is short and gouge-free.
+    fn can_link(&self, a: &Point3, b: &Point3) -> bool {
+        (b - a).xy().norm() <= self.opts.max_link && self.clear(a, b)
+    }
+
+    /// Whether the drop-cutter finds no interference at samples
+    /// [`FinishOptions::link_check_step`] apart along `a`-`b`.
+    fn clear(&self, a: &Point3, b: &Point3) -> bool {
+        let d = b - a;
+        let n = (d.xy().norm() / self.opts.link_check_step).ceil();
+        if !(n <= 1e7) {
+            return false;
+        }
+        let n = n.max(1.0) as usize;
+        (0..=n).all(|k| {
+            let p = a + d * (k as f64 / n as f64);
+            !self.dc.interferes(p.x, p.y, p.z + self.opts.link_tolerance)
+        })
+    }
+
+    /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
+    /// up to the highest drop-cutter height along it (when that is at most
+    /// [`FinishOptions::approach`] above both ends), across and down when that is; else by a
+    /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
+    /// where it jumps at a wall or cuts a corner of a waterline loop).
+    fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
+        if self.clear(&a, &b) {
+            return self.feed(b, self.tool.feed);
+        }
+        // Lift to the highest drop-cutter height along the chord (a small lift across a
+        // waterline corner, the wall's top where the surface jumps), if within the approach.
+        let d = b - a;
+        let n = ((d.xy().norm() / self.opts.link_check_step).ceil().clamp(1.0, 1e6)) as usize;
+        let top = (0..=n)
+            .filter_map(|k| {
+                let p = a + d * (k as f64 / n as f64);
+                self.dc.height(p.x, p.y)
+            })
+            .fold(a.z.max(b.z), f64::max)
+            + self.opts.link_tolerance;
+        if top - a.z.max(b.z) > self.opts.approach {
+            return self.enter(b);
+        }
+        let (up, over) = (Point3::new(a.x, a.y, top), Point3::new(b.x, b.y, top));
+        if self.clear(&up, &over) {
+            self.feed(up, self.tool.feed)?;
+            self.feed(over, self.tool.feed)?;
+            return self.feed(b, self.tool.feed);
+        }
+        self.enter(b)
+    }
+
+    /// Retract, rapid over `s` on the clearance plane, down to the approach height, and
+    /// plunge at the plunge feed.
+    fn enter(&mut self, s: Point3) -> Result<(), ToolpathError<S::Error>> {
+        self.retract()?;
+        let clear = self.sum.clear_z;
+        self.rapid(Point3::new(s.x, s.y, clear))?;
+        let top = (s.z + self.opts.approach).min(clear);
+        self.rapid(Point3::new(s.x, s.y, top))?;
+        self.feed(s, self.tool.plunge_feed)
+    }
+
+    fn pass(&mut self, path: &[Point3]) -> Result<(), ToolpathError<S::Error>> {
+        let s = path[0];
+        match self.pos {
+            Some(p) if p.z < self.sum.clear_z && self.can_link(&p, &s) => {
+                self.sum.links += 1;
+                self.feed(s, self.tool.feed)?;
+            }
+            _ => self.enter(s)?,
+        }
+        self.sum.passes += 1;
+        for w in path.windows(2) {
+            self.step(w[0], w[1])?;
+        }
+        Ok(())
+    }
+}

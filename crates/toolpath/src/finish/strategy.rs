@@ -1,0 +1,304 @@
+//! Finishing strategies behind one trait ([`FinishingStrategy`]): parallel (raster at an
+//! angle), waterline (constant-Z loops on steep walls) and steep-and-shallow (split by the
+//! slope of the cutter-location surface, with overlap).
+
+// NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use rayon::prelude::*;
+use s2g_geom::{Cutter, DropCutter, Point3, WaterlineOptions};
+
+use super::{FinishError, ParallelFinishOptions, parallel_finish_opt, stepover_for_scallop};
+
+/// What a finishing strategy plans over: a drop-cutter over the part in the setup frame
+/// (tool axis +Z), the XY rectangle to finish, and the scallop height allowed.
+#[derive(Debug, Clone, Copy)]
+pub struct FinishContext<'a> {
+    /// The finishing cutter over the part, in the setup frame.
+    pub drop_cutter: &'a DropCutter<'a>,
+    /// The finishing cutter (the one `drop_cutter` was built with).
+    pub cutter: &'a Cutter,
+    /// Lower XY corner of the region to finish (tool-centre positions).
+    pub min: [f64; 2],
+    /// Upper XY corner of the region to finish.
+    pub max: [f64; 2],
+    /// Tip heights range `[low, high]` to finish: waterline levels lie in it and parallel
+    /// points below `low` are left out.
+    pub z_range: [f64; 2],
+    /// The scallop height allowed, in mesh units (mm).
+    pub scallop: f64,
+}
+
+/// A finishing strategy: cutter-location polylines (tool-tip points on the drop-cutter
+/// surface, setup frame) for a setup. Two required methods, [`name`](Self::name) and
+/// [`paths`](Self::paths). Every point returned must be a gouge-free tip position (at or
+/// above the drop-cutter height there); the segments between points are chords of the
+/// cutter-location surface, within the strategy's sampling tolerance of it.
+pub trait FinishingStrategy: Send + Sync + std::fmt::Debug {
+    /// The strategy's name (`parallel`, `waterline`, `steep-shallow`).
+    fn name(&self) -> &str;
+
+    /// The passes, in machining order; a closed loop repeats its first point at the end.
+    fn paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError>;
+}
+
+/// Parallel (raster) finishing along an angle, the drop-cutter surface sampled adaptively
+/// (see `parallel_finish_opt`), with the stepover from the scallop height on a plane of
+/// [`Parallel::design_slope`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Parallel {
+    /// Direction of the passes in radians from +X. Default `0`.
+    pub angle: f64,
+    /// The slope (radians, across the passes) the stepover is computed for: the scallop is
+    /// at most the target on planes up to this slope. Default `0` (horizontal).
+    pub design_slope: f64,
+    /// First sampling step along a pass. Default `0.5`.
+    pub sample_step: f64,
+    /// Chord tolerance of the adaptive sampling (Z distance). Default `0.002`.
+    pub tolerance: f64,
+}
+
+impl Default for Parallel {
+    fn default() -> Self {
+        Self { angle: 0.0, design_slope: 0.0, sample_step: 0.5, tolerance: 0.002 }
+    }
+}
+
+impl Parallel {
+    /// The stepover this strategy uses for `cutter` and `scallop`.
+    pub fn stepover(&self, cutter: &Cutter, scallop: f64) -> Result<f64, FinishError> {
+        stepover_for_scallop(cutter, scallop, self.design_slope)
+    }
+
+    fn raw_paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        let opts = ParallelFinishOptions {
+            angle: self.angle,
+            stepover: self.stepover(ctx.cutter, ctx.scallop)?,
+            sample_step: self.sample_step,
+            tolerance: self.tolerance,
+            min_step: (0.05 * self.sample_step).min(0.02),
+            zigzag: true,
+            floor: None,
+        };
+        let runs = parallel_finish_opt(ctx.drop_cutter, ctx.min, ctx.max, &opts)?;
+        Ok(split_runs(runs, |p| p.z >= ctx.z_range[0]))
+    }
+}
+
+impl FinishingStrategy for Parallel {
+    fn name(&self) -> &str {
+        "parallel"
+    }
+
+    fn paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        self.raw_paths(ctx)
+    }
+}
+
+/// Waterline finishing: the constant-Z loops of the cutter-location surface
+/// (`DropCutter::waterline`, each point moved out by twice the tolerance so that it is
+/// clear), top down, at a Z step that keeps the scallop under the target
+/// on walls at least [`Waterline::min_slope`] steep: on a plane at slope `a`, passes `dz`
+/// apart in Z are `dz / tan(a)` apart horizontally, so `dz = stepover_for_scallop(a) tan(a)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Waterline {
+    /// The shallowest wall (radians from horizontal) the Z step is computed for; shallower
+    /// walls get taller scallops. Default 50 degrees.
+    pub min_slope: f64,
+    /// Sampling grid step of the waterline loops. Default `0.5`.
+    pub step: f64,
+    /// Accuracy of each loop point. Default `1e-4`.
+    pub tolerance: f64,
+    /// The most Z levels (an error beyond). Default `100_000`.
+    pub max_levels: usize,
+}
+
+impl Default for Waterline {
+    fn default() -> Self {
+        Self { min_slope: 50f64.to_radians(), step: 0.5, tolerance: 1e-4, max_levels: 100_000 }
+    }
+}
+
+impl Waterline {
+    /// The Z step between levels for `cutter` and `scallop`.
+    pub fn z_step(&self, cutter: &Cutter, scallop: f64) -> Result<f64, FinishError> {
+        let a = self.min_slope;
+        if !(a > 0.0 && a < std::f64::consts::FRAC_PI_2) {
+            return Err(FinishError::InvalidOptions(format!(
+                "min_slope must be in (0, 90) degrees, got {a} rad"
+            )));
+        }
+        Ok(stepover_for_scallop(cutter, scallop, a)? * a.tan())
+    }
+
+    /// The levels, top down: the highest one `z_step` below the top of the range, the
+    /// lowest at the bottom of the range.
+    fn levels(&self, ctx: &FinishContext<'_>) -> Result<Vec<f64>, FinishError> {
+        let dz = self.z_step(ctx.cutter, ctx.scallop)?;
+        let [lo, hi] = ctx.z_range;
+        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            return Err(FinishError::InvalidOptions(format!(
+                "z range must be finite and ordered, got {lo} .. {hi}"
+            )));
+        }
+        let n = ((hi - lo) / dz).ceil().max(1.0);
+        if n > self.max_levels as f64 {
+            return Err(FinishError::InvalidOptions(format!(
+                "{n} waterline levels, more than {}",
+                self.max_levels
+            )));
+        }
+        let n = n as usize;
+        Ok((0..n).map(|k| hi - (hi - lo) * (k + 1) as f64 / n as f64).collect())
+    }
+
+    fn loops(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        let levels = self.levels(ctx)?;
+        let opts = WaterlineOptions { step: self.step, tolerance: self.tolerance, ..Default::default() };
+        let per_level: Result<Vec<_>, _> = levels
+            .par_iter()
+            .map(|&z| ctx.drop_cutter.waterline_opt(z, &opts).map_err(FinishError::Geometry))
+            .collect();
+        let (min, max) = (ctx.min, ctx.max);
+        let inside = |p: &Point3| p.x >= min[0] && p.x <= max[0] && p.y >= min[1] && p.y <= max[1];
+        let mut out = Vec::new();
+        for ring in per_level?.into_iter().flatten() {
+            let mut ring = outward(&ring, 2.0 * self.tolerance);
+            if let Some(&first) = ring.first() {
+                ring.push(first);
+            }
+            out.extend(split_runs(vec![ring], inside));
+        }
+        Ok(out)
+    }
+}
+
+impl FinishingStrategy for Waterline {
+    fn name(&self) -> &str {
+        "waterline"
+    }
+
+    fn paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        self.loops(ctx)
+    }
+}
+
+/// Steep-and-shallow finishing: waterline where the cutter-location surface is steeper
+/// than [`SteepShallow::threshold`], parallel where it is shallower, the two overlapping
+/// by [`SteepShallow::overlap`] in slope (waterline keeps points steeper than `threshold -
+/// overlap`, parallel points shallower than `threshold + overlap`). The slope at a point is
+/// that of the drop-cutter surface, by central differences [`SteepShallow::slope_step`]
+/// apart. Waterline passes come first, then the parallel ones.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SteepShallow {
+    /// The slope (radians from horizontal) that separates steep from shallow. Default 50
+    /// degrees.
+    pub threshold: f64,
+    /// Overlap of the two in slope (radians). Default 5 degrees.
+    pub overlap: f64,
+    /// The parallel part (its `design_slope` is replaced by `threshold + overlap`).
+    pub parallel: Parallel,
+    /// The waterline part (its `min_slope` is replaced by `threshold - overlap`).
+    pub waterline: Waterline,
+    /// Finite-difference step of the slope estimate. Default `0.05`.
+    pub slope_step: f64,
+}
+
+impl Default for SteepShallow {
+    fn default() -> Self {
+        Self {
+            threshold: 50f64.to_radians(),
+            overlap: 5f64.to_radians(),
+            parallel: Parallel::default(),
+            waterline: Waterline::default(),
+            slope_step: 0.05,
+        }
+    }
+}
+
+/// The slope (radians) of the drop-cutter surface at `(x, y)`; `None` where a neighbour
+/// is not touched (an edge of the part: treated as steep).
+pub fn cl_slope(dc: &DropCutter<'_>, x: f64, y: f64, e: f64) -> Option<f64> {
+    let gx = dc.height(x + e, y)? - dc.height(x - e, y)?;
+    let gy = dc.height(x, y + e)? - dc.height(x, y - e)?;
+    Some((gx.hypot(gy) / (2.0 * e)).atan())
+}
+
+impl FinishingStrategy for SteepShallow {
+    fn name(&self) -> &str {
+        "steep-shallow"
+    }
+
+    fn paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        let (t, o, e) = (self.threshold, self.overlap, self.slope_step);
+        if !(t > o && o >= 0.0 && t + o < std::f64::consts::FRAC_PI_2 && e.is_finite() && e > 0.0) {
+            return Err(FinishError::InvalidOptions(format!(
+                "steep-shallow needs 0 <= overlap < threshold < 90 degrees - overlap and a positive slope step, got {t}, {o}, {e}"
+            )));
+        }
+        let dc = ctx.drop_cutter;
+        let wl = Waterline { min_slope: t - o, ..self.waterline };
+        let steep = |p: &Point3| cl_slope(dc, p.x, p.y, e).is_none_or(|a| a >= t - o);
+        let mut out = split_par(wl.loops(ctx)?, steep);
+        let par = Parallel { design_slope: t + o, ..self.parallel };
+        let shallow = |p: &Point3| cl_slope(dc, p.x, p.y, e).is_some_and(|a| a <= t + o);
+        out.extend(split_par(par.raw_paths(ctx)?, shallow));
+        Ok(out)
+    }
+}
+
+/// A closed loop (the cutter cuts on its left) moved `d` to its right, out of the
+/// interference region: its points are on the contour only within the bisection
+/// tolerance, on either side, and this puts them (and chords along straight walls) on the
+/// clear side.
+fn outward(ring: &[Point3], d: f64) -> Vec<Point3> {
+    let n = ring.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (ring[(i + n - 1) % n], ring[(i + 1) % n]);
+            let t = (b - a).xy();
+            let l = t.norm();
+            let p = ring[i];
+            if !(l > 0.0) {
+                return p;
+            }
+            Point3::new(p.x + d * t.y / l, p.y - d * t.x / l, p.z)
+        })
+        .collect()
+}
+
+/// [`split_runs`] with the predicate evaluated in parallel.
+fn split_par(paths: Vec<Vec<Point3>>, keep: impl Fn(&Point3) -> bool + Sync) -> Vec<Vec<Point3>> {
+    paths
+        .into_par_iter()
+        .map(|p| {
+            let flags: Vec<bool> = p.iter().map(&keep).collect();
+            let mut k = flags.into_iter();
+            split_runs(vec![p], |_| k.next().unwrap_or(false))
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// The runs of consecutive points that `keep` accepts, each of at least two points.
+fn split_runs(paths: Vec<Vec<Point3>>, mut keep: impl FnMut(&Point3) -> bool) -> Vec<Vec<Point3>> {
+    let mut out = Vec::new();
+    for path in paths {
+        let mut run = Vec::new();
+        for p in path {
+            if keep(&p) {
+                run.push(p);
+            } else if run.len() >= 2 {
+                out.push(std::mem::take(&mut run));
+            } else {
+                run.clear();
+            }
+        }
+        if run.len() >= 2 {
+            out.push(run);
+        }
+    }
+    out
+}

@@ -1,0 +1,314 @@
+//! Finishing through `finish_setup`, measured on the machined surface: the simulated
+//! height field (`s2g_voxsim::HeightField`, exact in Z at each column) of parallel finishing
+//! over a sphere and a cylinder against the analytic cusp between two ball positions; the
+//! emitted motions against the drop-cutter (no gouge), the clearance plane and their own
+//! summary; waterline and steep-and-shallow against the scallop target.
+
+use s2g_gcode::{Coolant, Motion, MotionRecorder, MotionSink};
+use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup};
+use s2g_toolpath::Tool;
+use s2g_toolpath::finish::{
+    FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline, finish_setup_opt,
+};
+use s2g_voxsim::{HeightField, HeightFieldOptions, ToolTable, surface_deviation};
+
+/// A UV sphere of radius `r` about the origin, `nu` segments around and `nv` from pole to
+/// pole, outward wound, its vertices on the sphere.
+fn sphere(r: f64, nu: usize, nv: usize) -> Mesh {
+    let mut v = vec![Point3::new(0.0, 0.0, r)];
+    for j in 1..nv {
+        let t = std::f64::consts::PI * j as f64 / nv as f64;
+        for i in 0..nu {
+            let p = std::f64::consts::TAU * i as f64 / nu as f64;
+            v.push(Point3::new(r * t.sin() * p.cos(), r * t.sin() * p.sin(), r * t.cos()));
+        }
+    }
+    v.push(Point3::new(0.0, 0.0, -r));
+    let south = (v.len() - 1) as u32;
+    let at = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
+    let mut t = Vec::new();
+    for i in 0..nu {
+        t.push([0, at(1, i), at(1, i + 1)]);
+        t.push([south, at(nv - 1, i + 1), at(nv - 1, i)]);
+        for j in 1..nv - 1 {
+            t.push([at(j, i), at(j + 1, i), at(j + 1, i + 1)]);
+            t.push([at(j, i), at(j + 1, i + 1), at(j, i + 1)]);
+        }
+    }
+    Mesh::new(v, t).unwrap()
+}
+
+/// A closed cylinder of radius `r` along X from `-l/2` to `l/2`, `n` segments around.
+fn cylinder_x(r: f64, l: f64, n: usize) -> Mesh {
+    let ring = |x: f64| {
+        (0..n).map(move |i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            Point3::new(x, r * a.cos(), r * a.sin())
+        })
+    };
+    let mut v: Vec<Point3> = ring(-0.5 * l).chain(ring(0.5 * l)).collect();
+    v.push(Point3::new(-0.5 * l, 0.0, 0.0));
+    v.push(Point3::new(0.5 * l, 0.0, 0.0));
+    let (c0, c1, n32) = ((2 * n) as u32, (2 * n + 1) as u32, n as u32);
+    let mut t = Vec::new();
+    for i in 0..n32 {
+        let j = (i + 1) % n32;
+        t.push([i, j, n32 + j]);
+        t.push([i, n32 + j, n32 + i]);
+        t.push([c0, j, i]);
+        t.push([c1, n32 + i, n32 + j]);
+    }
+    Mesh::new(v, t).unwrap()
+}
+
+/// The lower intersection of two circles of radius `r` about the ball centres of tips on
+/// the cutter-location circle of radius `rc = R + r` at `y1` and `y2`: its distance from
+/// the centre minus `R` is the scallop between the two passes, measured normal to the
+/// surface.
+fn analytic_cusp(big: f64, r: f64, y1: f64, y2: f64) -> f64 {
+    let rc = big + r;
+    let phi = 0.5 * ((y2 / rc).asin() - (y1 / rc).asin()).abs();
+    rc * phi.cos() - (r * r - (rc * phi.sin()).powi(2)).sqrt() - big
+}
+
+/// Records `finish_setup_opt`'s motions and replays them into a height field.
+fn finish(
+    index: &MeshIndex,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    opts: &FinishOptions,
+) -> (MotionRecorder, s2g_toolpath::finish::FinishSummary) {
+    let mut rec = MotionRecorder::default();
+    let sum = finish_setup_opt(index, &Setup::top(), tool, strategy, opts, &mut rec).unwrap();
+    (rec, sum)
+}
+
+fn replay(rec: &MotionRecorder, field: &mut HeightField) {
+    for (_, m) in &rec.motions {
+        field.motion(m).unwrap();
+    }
+}
+
+/// The y of every pass that crosses `x = 0`, sorted.
+fn pass_ys(index: &MeshIndex, tool: &Tool, strategy: &Parallel, opts: &FinishOptions) -> Vec<f64> {
+    let cutter = Cutter::ball(tool.radius(), 30.0);
+    let dc = DropCutter::new(index, &cutter).unwrap();
+    let [min, max] = opts.region.unwrap();
+    let (lo, hi) = dc.bounds();
+    let ctx = FinishContext {
+        drop_cutter: &dc,
+        cutter: &cutter,
+        min,
+        max,
+        z_range: [lo[2], hi[2]],
+        scallop: opts.scallop,
+    };
+    let mut ys: Vec<f64> = strategy
+        .paths(&ctx)
+        .unwrap()
+        .iter()
+        .filter(|p| p.iter().any(|q| q.x < 0.0) && p.iter().any(|q| q.x > 0.0))
+        .map(|p| p[0].y)
+        .collect();
+    ys.sort_by(f64::total_cmp);
+    ys.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    ys
+}
+
+/// Parallel finishing with a ball over a sphere and a cylinder (axis along the passes),
+/// simulated at columns 0.005 apart on the line `x = 0`: between every two neighbouring
+/// passes over the top (slope under 20 degrees), the largest radial distance of the cut
+/// surface from the analytic shape is the analytic cusp for those passes' positions, within
+/// 5 % (the column spacing, the chord tolerance and the tessellation's sagitta, each well
+/// under 1 % of the 0.05 scallop, are what it allows for); and nothing is cut below it.
+#[test]
+fn sphere_and_cylinder_scallops_match_the_analytic_cusp() {
+    let (big, r, target) = (20.0, 3.0, 0.05);
+    let tool = Tool::ball(r);
+    let strategy = Parallel { tolerance: 1e-4, ..Parallel::default() };
+    let s = strategy.stepover(&Cutter::ball(r, 30.0), target).unwrap();
+    assert!((s - 2.0 * (2.0 * r * target - target * target).sqrt()).abs() < 1e-12);
+    let opts =
+        FinishOptions { scallop: target, region: Some([[-8.0, -10.0], [8.0, 10.0]]), ..Default::default() };
+    for (name, mesh) in [("sphere", sphere(big, 720, 360)), ("cylinder", cylinder_x(big, 60.0, 1440))] {
+        let index = MeshIndex::new(&mesh).unwrap();
+        let (rec, _) = finish(&index, &tool, &strategy, &opts);
+        let fo = HeightFieldOptions { spacing: 0.005, ..Default::default() };
+        let mut field = HeightField::new_opt(
+            [0.0, -10.0],
+            [0.0, 10.0],
+            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
+            &fo,
+        )
+        .unwrap();
+        replay(&rec, &mut field);
+        let ys = pass_ys(&index, &tool, &strategy, &opts);
+        assert!(ys.len() >= 15, "{name}: {ys:?}");
+        let radial = |j: usize| {
+            let [x, y] = field.column(0, j);
+            let z = field.top(0, j).unwrap();
+            (x * x + y * y + z * z).sqrt() - big
+        };
+        let mut pairs = 0;
+        for w in ys.windows(2) {
+            let (y1, y2) = (w[0], w[1]);
+            assert!((y2 - y1 - s).abs() < 1e-9, "{name}: passes {y1} {y2}, stepover {s}");
+            if y1.abs().max(y2.abs()) > (big + r) * 20f64.to_radians().sin() {
+                continue;
+            }
+            let js = (0..field.dims().1).filter(|&j| (y1..=y2).contains(&field.column(0, j)[1]));
+            let measured = js.map(radial).fold(f64::NEG_INFINITY, f64::max);
+            let analytic = analytic_cusp(big, r, y1, y2);
+            assert!(
+                (measured - analytic).abs() <= 0.05 * analytic,
+                "{name}: passes at {y1:.4} and {y2:.4}: scallop {measured:.6} vs analytic {analytic:.6}"
+            );
+            pairs += 1;
+        }
+        assert!(pairs >= 8, "{name}: {pairs} pairs over the top");
+        let deepest = (0..field.dims().1).map(radial).fold(f64::INFINITY, f64::min);
+        assert!(deepest > -1e-3, "{name}: cut {deepest} below the surface");
+    }
+}
+
+/// Every fed point is gouge-free by the drop-cutter, rapids cross only on the clearance
+/// plane, the program starts with the tool change, spindle and coolant and ends with them
+/// off, and the summary's lengths are those of the motions.
+#[test]
+fn finish_setup_motions_are_safe_and_summed() {
+    let mesh = sphere(15.0, 96, 48);
+    let index = MeshIndex::new(&mesh).unwrap();
+    let tool = Tool { number: 7, ..Tool::ball(2.0) };
+    let dc = DropCutter::new(&index, &Cutter::ball(2.0, 30.0)).unwrap();
+    let strategies: [&dyn FinishingStrategy; 3] =
+        [&Parallel::default(), &Waterline { step: 1.0, ..Default::default() }, &SteepShallow::default()];
+    for st in strategies {
+        let opts = FinishOptions { scallop: 0.05, floor: Some(0.0), ..Default::default() };
+        let (rec, sum) = finish(&index, &tool, st, &opts);
+        let m: Vec<&Motion<'_>> = rec.motions.iter().map(|(_, m)| m).collect();
+        assert!(matches!(m[2], Motion::ToolChange { tool: 7 }), "{}: {:?}", st.name(), &m[..4]);
+        assert!(matches!(m[3], Motion::Spindle { .. }) && matches!(m[4], Motion::Coolant(Coolant::Flood)));
+        assert!(matches!(m[m.len() - 2], Motion::Coolant(Coolant::Off)));
+        let (mut feed, mut rapid, mut pos) = (0.0, 0.0, None::<Point3>);
+        for mm in &m {
+            match mm {
+                Motion::Linear { to, .. } => {
+                    // Waterline points are on the contour within its 1e-4 tolerance: one
+                    // of the points 2e-4 around is clear.
+                    let clear = (0..=8).any(|k| {
+                        let (dy, dx) = (k as f64 * std::f64::consts::FRAC_PI_4).sin_cos();
+                        let e = if k == 8 { 0.0 } else { 2e-4 };
+                        !dc.interferes(to.x + e * dx, to.y + e * dy, to.z + 1e-9)
+                    });
+                    assert!(clear, "{}: gouge at {to}", st.name());
+                    feed += pos.map_or(0.0, |p| (to - p).norm());
+                    pos = Some(*to);
+                }
+                Motion::Rapid { to } => {
+                    if let Some(p) = pos {
+                        let horizontal = (to.xy() - p.xy()).norm() > 1e-12;
+                        assert!(
+                            !horizontal || (p.z == sum.clear_z && to.z == sum.clear_z),
+                            "{}: rapid {p} -> {to}",
+                            st.name()
+                        );
+                        rapid += (to - p).norm();
+                    }
+                    pos = Some(*to);
+                }
+                _ => {}
+            }
+        }
+        assert!(sum.passes > 0 && sum.cutting_length > 0.0, "{}: {sum:?}", st.name());
+        assert!(
+            (feed - sum.cutting_length).abs() < 1e-6 * feed
+                && (rapid - sum.rapid_length).abs() < 1e-6 * rapid.max(1.0)
+        );
+        assert!(sum.time_s > 60.0 * sum.cutting_length / tool.feed, "{}: {sum:?}", st.name());
+    }
+}
+
+/// Waterline and steep-and-shallow over a hemisphere: the machined surface stays within
+/// the scallop target (plus the loops' chord sagitta and the tessellation) of the part, over
+/// every column steep-and-shallow reaches and over the columns where the sphere is 45 to 75
+/// degrees steep for waterline (designed for walls of 40 degrees and more), and gouges it by
+/// no more than the chords' tolerance (parallel: 0.002 in Z; waterline: the sagitta
+/// `step^2 / 8 rho` of chords up to `step sqrt 2` long, about 0.0012 here).
+#[test]
+fn waterline_and_steep_shallow_meet_the_scallop_on_a_sphere() {
+    let (big, target) = (15.0, 0.05);
+    let mesh = sphere(big, 360, 180);
+    let index = MeshIndex::new(&mesh).unwrap();
+    let tool = Tool::ball(2.0);
+    let wl = Waterline { step: 0.25, min_slope: 40f64.to_radians(), ..Default::default() };
+    let ss = SteepShallow { waterline: Waterline { step: 0.25, ..Default::default() }, ..Default::default() };
+    let strategies: [&dyn FinishingStrategy; 2] = [&wl, &ss];
+    for st in strategies {
+        let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
+        let (rec, _) = finish(&index, &tool, st, &opts);
+        let mut field = HeightField::new(
+            [-12.0, -12.0],
+            [12.0, 12.0],
+            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
+        )
+        .unwrap();
+        replay(&rec, &mut field);
+        let d = surface_deviation(&field, &index);
+        assert!(d.gouge_depth <= 2.5e-3, "{}: {d:?}", st.name());
+        // Waterline alone is checked where the sphere is 45 to 75 degrees steep,
+        // steep-and-shallow up to 75 degrees (below, the floor at z = 2 stops both).
+        let lo = if st.name() == "waterline" { big * 45f64.to_radians().sin() } else { 0.0 };
+        let hi = big * 75f64.to_radians().sin();
+        let (nx, ny) = field.dims();
+        let mut worst = (0.0f64, 0usize, Point3::origin());
+        for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+            let [x, y] = field.column(i, j);
+            if (lo..=hi).contains(&x.hypot(y)) {
+                let p = Point3::new(x, y, field.top(i, j).unwrap());
+                let e = index.closest_point(&p).distance;
+                if e > worst.0 {
+                    worst = (e, worst.1, p);
+                }
+                worst.1 += 1;
+            }
+        }
+        assert!(worst.1 > 50_000 && worst.0 <= 1.15 * target, "{}: {worst:?}", st.name());
+    }
+}
+
+/// Options out of range are errors, not panics.
+#[test]
+fn bad_finishing_options_are_errors() {
+    let index = MeshIndex::new(&sphere(5.0, 24, 12)).unwrap();
+    let tool = Tool::ball(1.0);
+    let bad = [
+        FinishOptions { scallop: 0.0, ..Default::default() },
+        FinishOptions { clearance: f64::NAN, ..Default::default() },
+        FinishOptions { region: Some([[1.0, 0.0], [0.0, 1.0]]), ..Default::default() },
+        FinishOptions { floor: Some(f64::INFINITY), ..Default::default() },
+    ];
+    for o in bad {
+        let mut rec = MotionRecorder::default();
+        assert!(
+            finish_setup_opt(&index, &Setup::top(), &tool, &Parallel::default(), &o, &mut rec).is_err(),
+            "{o:?}"
+        );
+    }
+    let mut rec = MotionRecorder::default();
+    let wrong = SteepShallow { threshold: 1.0, overlap: 2.0, ..Default::default() };
+    assert!(
+        finish_setup_opt(&index, &Setup::top(), &tool, &wrong, &FinishOptions::default(), &mut rec).is_err()
+    );
+    let no_tool = Tool { feed: 0.0, ..tool };
+    assert!(
+        finish_setup_opt(
+            &index,
+            &Setup::top(),
+            &no_tool,
+            &Parallel::default(),
+            &FinishOptions::default(),
+            &mut rec
+        )
+        .is_err()
+    );
+}

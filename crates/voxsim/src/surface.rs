@@ -1,0 +1,322 @@
+//! The machined surface of a 3-axis setup as a height field, and its deviation from the
+//! part's surface (issue 36: at 256^3 a voxel is bigger than any scallop, so finishing is
+//! measured on columns instead).
+//!
+//! [`HeightField`] is a [`MotionSink`]: a grid of vertical columns, each holding the
+//! lowest height any cutter reached in it. Every move (rapids too, as in the simulator)
+//! sweeps its cutter's primitives along the segment and lowers each column within reach
+//! to the bottom of the swept volume on the column's line, in closed form per primitive
+//! (the dexel carver's column intervals: exact in Z for flat and ball ends, the bull nose's
+//! torus to machine precision), so the field is exact at its columns whatever their
+//! spacing. [`surface_deviation`] compares it with the part's surface.
+
+// NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use rayon::prelude::*;
+use s2g_gcode::{ArcSpec, Motion, MotionSink};
+use s2g_geom::{Isometry3, MeshIndex, Point3, Solids, Vector3};
+
+use crate::engine::ToolPrims;
+use crate::error::{Result, SimError};
+use crate::sweep::{Prim, Seg};
+use crate::tool::{ToolTable, tool_error};
+
+/// Options of [`HeightField::new_opt`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeightFieldOptions {
+    /// Distance between neighbouring columns, in X and Y. Default `0.05`.
+    pub spacing: f64,
+    /// Largest chord sagitta of arcs, which are swept as chords. Default `0.001`.
+    pub arc_tolerance: f64,
+    /// The most columns a field may have (an error beyond). Default `400_000_000`.
+    pub max_columns: usize,
+}
+
+impl Default for HeightFieldOptions {
+    fn default() -> Self {
+        Self { spacing: 0.05, arc_tolerance: 0.001, max_columns: 400_000_000 }
+    }
+}
+
+/// The lowest height every column of a grid was cut to, in the part frame (see the module
+/// docs). Columns are at `min + (i, j) spacing`; a column never reached holds `+inf`.
+/// Tool changes select the cutter from the tool table; setup motions must keep the tool
+/// axis along +Z of the part frame (a 3-axis setup), else the move is refused with
+/// [`SimError::InvalidMotion`].
+#[derive(Debug, Clone)]
+pub struct HeightField {
+    min: [f64; 2],
+    spacing: f64,
+    nx: usize,
+    ny: usize,
+    top: Vec<f64>,
+    tools: ToolTable,
+    prims: ToolPrims,
+    frame: Isometry3,
+    pos: Option<Point3>,
+    arc_tolerance: f64,
+}
+
+impl HeightField {
+    /// [`HeightField::new_opt`] with the default options.
+    pub fn new(min: [f64; 2], max: [f64; 2], tools: ToolTable) -> Result<Self> {
+        Self::new_opt(min, max, tools, &HeightFieldOptions::default())
+    }
+
+    /// A field over the rectangle `[min, max]` (part frame) cut by `tools` (the default
+    /// tool until a tool change). [`SimError::InvalidOption`] for a rectangle that is not
+    /// finite and ordered, a spacing or tolerance that is not finite and positive, or too
+    /// many columns; [`SimError::InvalidTool`] for an impossible tool.
+    pub fn new_opt(min: [f64; 2], max: [f64; 2], tools: ToolTable, o: &HeightFieldOptions) -> Result<Self> {
+        tools.validate()?;
+        let ok = min.iter().chain(&max).all(|v| v.is_finite()) && min[0] <= max[0] && min[1] <= max[1];
+        if !(ok && o.spacing.is_finite() && o.spacing > 0.0 && o.arc_tolerance > 0.0) {
+            return Err(SimError::InvalidOption(format!(
+                "height field over {min:?} .. {max:?} at spacing {} (arc tolerance {})",
+                o.spacing, o.arc_tolerance
+            )));
+        }
+        let n = |a: usize| ((max[a] - min[a]) / o.spacing + 1e-9).floor() + 1.0;
+        if n(0) * n(1) > o.max_columns as f64 {
+            return Err(SimError::InvalidOption(format!(
+                "{} columns, more than {}",
+                n(0) * n(1),
+                o.max_columns
+            )));
+        }
+        let (nx, ny) = (n(0) as usize, n(1) as usize);
+        let prims = ToolPrims::cutter(&tools.default);
+        Ok(Self {
+            min,
+            spacing: o.spacing,
+            nx,
+            ny,
+            top: vec![f64::INFINITY; nx * ny],
+            tools,
+            prims,
+            frame: Isometry3::identity(),
+            pos: None,
+            arc_tolerance: o.arc_tolerance,
+        })
+    }
+
+    /// Columns along X and Y.
+    pub fn dims(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// The XY position of column `(i, j)`.
+    pub fn column(&self, i: usize, j: usize) -> [f64; 2] {
+        [self.min[0] + i as f64 * self.spacing, self.min[1] + j as f64 * self.spacing]
+    }
+
+    /// The lowest height column `(i, j)` was cut to (`+inf` when never reached; `None`
+    /// outside the grid).
+    pub fn top(&self, i: usize, j: usize) -> Option<f64> {
+        (i < self.nx && j < self.ny).then(|| self.top[j * self.nx + i])
+    }
+
+    /// Lowers the columns the cutter swept from `a` to `b` (part frame, axis +Z) reaches.
+    fn sweep(&mut self, a: Point3, b: Point3) {
+        let seg = Seg::new(a, b, Vector3::z());
+        let (lower, n) = lower_prims(&self.prims);
+        let prims = &lower[..n];
+        let reach = prims.iter().map(|p| p.bound().2).fold(0.0, f64::max);
+        let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
+        let range = |lo: f64, hi: f64, m: f64, n: usize| {
+            let i0 = ((lo - reach - m) / s).ceil().max(0.0);
+            let i1 = ((hi + reach - m) / s).floor().min(n as f64 - 1.0);
+            (i0 <= i1).then_some((i0 as usize, i1 as usize))
+        };
+        let (Some((i0, i1)), Some((j0, j1))) =
+            (range(a.x.min(b.x), a.x.max(b.x), min[0], nx), range(a.y.min(b.y), a.y.max(b.y), min[1], ny))
+        else {
+            return;
+        };
+        let rows = &mut self.top[j0 * nx..(j1 + 1) * nx];
+        let row = |(dj, row): (usize, &mut [f64])| {
+            let y = min[1] + (j0 + dj) as f64 * s;
+            for (i, t) in row.iter_mut().enumerate().take(i1 + 1).skip(i0) {
+                let base = Point3::new(min[0] + i as f64 * s, y, 0.0);
+                for p in prims {
+                    if let Some((lo, _)) = p.column(&seg, &base) {
+                        *t = t.min(lo);
+                    }
+                }
+            }
+        };
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > 4096 {
+            rows.par_chunks_mut(nx).enumerate().for_each(row);
+        } else {
+            rows.chunks_mut(nx).enumerate().for_each(row);
+        }
+    }
+
+    fn move_to(&mut self, to: Point3, line: u64) -> Result<()> {
+        let p = self.frame * to;
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+            return Err(SimError::InvalidMotion { line, message: format!("non-finite point {p}") });
+        }
+        let from = self.pos.unwrap_or(p);
+        self.sweep(from, p);
+        self.pos = Some(p);
+        Ok(())
+    }
+}
+
+/// The cutting primitives that can be lowest in a column: a cylinder of the flutes above a
+/// ball or rounded-disc end at least as wide, starting no lower than the end's centre,
+/// contains its bottom disc in the end's sweep, so it never reaches lower and is left out.
+fn lower_prims(t: &ToolPrims) -> ([Prim; Solids::CAPACITY], usize) {
+    let cut = &t.cut[..t.ncut];
+    let covered = |h0: f64, r: f64| {
+        cut.iter().any(|q| match *q {
+            Prim::Capsule { c, r: rq } => c <= h0 && rq >= r,
+            Prim::RDisc { c, rp, rc } => c <= h0 && rp + rc >= r,
+            _ => false,
+        })
+    };
+    let mut out = t.cut;
+    let mut n = 0;
+    for p in cut {
+        if !matches!(*p, Prim::Cyl { h0, r, .. } if covered(h0, r)) {
+            out[n] = *p;
+            n += 1;
+        }
+    }
+    (out, n)
+}
+
+impl MotionSink for HeightField {
+    type Error = SimError;
+
+    fn motion(&mut self, m: &Motion<'_>) -> Result<()> {
+        match m {
+            Motion::Rapid { to } | Motion::Linear { to, .. } => self.move_to(*to, 0),
+            Motion::Arc { to, .. } => {
+                let start = self.pos.map(|p| self.frame.inverse() * p);
+                let Some(spec) = start.and_then(|s| ArcSpec::from_motion(s, m)) else {
+                    return self.move_to(*to, 0);
+                };
+                let mut pts = Vec::new();
+                spec.linearize(self.arc_tolerance, |p| pts.push(p))
+                    .map_err(|e| SimError::InvalidMotion { line: 0, message: e.to_string() })?;
+                pts.into_iter().try_for_each(|p| self.move_to(p, 0))?;
+                self.move_to(*to, 0)
+            }
+            Motion::Cycle(c) => {
+                let from = self.pos.map(|p| self.frame.inverse() * p);
+                let mut moves = Vec::new();
+                c.expand(from, |mv| moves.push(mv));
+                moves.iter().try_for_each(|mv| self.motion(mv))
+            }
+            Motion::ToolChange { tool } => {
+                let c = self.tools.get(*tool);
+                c.validate().map_err(|e| tool_error(Some(*tool), e))?;
+                self.prims = ToolPrims::cutter(c);
+                Ok(())
+            }
+            Motion::Setup { frame, .. } => {
+                let axis = frame * Vector3::z();
+                if !(axis.z > 1.0 - 1e-9) {
+                    return Err(SimError::InvalidMotion {
+                        line: 0,
+                        message: format!(
+                            "a height field needs a 3-axis setup (tool axis +Z), got axis {axis}"
+                        ),
+                    });
+                }
+                self.frame = *frame;
+                self.pos = None;
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Options of [`surface_deviation_opt`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviationOptions {
+    /// A column counts as reached when its cut height is at most this far above the
+    /// part's top at the column. Default `1.0`.
+    pub reach: f64,
+    /// A cut point this close to the part's surface is on it (neither a gouge nor, for the
+    /// ray that finds the part below, inside). Default `1e-6`.
+    pub on_surface: f64,
+}
+
+impl Default for DeviationOptions {
+    fn default() -> Self {
+        Self { reach: 1.0, on_surface: 1e-6 }
+    }
+}
+
+/// How far a machined height field lies from the part's surface.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SurfaceDeviation {
+    /// Largest distance from the part's surface of a reached column's cut point (the
+    /// point `(x, y, top)`), in mesh units.
+    pub max: f64,
+    /// Mean of those distances.
+    pub mean: f64,
+    /// Deepest cut into the part anywhere: the largest distance inside the part of a
+    /// column's cut point (0 when none is inside).
+    pub gouge_depth: f64,
+    /// Reached columns: over the part, cut to within [`DeviationOptions::reach`] of its top.
+    pub columns: usize,
+}
+
+/// [`surface_deviation_opt`] with the default options.
+pub fn surface_deviation(field: &HeightField, part: &MeshIndex) -> SurfaceDeviation {
+    surface_deviation_opt(field, part, &DeviationOptions::default())
+}
+
+/// The deviation of `field`'s cut points from `part` (indexed in the part frame, closed):
+/// for each column whose cut point is outside the part with the part's surface at most
+/// `reach` straight below it, the distance of the cut point from the part's
+/// surface (closest point); and the deepest cut point inside the part over all columns.
+/// The result is the same whatever the number of threads.
+pub fn surface_deviation_opt(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+) -> SurfaceDeviation {
+    let down = Vector3::new(0.0, 0.0, -1.0);
+    let per_row: Vec<(f64, f64, f64, usize)> = (0..field.ny)
+        .into_par_iter()
+        .map(|j| {
+            let (mut max, mut sum, mut gouge, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+            for i in 0..field.nx {
+                let t = field.top[j * field.nx + i];
+                if !t.is_finite() {
+                    continue;
+                }
+                let [x, y] = field.column(i, j);
+                let p = Point3::new(x, y, t);
+                let d = part.closest_point(&p).distance;
+                if d > o.on_surface && part.contains(&p) {
+                    gouge = gouge.max(d);
+                    continue;
+                }
+                // Outside the part, the first surface straight below is its top there (the
+                // ray starts a little above, so that a point on the surface finds it).
+                let lift = 2.0 * o.on_surface;
+                let Some(hit) = part.cast_ray(&Point3::new(x, y, t + lift), &down, f64::INFINITY) else {
+                    continue;
+                };
+                if hit.distance - lift <= o.reach {
+                    max = max.max(d);
+                    sum += d;
+                    n += 1;
+                }
+            }
+            (max, sum, gouge, n)
+        })
+        .collect();
+    let (max, sum, gouge, n) = per_row
+        .into_iter()
+        .fold((0.0f64, 0.0, 0.0f64, 0), |a, r| (a.0.max(r.0), a.1 + r.1, a.2.max(r.2), a.3 + r.3));
+    SurfaceDeviation { max, mean: if n > 0 { sum / n as f64 } else { 0.0 }, gouge_depth: gouge, columns: n }
+}

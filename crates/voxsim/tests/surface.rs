@@ -1,0 +1,138 @@
+//! The height field and the surface deviation against analytic answers: a flat floor cut
+//! by a flat end mill (no deviation), a ball raster on a plane (the scallop
+//! `r - sqrt(r^2 - s^2/4)` and its mean over a period), and a gouge of known depth.
+
+use s2g_gcode::{Motion, MotionSink};
+use s2g_geom::{Aabb, Mesh, MeshIndex, Point3};
+use s2g_voxsim::{Cutter, HeightField, HeightFieldOptions, SimError, ToolTable, surface_deviation};
+
+/// Rectangles `[x0, x1] x [y0, y1]` at height `z`, facing up (`up`) or down.
+fn quad(tris: &mut Vec<[Point3; 3]>, a: Point3, b: Point3, c: Point3, d: Point3) {
+    tris.push([a, b, c]);
+    tris.push([a, c, d]);
+}
+
+/// A 30 x 30 x 10 block with a 20 x 20 pocket 5 deep in its top, outward wound.
+fn pocket_block() -> Mesh {
+    let p = Point3::new;
+    let mut t = Vec::new();
+    let xs = [0.0, 5.0, 25.0, 30.0];
+    // The rim: the 3 x 3 grid of rectangles at z = 10 without the centre (no T-junctions
+    // with the pocket's corners), each counter-clockwise from above.
+    for i in 0..3 {
+        for j in 0..3 {
+            if (i, j) != (1, 1) {
+                let (x0, x1, y0, y1) = (xs[i], xs[i + 1], xs[j], xs[j + 1]);
+                quad(&mut t, p(x0, y0, 10.0), p(x1, y0, 10.0), p(x1, y1, 10.0), p(x0, y1, 10.0));
+            }
+        }
+    }
+    quad(&mut t, p(5.0, 5.0, 5.0), p(25.0, 5.0, 5.0), p(25.0, 25.0, 5.0), p(5.0, 25.0, 5.0));
+    // Pocket walls, facing into the pocket.
+    quad(&mut t, p(5.0, 5.0, 5.0), p(5.0, 25.0, 5.0), p(5.0, 25.0, 10.0), p(5.0, 5.0, 10.0));
+    quad(&mut t, p(25.0, 25.0, 5.0), p(25.0, 5.0, 5.0), p(25.0, 5.0, 10.0), p(25.0, 25.0, 10.0));
+    quad(&mut t, p(25.0, 5.0, 5.0), p(5.0, 5.0, 5.0), p(5.0, 5.0, 10.0), p(25.0, 5.0, 10.0));
+    quad(&mut t, p(5.0, 25.0, 5.0), p(25.0, 25.0, 5.0), p(25.0, 25.0, 10.0), p(5.0, 25.0, 10.0));
+    // Outer sides and bottom.
+    quad(&mut t, p(0.0, 0.0, 0.0), p(30.0, 0.0, 0.0), p(30.0, 0.0, 10.0), p(0.0, 0.0, 10.0));
+    quad(&mut t, p(30.0, 0.0, 0.0), p(30.0, 30.0, 0.0), p(30.0, 30.0, 10.0), p(30.0, 0.0, 10.0));
+    quad(&mut t, p(30.0, 30.0, 0.0), p(0.0, 30.0, 0.0), p(0.0, 30.0, 10.0), p(30.0, 30.0, 10.0));
+    quad(&mut t, p(0.0, 30.0, 0.0), p(0.0, 0.0, 0.0), p(0.0, 0.0, 10.0), p(0.0, 30.0, 10.0));
+    quad(&mut t, p(0.0, 0.0, 0.0), p(0.0, 30.0, 0.0), p(30.0, 30.0, 0.0), p(30.0, 0.0, 0.0));
+    Mesh::from_soup(&t).unwrap()
+}
+
+/// A zigzag raster of tip positions along X at height `z`, passes `step` apart in Y from
+/// `y0` to `y1`, from `x0` to `x1`, entered and left at `z + 20`.
+fn raster(field: &mut HeightField, x: [f64; 2], y: [f64; 2], step: f64, z: f64) {
+    let n = ((y[1] - y[0]) / step).round() as usize;
+    let mut go = |to: Point3, rapid: bool| {
+        let m = if rapid { Motion::Rapid { to } } else { Motion::Linear { to, feed: 1000.0, extrude: None } };
+        field.motion(&m).unwrap();
+    };
+    go(Point3::new(x[0], y[0], z + 20.0), true);
+    for k in 0..=n {
+        let yk = y[0] + k as f64 * step;
+        let (a, b) = if k % 2 == 0 { (x[0], x[1]) } else { (x[1], x[0]) };
+        go(Point3::new(a, yk, z), false);
+        go(Point3::new(b, yk, z), false);
+    }
+    go(Point3::new(x[0], y[1], z + 20.0), true);
+}
+
+#[test]
+fn a_flat_pocket_floor_cut_by_a_flat_end_mill_has_no_deviation() {
+    let part = MeshIndex::new(&pocket_block()).unwrap();
+    let r = 2.0;
+    let mut field =
+        HeightField::new([-1.0, -1.0], [31.0, 31.0], ToolTable::single(Cutter::flat(r, 20.0))).unwrap();
+    // Tool centres inside the pocket by the radius, 3 apart (< 2r), with a last pass at
+    // the far wall.
+    raster(&mut field, [5.0 + r, 25.0 - r], [5.0 + r, 25.0 - r], 3.2, 5.0);
+    let d = surface_deviation(&field, &part);
+    // The floor columns (the pocket's 20 x 20 without its four corner fillets) are reached;
+    // those on the walls' feet, where the cutter's rim only touches, may or may not be.
+    let floor = (20.0 / 0.05 + 1.0) * (20.0 / 0.05 + 1.0);
+    let fillets = (4.0 - std::f64::consts::PI) * r * r / (0.05 * 0.05);
+    let feet = 4.0 * (20.0 / 0.05 + 1.0);
+    assert!(
+        d.columns as f64 > floor - fillets - feet - 500.0 && d.columns as f64 <= floor,
+        "{d:?}, floor {floor}"
+    );
+    assert!(d.max < 1e-9 && d.mean < 1e-9 && d.gouge_depth < 1e-9, "{d:?}");
+}
+
+#[test]
+fn a_ball_raster_on_a_plane_leaves_the_analytic_scallop() {
+    let part = MeshIndex::new(
+        &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
+    )
+    .unwrap();
+    for (r, s) in [(3.0, 1.0), (1.5, 0.5), (3.0, 2.0)] {
+        let mut field =
+            HeightField::new([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0))).unwrap();
+        raster(&mut field, [-4.0, 24.0], [-4.0, 24.0 + s], s, 5.0);
+        let d = surface_deviation(&field, &part);
+        let h = r - (r * r - s * s / 4.0).sqrt();
+        assert!((d.max - h).abs() < 1e-9, "r {r} s {s}: max {} vs analytic {h}", d.max);
+        // The mean over the columns of one period (spacing 0.05 divides s), by the profile.
+        let m = (s / 0.05).round() as usize;
+        let mean =
+            (0..m).map(|k| r - (r * r - (k as f64 * 0.05 - s / 2.0).powi(2)).sqrt()).sum::<f64>() / m as f64;
+        let mean = mean.max(0.0);
+        assert!((d.mean - mean).abs() < 1e-3 * h.max(1e-3), "r {r} s {s}: mean {} vs {mean}", d.mean);
+        assert!(d.gouge_depth < 1e-9, "{d:?}");
+    }
+}
+
+#[test]
+fn a_pass_below_the_surface_is_a_gouge_of_its_depth() {
+    let part = MeshIndex::new(
+        &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
+    )
+    .unwrap();
+    let mut field =
+        HeightField::new([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(2.0, 20.0))).unwrap();
+    raster(&mut field, [-4.0, 24.0], [-4.0, 24.0], 1.0, 5.0);
+    for to in [Point3::new(10.0, 10.0, 4.9), Point3::new(12.0, 10.0, 4.9)] {
+        field.motion(&Motion::Linear { to, feed: 500.0, extrude: None }).unwrap();
+    }
+    let d = surface_deviation(&field, &part);
+    assert!((d.gouge_depth - 0.1).abs() < 1e-9, "{d:?}");
+}
+
+#[test]
+fn bad_grids_and_tilted_setups_are_errors() {
+    let tools = ToolTable::single(Cutter::ball(2.0, 20.0));
+    let tiny = HeightFieldOptions { spacing: 0.0, ..Default::default() };
+    assert!(HeightField::new_opt([0.0, 0.0], [1.0, 1.0], tools.clone(), &tiny).is_err());
+    assert!(HeightField::new([0.0, f64::NAN], [1.0, 1.0], tools.clone()).is_err());
+    assert!(HeightField::new([2.0, 0.0], [1.0, 1.0], tools.clone()).is_err());
+    let mut field = HeightField::new([0.0, 0.0], [1.0, 1.0], tools).unwrap();
+    let tilted =
+        s2g_geom::Setup::from_direction(&s2g_geom::UnitVector3::new_normalize(s2g_geom::Vector3::x()));
+    let e = field.motion(&Motion::Setup { frame: tilted.frame, rotary: [None; 3] });
+    assert!(matches!(e, Err(SimError::InvalidMotion { .. })), "{e:?}");
+    let e = field.motion(&Motion::Rapid { to: Point3::new(f64::NAN, 0.0, 0.0) });
+    assert!(e.is_err());
+}
