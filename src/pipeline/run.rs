@@ -121,13 +121,7 @@ impl MillRun {
         // search, whose serial steps leave a core idle.
         let spec = simulation_grid(&stock, &part_box, opts)?;
         let (orientation, (target, index, samples, beside)) = rayon::join(
-            || {
-                if opts.stock_removal {
-                    select_orientations_in_stock(&part, &body.samples(STOCK_SAMPLES), &oopts)
-                } else {
-                    select_orientations(&part, &oopts)
-                }
-            },
+            || select_setups(&part, &body, &oopts, opts.stock_removal),
             || {
                 let t = Instant::now();
                 let target = voxelize(&part, &spec);
@@ -580,6 +574,20 @@ fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<Grid
 /// Stock samples of the stock-removal term of orientation selection: a grid of about 32^3
 /// cells over the stock, so that a slab of stock one cell thick under a flat part counts.
 const STOCK_SAMPLES: usize = 32 * 32 * 32;
+
+/// Orientation selection, with the stock-removal term when `stock_removal` asks for it.
+fn select_setups(
+    part: &Mesh,
+    body: &StockBody,
+    oopts: &OrientOptions,
+    stock_removal: bool,
+) -> Result<OrientationResult, crate::orient::OrientError> {
+    if stock_removal {
+        select_orientations_in_stock(part, &body.samples(STOCK_SAMPLES), oopts)
+    } else {
+        select_orientations(part, oopts)
+    }
+}
 
 /// Refuses options no run can use, before any work.
 fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
