@@ -575,14 +575,16 @@ fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<Grid
 /// cells over the stock, so that a slab of stock one cell thick under a flat part counts.
 const STOCK_SAMPLES: usize = 32 * 32 * 32;
 
-/// Orientation selection, with the stock-removal term when `stock_removal` asks for it.
+/// Orientation selection, with the stock-removal term when `stock_removal` asks for it
+/// and the part is closed: an open mesh has no inside to tell stock from part, and a setup
+/// added to reach the "stock" behind a missing face would cut into the part through it.
 fn select_setups(
     part: &Mesh,
     body: &StockBody,
     oopts: &OrientOptions,
     stock_removal: bool,
 ) -> Result<OrientationResult, crate::orient::OrientError> {
-    if stock_removal {
+    if stock_removal && crate::geom::report(part).closed {
         select_orientations_in_stock(part, &body.samples(STOCK_SAMPLES), oopts)
     } else {
         select_orientations(part, oopts)
