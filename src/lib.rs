@@ -41,8 +41,8 @@ pub use crate::learn::{
     TrainOptions, observation, train_policy,
 };
 pub use crate::pipeline::{
-    MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
-    StageSeconds, mill,
+    Datum, MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
+    StageSeconds, Stock, mill,
 };
 pub use crate::policy::{
     Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,

@@ -70,6 +70,7 @@ impl Milled {
             },
             "setups": setups,
         });
+        self.stock_json(&mut report);
         if timings {
             let t = &self.stage_seconds;
             report["stage_seconds"] = json!({
@@ -81,5 +82,41 @@ impl Milled {
             });
         }
         report
+    }
+}
+
+impl Milled {
+    /// The stock, the datum and the stock-removal term in `report`, where the run names a
+    /// stock or a datum or the term changed the setups (the paper's runs report none).
+    fn stock_json(&self, report: &mut Value) {
+        use crate::pipeline::{Datum, Stock};
+        if let Some(s) = self.orientation.stock.filter(|s| s.changed) {
+            report["orientation"]["stock_removal"] = json!({
+                "material_samples": s.material,
+                "part_samples": s.part,
+                "left_by_visibility": s.left_by_visibility,
+                "left": s.left,
+                "unreachable": s.unreachable,
+            });
+        }
+        if self.stock_option != Stock::Preset || self.datum.is_some() {
+            let b = &self.stock;
+            report["stock"] = json!({
+                "kind": match self.stock_option {
+                    Stock::Preset => "preset",
+                    Stock::BoxSize(_) | Stock::BoxCorners { .. } => "box",
+                    Stock::Cylinder { .. } => "cylinder",
+                },
+                "min": v3(&b.min.coords),
+                "max": v3(&b.max.coords),
+            });
+        }
+        if let Some(d) = self.datum {
+            report["datum"] = json!({
+                "kind": match d { Datum::TopCentre => "top-centre", Datum::Corner => "corner" },
+                "work_offset": "G54",
+                "origins": self.setups.iter().map(|s| v3(&s.setup.frame.translation.vector)).collect::<Vec<_>>(),
+            });
+        }
     }
 }

@@ -44,6 +44,45 @@ pub enum ProgramLayout {
     Rotary(RotaryAxes),
 }
 
+/// The stock a run cuts from, in planning units (millimetres; the paper preset's part is
+/// normalised to [`MillOptions::paper_scale_mm`] first) and the part's frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Stock {
+    /// The preset's stock: the paper's cube of the part's longest side centred on it, or
+    /// the shop's bounding box grown by [`MillOptions::stock_margin`]. The default.
+    #[default]
+    Preset,
+    /// A box of this size (X, Y, Z) centred on the part's bounding box.
+    BoxSize([f64; 3]),
+    /// A box between two corners.
+    BoxCorners {
+        /// The lowest corner.
+        min: [f64; 3],
+        /// The highest corner.
+        max: [f64; 3],
+    },
+    /// Bar stock: a cylinder of this diameter and length whose axis is the principal
+    /// axis `axis` (0 = X, 1 = Y, 2 = Z), centred on the part's bounding box. Setups plan
+    /// over the bar's bounding box; the simulator starts from the round bar.
+    Cylinder {
+        /// Diameter.
+        diameter: f64,
+        /// Length.
+        length: f64,
+        /// The bar's axis: 0 = X, 1 = Y, 2 = Z.
+        axis: usize,
+    },
+}
+
+/// Where each program's work coordinate system (G54) has its origin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Datum {
+    /// X0 Y0 at the centre of the stock's box in the setup's X and Y, Z0 on its top.
+    TopCentre,
+    /// X0 Y0 at the stock box's lowest X and Y corner in the setup's frame, Z0 on its top.
+    Corner,
+}
+
 /// Options of [`mill`]. Every field has a documented default.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MillOptions {
@@ -77,6 +116,19 @@ pub struct MillOptions {
     pub stock_margin: f64,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
+    /// The stock. Default [`Stock::Preset`].
+    pub stock: Stock,
+    /// The origin of each per-setup program's coordinates (G54), stated in its header
+    /// comment and the report. `None` (the default, the paper's programs) writes program
+    /// coordinates in the part's frame turned to the setup, with no statement. The rotary
+    /// layout's origin is its rotary centre and takes no datum.
+    pub datum: Option<Datum>,
+    /// Choose setups so that the stock's material, not only the part's surface, can be cut
+    /// away ([`select_orientations_in_stock`](crate::orient::select_orientations_in_stock)):
+    /// where the setups that see the part leave stock that other directions would reach,
+    /// directions are swapped or added. `false` is the paper's visibility-only selection,
+    /// the named baseline. Default true.
+    pub stock_removal: bool,
     /// Millimetres per unit of the input mesh in the shop preset (25.4 for a mesh in
     /// inches, 1000 for one in metres, or any scale of the part): mesh files carry no unit.
     /// The paper preset normalises the part and does not read it. Default 1.
@@ -157,6 +209,9 @@ impl Default for MillOptions {
             seed: 0,
             stock_margin: 0.02,
             paper_scale_mm: 100.0,
+            stock: Stock::Preset,
+            datum: None,
+            stock_removal: true,
             strategies: StrategyKind::all(),
             residual_smoothing: 8,
             carver: Carver::Exact,
@@ -401,6 +456,11 @@ pub struct SetupProgram {
 pub struct Milled {
     /// The preset the run used.
     pub preset: Preset,
+    /// The stock option the run used ([`MillOptions::stock`]).
+    pub stock_option: Stock,
+    /// The datum of the programs ([`MillOptions::datum`]); each setup's program origin is
+    /// its [`SetupProgram::setup`] frame's translation.
+    pub datum: Option<Datum>,
     /// The policy's name.
     pub policy: String,
     /// The programs: one per setup, or one 3+2 program (then `programs.len() == 1`

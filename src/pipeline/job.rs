@@ -27,6 +27,8 @@ pub(super) struct Job {
     pub(super) action: Action,
     pub(super) tool: Tool,
     pub(super) popts: PlanOptions,
+    /// A comment written at the top of the setup's program (the datum), if any.
+    pub(super) note: Option<String>,
 }
 
 impl Job {
@@ -60,7 +62,7 @@ impl Job {
             rapid_feed: rapid,
             ..PlanOptions::default()
         };
-        Ok(Self { setup: *setup, action: *action, tool, popts })
+        Ok(Self { setup: *setup, action: *action, tool, popts, note: None })
     }
 
     /// An upper estimate of the setup's toolpath length and machining time (hours): every

@@ -29,9 +29,11 @@ mod per_setup;
 mod pipe;
 mod rotary;
 mod run;
+mod stock;
 
 pub use self::api::{
-    MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
+    Datum, MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
+    StageSeconds, Stock,
 };
 pub use self::run::MillRun;
 

@@ -106,6 +106,11 @@ pub(super) fn machine_setup(
             let t = Instant::now();
             let rest = VoxelMaterial::new(remaining, job.setup);
             let mut writer = GcodeWriter::new(out, dialect, wopts);
+            if let Some(note) = &job.note {
+                writer
+                    .motion(&Motion::Comment(note.as_str().into()))
+                    .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
+            }
             let plan =
                 plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
                     .map_err(|source| MillError::Plan { setup: i + 1, source });

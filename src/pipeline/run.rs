@@ -6,17 +6,19 @@ use std::time::Instant;
 
 use super::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
+    Stock,
 };
 use super::job::{Job, feeds, planned_tool, setup_features};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
+use super::stock::{StockBody, datum_comment, datum_setup};
 use crate::gcode::{ArcFitOptions, FooterRetract, WriterOptions};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
     voxelize,
 };
-use crate::orient::{OrientOptions, OrientationResult, select_orientations};
+use crate::orient::{OrientOptions, OrientationResult, select_orientations, select_orientations_in_stock};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
 use crate::trace::PathTrace;
 use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
@@ -48,7 +50,9 @@ pub struct MillRun {
     /// The radius of each tool the simulator knows, tool `i + 1` at `i`: the action
     /// space's radii, then those of actions outside it, in the order first used.
     tool_radii: Vec<f64>,
+    /// The stock's box (the planners' stock) and its body (the simulator's).
     stock: Aabb,
+    body: StockBody,
     to_input: Normalization,
     orientation: OrientationResult,
     placements: Option<Vec<Placement>>,
@@ -87,7 +91,10 @@ impl MillRun {
         let mut times = StageSeconds::default();
         let decimals = 4;
 
-        let (unit, part, stock, to_input) = part_and_stock(mesh, opts)?;
+        let (unit, part, preset_stock, to_input) = part_and_stock(mesh, opts)?;
+        let part_box = part.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
+        let body = StockBody::new(&opts.stock, &part_box, preset_stock)?;
+        let stock = body.bbox();
         let space = opts.action_space();
         if space.strategies.is_empty() {
             return Err(MillError::InvalidOption("no clearing strategy left to choose from".into()));
@@ -112,9 +119,9 @@ impl MillRun {
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
-        let spec = GridSpec::cubic(&stock, opts.resolution)?;
+        let spec = simulation_grid(&stock, &part_box, opts)?;
         let (orientation, (target, index, samples, beside)) = rayon::join(
-            || select_orientations(&part, &oopts),
+            || select_setups(&part, &body, &oopts, opts.stock_removal),
             || {
                 let t = Instant::now();
                 let target = voxelize(&part, &spec);
@@ -172,7 +179,7 @@ impl MillRun {
             // around it, so they follow the arc within 1/64 of a voxel.
             sim_opts.arc_tolerance = 1.0 / 64.0;
         }
-        let mut sim = Simulator::new(VoxelGrid::full(spec), tools, sim_opts)
+        let mut sim = Simulator::new(body.voxels(spec), tools, sim_opts)
             .map_err(sim_error)?
             .with_target(&target)
             .map_err(sim_error)?;
@@ -188,6 +195,7 @@ impl MillRun {
             tool_radii: space.radii.clone(),
             space,
             stock,
+            body,
             to_input,
             orientation,
             placements,
@@ -294,6 +302,14 @@ impl MillRun {
         self.outputs = Some(Arc::new(open));
     }
 
+    /// The volume of the material the simulator holds now, in cubic planning units
+    /// (mm³): before the first setup, the stock the run starts from ([`MillOptions::stock`]
+    /// on the simulation grid).
+    pub fn stock_volume(&self) -> f64 {
+        let g = self.sim.borrow_mut().residual_grid();
+        g.count() as f64 * g.spec().voxel_volume()
+    }
+
     /// The action space, in planning units.
     pub fn space(&self) -> &ActionSpace {
         &self.space
@@ -376,8 +392,15 @@ impl MillRun {
         self.check_deadline(|| format!("starting setup {} of {}", i + 1, self.setup_count()))?;
         let number = self.tool_number(action.tool_radius)?;
         let o = &self.opts;
-        let job = Job::new(
-            &self.orientation.setups[i],
+        let (setup, note) = match o.datum {
+            Some(d) => {
+                let (setup, at) = datum_setup(&self.orientation.setups[i], &self.stock, d);
+                (setup, Some(datum_comment(d, &at, &self.body)))
+            }
+            None => (self.orientation.setups[i], None),
+        };
+        let mut job = Job::new(
+            &setup,
             &action,
             number,
             &self.stock,
@@ -387,6 +410,7 @@ impl MillRun {
             self.clearance,
             o,
         )?;
+        job.note = note;
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
             return Err(MillError::ActionTooLarge {
@@ -500,6 +524,8 @@ impl MillRun {
         });
         Ok(Milled {
             preset: opts.preset,
+            stock_option: opts.stock,
+            datum: opts.datum,
             policy: policy.to_owned(),
             programs,
             setups: self.setups,
@@ -513,6 +539,55 @@ impl MillRun {
             trace_axis,
             stage_seconds: self.times,
         })
+    }
+}
+
+/// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
+/// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
+/// of `1/resolution` of the part's longest side on the lattice of the scorer's grid (the
+/// part's bounding box centred in a cube of its longest side), covering the stock: the
+/// simulated part's faces then lie where the scorer puts them, and a flat part's score
+/// measures its machining rather than how the two grids happen to fall on its faces
+/// (half a voxel on each face of a 10 mm plate 50 mm long is 2 % of its volume). A stock
+/// more than 1.25 times the part's longest side keeps the grid over the stock, which
+/// bounds the grid's size.
+fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<GridSpec, MillError> {
+    let cubic = GridSpec::cubic(stock, opts.resolution)?;
+    let l = part.extent().max();
+    let h = l / opts.resolution as f64;
+    if (opts.preset == Preset::Paper && opts.stock == Stock::Preset)
+        || !(h > 0.0 && h.is_finite())
+        || stock.extent().max() > 1.25 * l
+    {
+        return Ok(cubic);
+    }
+    let c = part.center();
+    let (mut origin, mut dims) = (stock.min, [0; 3]);
+    for a in 0..3 {
+        let base = c[a] - 0.5 * l;
+        origin[a] = base + ((stock.min[a] - base) / h + 1e-9).floor() * h;
+        dims[a] = (((stock.max[a] - origin[a]) / h - 1e-9).ceil() as usize).max(1);
+    }
+    Ok(GridSpec { origin, voxel: Vector3::repeat(h), dims })
+}
+
+/// Stock samples of the stock-removal term of orientation selection: a grid of about 32^3
+/// cells over the stock, so that a slab of stock one cell thick under a flat part counts.
+const STOCK_SAMPLES: usize = 32 * 32 * 32;
+
+/// Orientation selection, with the stock-removal term when `stock_removal` asks for it
+/// and the part is closed: an open mesh has no inside to tell stock from part, and a setup
+/// added to reach the "stock" behind a missing face would cut into the part through it.
+fn select_setups(
+    part: &Mesh,
+    body: &StockBody,
+    oopts: &OrientOptions,
+    stock_removal: bool,
+) -> Result<OrientationResult, crate::orient::OrientError> {
+    if stock_removal && crate::geom::report(part).closed {
+        select_orientations_in_stock(part, &body.samples(STOCK_SAMPLES), oopts)
+    } else {
+        select_orientations(part, oopts)
     }
 }
 
@@ -543,6 +618,11 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
                 "rotary tilt range must be finite with min <= max, got [{lo}, {hi}]"
             )));
         }
+    }
+    if opts.datum.is_some() && opts.layout != ProgramLayout::PerSetup {
+        return Err(MillError::InvalidOption(
+            "a datum is for per-setup programs; the rotary layout's origin is its rotary centre".into(),
+        ));
     }
     if let Some(t) = opts.arc_tolerance
         && !(t.is_finite() && t > 0.0)

@@ -36,7 +36,8 @@ enum Command {
     /// Implicit neural fields (seed 002): `sdf` fits a neural signed distance field to a mesh.
     Field(field::Args),
     /// Mill a mesh: orientations, toolpaths, G-code, then simulate the written G-code and score it.
-    Mill(mill::Args),
+    // Boxed: its many options make it far larger than the other commands.
+    Mill(Box<mill::Args>),
     /// Generate CAD-like parts (prismatic, turned, freeform, mix, or the five shop parts) as STL plus a manifest.
     Gen(r#gen::Args),
     /// Parse a G-code program: `check` errors, `stats`, or `motions` as JSON lines.
@@ -69,7 +70,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval::run(args),
         Command::Feature(args) => feature::run(args),
         Command::Field(args) => field::run(args),
-        Command::Mill(args) => mill::run(args),
+        Command::Mill(args) => mill::run(*args),
         Command::Gcode(args) => gcode::run(args),
         Command::Gen(args) => r#gen::run(args),
         Command::Inspect(args) => inspect::run(args),

@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
 use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    LearnedPolicy, MillOptions, MillRun, Milled, Policy, Preset, ProgramLayout, SetupCount, Stage,
-    TrainOptions, policy_by_name, render_machining,
+    Datum, LearnedPolicy, MillOptions, MillRun, Milled, Policy, Preset, ProgramLayout, SetupCount, Stage,
+    Stock, TrainOptions, policy_by_name, render_machining,
 };
 
 /// The bundled sample mesh.
@@ -117,6 +117,71 @@ pub struct Args {
     /// planned); 0 writes straight moves only, as the paper's programs
     #[arg(long, value_name = "MM", default_value_t = 0.0)]
     arc_tolerance: f64,
+    /// Stock box, in mm of the planned part (the paper preset's part is 100 mm long):
+    /// `X,Y,Z` (a box of that size centred on the part) or `MINX,MINY,MINZ,MAXX,MAXY,MAXZ`.
+    /// Default: the preset's (the paper's cube, the shop's box with a margin)
+    #[arg(long, value_name = "SIZE", conflicts_with = "stock_cylinder")]
+    stock_box: Option<String>,
+    /// Bar stock: `D,L` (diameter and length, mm) along Z, or `D,L,AXIS` with AXIS x, y or z;
+    /// centred on the part. Setups plan over its box, the simulator cuts the round bar
+    #[arg(long, value_name = "D,L[,AXIS]")]
+    stock_cylinder: Option<String>,
+    /// Origin of each program's work coordinates (G54), stated in its header comment and
+    /// the report: `top-centre` (the stock's top, centred) or `corner` (its top, lowest X
+    /// and Y). Default: the part's frame, as the paper's programs
+    #[arg(long, value_name = "DATUM")]
+    datum: Option<String>,
+    /// Choose setups for the part's visible surface alone, as the paper does, even where
+    /// they leave stock that other directions would cut (the baseline of the stock-removal
+    /// term)
+    #[arg(long)]
+    visibility_only_setups: bool,
+}
+
+/// `--stock-box` and `--stock-cylinder` as a [`Stock`].
+fn parse_stock(args: &Args) -> anyhow::Result<Stock> {
+    let numbers = |flag: &str, spec: &str| -> anyhow::Result<Vec<f64>> {
+        spec.split(',')
+            .map(|x| x.trim().parse::<f64>().with_context(|| format!("{flag}: bad number {x:?} in {spec:?}")))
+            .collect()
+    };
+    if let Some(spec) = &args.stock_box {
+        let v = numbers("--stock-box", spec)?;
+        return Ok(match v[..] {
+            [x, y, z] => Stock::BoxSize([x, y, z]),
+            [a, b, c, d, e, f] => Stock::BoxCorners { min: [a, b, c], max: [d, e, f] },
+            _ => bail!("--stock-box X,Y,Z or MINX,MINY,MINZ,MAXX,MAXY,MAXZ, got {spec:?}"),
+        });
+    }
+    if let Some(spec) = &args.stock_cylinder {
+        let parts: Vec<&str> = spec.split(',').collect();
+        let (dims, axis) = match parts[..] {
+            [d, l] => (format!("{d},{l}"), 2),
+            [d, l, a] => (
+                format!("{d},{l}"),
+                match a.trim() {
+                    "x" | "X" => 0,
+                    "y" | "Y" => 1,
+                    "z" | "Z" => 2,
+                    _ => bail!("--stock-cylinder: axis x, y or z, got {a:?}"),
+                },
+            ),
+            _ => bail!("--stock-cylinder D,L or D,L,AXIS, got {spec:?}"),
+        };
+        let v = numbers("--stock-cylinder", &dims)?;
+        return Ok(Stock::Cylinder { diameter: v[0], length: v[1], axis });
+    }
+    Ok(Stock::Preset)
+}
+
+/// `--datum`.
+fn parse_datum(spec: Option<&str>) -> anyhow::Result<Option<Datum>> {
+    Ok(match spec {
+        None => None,
+        Some("top-centre" | "top-center") => Some(Datum::TopCentre),
+        Some("corner") => Some(Datum::Corner),
+        Some(d) => bail!("unknown datum {d:?} (top-centre or corner)"),
+    })
 }
 
 /// `--setups auto|N`.
@@ -286,6 +351,9 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         flank_walls: !args.front_facing,
         max_estimated_hours: args.max_hours,
         arc_tolerance: (args.arc_tolerance != 0.0).then_some(args.arc_tolerance),
+        stock: parse_stock(args)?,
+        datum: parse_datum(args.datum.as_deref())?,
+        stock_removal: !args.visibility_only_setups,
         ..MillOptions::default()
     })
 }

@@ -19,6 +19,7 @@ mod cover;
 mod directions;
 mod error;
 mod select;
+mod stock;
 pub mod visibility;
 
 pub use crate::closure::{
@@ -33,5 +34,7 @@ pub use crate::directions::{
 pub use crate::error::{OrientError, Result};
 pub use crate::select::{
     Baselines, OrientOptions, OrientationResult, RefineOptions, StageTimes, Strategy, select_orientations,
+    select_orientations_in_stock,
 };
+pub use crate::stock::{StockRemovalOptions, StockRemovalReport, stock_grid_points};
 pub use crate::visibility::{VisibilityContext, VisibilityMatrix, VisibilityOptions};

@@ -5,11 +5,12 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use s2g_geom::{Mesh, MeshIndex, Real, Setup, UnitVector3, sample_surface};
+use s2g_geom::{Mesh, MeshIndex, Point3, Real, Setup, UnitVector3, sample_surface};
 
 use crate::cover::{SearchOptions, greedy, greedy_order, multi_start_search};
 use crate::directions::{candidate_directions, cone_directions, random_direction};
 use crate::error::{OrientError, Result};
+use crate::stock::{StockRemovalOptions, StockRemovalReport, StockSamples, improve_for_stock, left};
 use crate::visibility::{VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
 
 /// How the directions are chosen from the candidates.
@@ -78,6 +79,8 @@ pub struct OrientOptions {
     pub refine: RefineOptions,
     /// Trials averaged for the random-direction baselines; `0` skips them. Default `10`.
     pub baseline_trials: usize,
+    /// The stock-removal term, used by [`select_orientations_in_stock`] only.
+    pub stock_removal: StockRemovalOptions,
 }
 
 impl Default for OrientOptions {
@@ -96,6 +99,7 @@ impl Default for OrientOptions {
             search: SearchOptions::default(),
             refine: RefineOptions::default(),
             baseline_trials: 10,
+            stock_removal: StockRemovalOptions::default(),
         }
     }
 }
@@ -194,6 +198,9 @@ pub struct OrientationResult {
     pub baselines: Baselines,
     /// Time per stage (varies between runs; everything else is deterministic).
     pub stage_seconds: StageTimes,
+    /// What the stock-removal term found ([`select_orientations_in_stock`]); `None` from
+    /// [`select_orientations`], which knows no stock.
+    pub stock: Option<StockRemovalReport>,
 }
 
 impl OrientationResult {
@@ -213,6 +220,22 @@ impl OrientationResult {
 ///
 /// Errors: an empty or zero-area mesh, invalid options.
 pub fn select_orientations(mesh: &Mesh, opts: &OrientOptions) -> Result<OrientationResult> {
+    select_orientations_in_stock(mesh, &[], opts)
+}
+
+/// [`select_orientations`] with the stock-removal term ([`crate::stock`]): `stock` holds
+/// sample points of the stock body (e.g. [`stock_grid_points`](crate::stock_grid_points));
+/// those outside the part are its material. When the setups chosen for visibility leave
+/// more removable material than [`StockRemovalOptions::max_left`] allows, directions are
+/// swapped for others, or added up to [`OrientOptions::max_setups`], that leave less,
+/// without covering fewer samples than the chosen setups or the coverage target, whichever
+/// is less. Otherwise the result is [`select_orientations`]'s, plus
+/// [`OrientationResult::stock`]. An empty `stock` is [`select_orientations`].
+pub fn select_orientations_in_stock(
+    mesh: &Mesh,
+    stock: &[Point3],
+    opts: &OrientOptions,
+) -> Result<OrientationResult> {
     let t_total = Instant::now();
     opts.validate()?;
     if mesh.is_empty() {
@@ -269,6 +292,16 @@ pub fn select_orientations(mesh: &Mesh, opts: &OrientOptions) -> Result<Orientat
     times.refine = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
+    let stock = if stock.is_empty() {
+        None
+    } else {
+        let diag = mesh.bbox().map_or(1.0, |b| b.extent().norm());
+        let samples = StockSamples::new(&index, mesh.vertices(), stock, diag);
+        Some(stock_term(&samples, &m, &mut chosen, opts)?)
+    };
+    times.search += t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
     let (random5, random6) = random_baselines(&ctx, opts.baseline_trials, opts.seed);
     times.baselines = t.elapsed().as_secs_f64();
 
@@ -296,7 +329,38 @@ pub fn select_orientations(mesh: &Mesh, opts: &OrientOptions) -> Result<Orientat
             swap_search: swap_cov,
         },
         stage_seconds: times,
+        stock,
     })
+}
+
+/// The stock-removal term: measures what `chosen` leaves of the stock's material and,
+/// when that is too much, changes the setups ([`improve_for_stock`]).
+fn stock_term(
+    samples: &StockSamples<'_>,
+    m: &VisibilityMatrix,
+    chosen: &mut Vec<usize>,
+    opts: &OrientOptions,
+) -> Result<StockRemovalReport> {
+    let material = samples.material();
+    let allowed = (opts.stock_removal.max_left * samples.part() as Real).floor() as usize;
+    let mut report = StockRemovalReport { material, part: samples.part(), ..Default::default() };
+    // The chosen setups' rows first: most parts leave nothing, and need no more rays.
+    let dirs: Vec<UnitVector3> = chosen.iter().map(|&d| m.directions()[d]).collect();
+    let mine = samples.matrix(&dirs)?;
+    report.left_by_visibility = left(&mine, &(0..mine.len()).collect::<Vec<_>>());
+    report.left = report.left_by_visibility;
+    if report.left_by_visibility <= allowed || chosen.is_empty() {
+        return Ok(report);
+    }
+    let r = samples.matrix(m.directions())?;
+    report.unreachable = left(&r, &(0..r.len()).collect::<Vec<_>>());
+    let covered = m.covered(chosen);
+    let target = (opts.coverage_target * m.points() as Real).ceil() as usize;
+    let better = improve_for_stock(m, &r, chosen, opts.max_setups, covered.min(target), allowed);
+    report.left = left(&r, &better);
+    report.changed = better != *chosen;
+    *chosen = better;
+    Ok(report)
 }
 
 /// Continuous refinement: moves each chosen direction to the best of a cone of trial

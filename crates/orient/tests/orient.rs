@@ -8,7 +8,8 @@ use s2g_geom::{
 };
 use s2g_orient::{
     HeightMap, OrientOptions, Strategy, VisibilityContext, VisibilityOptions, candidate_directions,
-    closure_mesh, height_closure, random_direction, select_orientations,
+    closure_mesh, height_closure, random_direction, select_orientations, select_orientations_in_stock,
+    stock_grid_points,
 };
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/meshes");
@@ -437,4 +438,42 @@ fn bad_input_gives_errors_not_panics() {
     assert!(height_closure(&empty, &Setup::top(), &spec).is_err());
     assert!(HeightMap::in_setup_frame(&mesh, &Setup::top(), 0.0).is_err());
     assert!(HeightMap::in_setup_frame(&mesh, &Setup::top(), 1e-9).is_err(), "absurd texel count accepted");
+}
+
+/// The stock-removal term: on a flat plate in a cube of stock the chosen setups leave no
+/// more removable stock than allowed, see as much of the surface as the coverage target
+/// asks, and without stock samples selection is the visibility-only one.
+#[test]
+fn setups_for_a_flat_plate_cut_away_its_stock() {
+    let plate = box_mesh(Point3::new(-0.5, -0.1, -0.08), Point3::new(0.5, 0.1, 0.08));
+    let cube = Aabb::new(Point3::new(-0.5, -0.5, -0.5), Point3::new(0.5, 0.5, 0.5));
+    let stock = stock_grid_points(&cube, 32 * 32 * 32, |_| true);
+    assert_eq!(stock.len(), 32 * 32 * 32);
+    for min_cos in [0.0, -1e-3] {
+        let opts = OrientOptions {
+            points: 4096,
+            candidates: 128,
+            baseline_trials: 0,
+            min_cos,
+            ..Default::default()
+        };
+        let plain = select_orientations(&plate, &opts).unwrap();
+        let with = select_orientations_in_stock(&plate, &stock, &opts).unwrap();
+        assert_eq!(select_orientations_in_stock(&plate, &[], &opts).unwrap().directions, plain.directions);
+        let s = with.stock.expect("a stock report");
+        let allowed = (opts.stock_removal.max_left * s.part as f64).floor() as usize;
+        assert!(s.part > 0 && s.material + s.part == stock.len(), "{s:?}");
+        assert!(s.left <= s.unreachable + allowed, "min_cos {min_cos}: {s:?}");
+        assert!(
+            with.final_coverage() >= plain.final_coverage().min(opts.coverage_target) - 1e-12,
+            "coverage {} against {}",
+            with.final_coverage(),
+            plain.final_coverage()
+        );
+        assert!(with.directions.len() <= opts.max_setups);
+        // The term changes nothing it does not report.
+        if !s.changed {
+            assert_eq!(with.directions, plain.directions);
+        }
+    }
 }

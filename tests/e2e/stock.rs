@@ -1,0 +1,220 @@
+//! Stock and fixture: flat parts lose all their stock (the stock-removal term of setup
+//! selection), the stock options are the simulator's starting stock, and a datum moves the
+//! programs' origin without changing the cut.
+
+use shape2gcode::gcode::{Motion, MotionSink, ParseOptions, parse_str};
+use shape2gcode::geom::{Mesh, Point3};
+use shape2gcode::{Datum, HeuristicPolicy, MillOptions, MillRun, Milled, Preset, Stock, mill};
+
+/// A simple polygon in the XZ plane, counter-clockwise seen from -Y, extruded from y = 0
+/// to y = `depth`: a flat part of the kind slicers test with.
+fn extruded(profile: &[[f64; 2]], depth: f64) -> Mesh {
+    let n = profile.len() as u32;
+    let mut vertices: Vec<Point3> = profile.iter().map(|p| Point3::new(p[0], 0.0, p[1])).collect();
+    vertices.extend(profile.iter().map(|p| Point3::new(p[0], depth, p[1])));
+    let mut triangles = Vec::new();
+    for [a, b, c] in ear_clip(profile) {
+        triangles.push([a, b, c]);
+        triangles.push([c + n, b + n, a + n]);
+    }
+    for i in 0..n {
+        let j = (i + 1) % n;
+        triangles.push([i, i + n, j]);
+        triangles.push([j, i + n, j + n]);
+    }
+    Mesh::new(vertices, triangles).expect("a valid extrusion")
+}
+
+/// Triangles of a simple counter-clockwise polygon by ear clipping.
+fn ear_clip(p: &[[f64; 2]]) -> Vec<[u32; 3]> {
+    let cross =
+        |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    let mut left: Vec<usize> = (0..p.len()).collect();
+    let mut out = Vec::new();
+    while left.len() > 3 {
+        let k = left.len();
+        let ear = (0..k)
+            .find(|&i| {
+                let (a, b, c) = (left[(i + k - 1) % k], left[i], left[(i + 1) % k]);
+                cross(p[a], p[b], p[c]) > 0.0
+                    && left.iter().filter(|&&q| q != a && q != b && q != c).all(|&q| {
+                        !(cross(p[a], p[b], p[q]) >= 0.0
+                            && cross(p[b], p[c], p[q]) >= 0.0
+                            && cross(p[c], p[a], p[q]) >= 0.0)
+                    })
+            })
+            .expect("a simple polygon has an ear");
+        let (a, b, c) = (left[(ear + k - 1) % k], left[ear], left[(ear + 1) % k]);
+        out.push([a as u32, b as u32, c as u32]);
+        left.remove(ear);
+    }
+    out.push([left[0] as u32, left[1] as u32, left[2] as u32]);
+    out
+}
+
+/// A bridge after PrusaSlicer's test shape: a 50 x 10 x 8 mm bar on two 5 mm piers with a
+/// 40 x 5 mm opening under its span.
+fn bridge() -> Mesh {
+    extruded(&[[0., 0.], [5., 0.], [5., 5.], [45., 5.], [45., 0.], [50., 0.], [50., 8.], [0., 8.]], 10.0)
+}
+
+/// A stand of our own in the spirit of PrusaSlicer's ipadstand: a 98 x 30 mm profile
+/// (base, sloping lip, back rest) 10 mm thick.
+fn stand() -> Mesh {
+    extruded(
+        &[
+            [0., 0.],
+            [98., 0.],
+            [98., 20.],
+            [88., 20.],
+            [78., 8.],
+            [20., 8.],
+            [20., 30.],
+            [12., 30.],
+            [0., 14.],
+        ],
+        10.0,
+    )
+}
+
+fn mill_with(mesh: &Mesh, opts: &MillOptions) -> Milled {
+    mill(mesh, &mut HeuristicPolicy::default(), opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// The flat parts reach IoU 0.9 in the paper preset and 0.98 in the shop preset (issue
+/// 35's targets; visibility alone gives about 0.1 in the paper preset), safely. At `s2g
+/// mill`'s 256, where the simulation grid is the scorer's (at coarser grids a face may lie
+/// up to a voxel off between the two, 2-4 % of a 10 mm thick part, and the paper preset's
+/// 128^3 puts 13 voxels across the stand); the shop preset's box of stock around a flat
+/// part keeps it cheap. `s2g mill` on PrusaSlicer's own meshes gives the figures in the
+/// issue's closing note.
+#[test]
+fn flat_parts_lose_all_their_stock_in_both_presets() {
+    for (name, part) in [("bridge", bridge()), ("stand", stand())] {
+        for (preset, resolution, target) in [(Preset::Paper, 256, 0.9), (Preset::Shop, 256, 0.98)] {
+            let opts = MillOptions { preset, resolution, ..MillOptions::default() };
+            let m = mill_with(&part, &opts);
+            assert!(
+                m.metrics.iou >= target,
+                "{name} {preset:?}: IoU {:.4} < {target} with setups {:?}",
+                m.metrics.iou,
+                m.orientation.directions
+            );
+            assert!(m.is_safe(), "{name} {preset:?}: gouges {}", m.simulation.gouge_voxels);
+        }
+    }
+}
+
+/// Visibility alone (the paper's selection, the named baseline) sees every face of the
+/// bridge from two setups and leaves the stock under one of them; the term changes the
+/// setups and says how much stock visibility left.
+#[test]
+fn visibility_alone_leaves_the_stock_of_a_flat_part() {
+    let base = MillOptions { resolution: 64, stock_removal: false, ..MillOptions::default() };
+    let plain = mill_with(&bridge(), &base);
+    let with = mill_with(&bridge(), &MillOptions { stock_removal: true, ..base });
+    assert!(plain.metrics.iou < 0.5, "visibility alone: IoU {:.4}", plain.metrics.iou);
+    assert!(
+        with.metrics.iou > plain.metrics.iou + 0.4,
+        "{:.4} vs {:.4}",
+        with.metrics.iou,
+        plain.metrics.iou
+    );
+    assert!(plain.orientation.stock.is_none());
+    let s = with.orientation.stock.expect("the term's report");
+    assert!(s.changed && s.left < s.left_by_visibility / 10, "{s:?}");
+    let report = with.report_json(false);
+    assert_eq!(report["orientation"]["stock_removal"]["left"], s.left);
+}
+
+/// Each stock option is the simulator's starting stock: its volume on the grid (256
+/// voxels along the part) is the option's within a voxel layer, and a stock that does not
+/// hold the part is refused.
+#[test]
+fn stock_options_are_the_simulated_stock() {
+    let part = bridge();
+    let pi = std::f64::consts::PI;
+    let cases = [
+        (Stock::Preset, 52.0 * 12.0 * 10.0),
+        (Stock::BoxSize([60.0, 20.0, 16.0]), 60.0 * 20.0 * 16.0),
+        (Stock::BoxCorners { min: [-2.0, -1.0, -3.0], max: [55.0, 12.0, 9.0] }, 57.0 * 13.0 * 12.0),
+        (Stock::Cylinder { diameter: 16.0, length: 56.0, axis: 0 }, pi * 64.0 * 56.0),
+    ];
+    for (stock, volume) in cases {
+        let opts = MillOptions { preset: Preset::Shop, resolution: 256, stock, ..MillOptions::default() };
+        let run = MillRun::new(&part, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{stock:?}: {e:#}"));
+        let simulated = run.stock_volume();
+        assert!(
+            (simulated / volume - 1.0).abs() < 0.03,
+            "{stock:?}: simulated {simulated:.1} mm3, expected {volume:.1}"
+        );
+    }
+    // The shop preset's stock has a margin of 2 % of the part's longest side (1 mm here).
+    for stock in [
+        Stock::BoxSize([40.0, 20.0, 16.0]),
+        Stock::Cylinder { diameter: 9.0, length: 60.0, axis: 0 },
+        Stock::BoxSize([60.0, -20.0, 16.0]),
+    ] {
+        let opts = MillOptions { preset: Preset::Shop, resolution: 32, stock, ..MillOptions::default() };
+        assert!(MillRun::new(&part, &opts, &mut |_| {}).is_err(), "{stock:?} must be refused");
+    }
+}
+
+/// Feed moves of a program, in program coordinates.
+#[derive(Default)]
+struct Feeds(Vec<Point3>);
+
+impl MotionSink for Feeds {
+    type Error = std::convert::Infallible;
+    fn motion(&mut self, m: &Motion<'_>) -> Result<(), Self::Error> {
+        if let Motion::Linear { to, .. } = m {
+            self.0.push(*to);
+        }
+        Ok(())
+    }
+}
+
+/// A datum states G54 in each program's header and the report, puts the stock top at
+/// Z0 (and its centre or corner at X0 Y0), and cuts exactly what the run without one cuts.
+#[test]
+fn a_datum_moves_the_program_origin_and_not_the_cut() {
+    let part = stand();
+    let base = MillOptions { preset: Preset::Shop, resolution: 64, ..MillOptions::default() };
+    let plain = mill_with(&part, &base);
+    for datum in [Datum::TopCentre, Datum::Corner] {
+        let m = mill_with(&part, &MillOptions { datum: Some(datum), ..base.clone() });
+        assert!(
+            (m.metrics.iou - plain.metrics.iou).abs() < 1e-3,
+            "{datum:?}: {} vs {}",
+            m.metrics.iou,
+            plain.metrics.iou
+        );
+        assert_eq!(m.simulation.gouge_voxels, 0);
+        let report = m.report_json(false);
+        assert_eq!(report["datum"]["work_offset"], "G54");
+        assert_eq!(report["datum"]["origins"].as_array().map(Vec::len), Some(m.setups.len()));
+        for (i, (text, s)) in m.programs.iter().zip(&m.setups).enumerate() {
+            let head: String = text.lines().take(4).collect::<Vec<_>>().join("\n");
+            assert!(head.contains("WCS G54 X0 Y0 Z0"), "{datum:?} setup {}: header\n{head}", i + 1);
+            let mut feeds = Feeds::default();
+            parse_str(text, &ParseOptions::default(), &mut feeds).expect("parses");
+            let r = s.action.tool_radius;
+            // Feed moves start at most half a layer above the stock top.
+            let top = feeds.0.iter().map(|p| p.z).fold(f64::NEG_INFINITY, f64::max);
+            assert!(top <= s.action.layer_height, "{datum:?} setup {}: feed at Z{top}", i + 1);
+            let lo = feeds.0.iter().fold([f64::INFINITY; 2], |a, p| [a[0].min(p.x), a[1].min(p.y)]);
+            let hi = feeds.0.iter().fold([f64::NEG_INFINITY; 2], |a, p| [a[0].max(p.x), a[1].max(p.y)]);
+            let half = 0.5 * m.stock.extent().norm() + r + 1e-6;
+            match datum {
+                // The tool centre stays within a radius of the stock's outline, which
+                // starts at X0 Y0.
+                Datum::Corner => assert!(lo[0] >= -r - 1e-6 && lo[1] >= -r - 1e-6, "{lo:?}"),
+                // The stock's centre is X0 Y0.
+                Datum::TopCentre => {
+                    assert!(lo.iter().chain(&hi).all(|c| c.abs() <= half), "{lo:?} {hi:?} beyond {half}")
+                }
+            }
+        }
+    }
+    assert!(plain.report_json(false).get("datum").is_none(), "no datum unless asked");
+}
