@@ -115,6 +115,7 @@ pub mod baseline;
 mod error;
 pub mod features;
 mod layer;
+pub mod library;
 mod link;
 mod options;
 mod plan;

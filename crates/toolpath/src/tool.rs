@@ -1,6 +1,7 @@
 //! [`Tool`]: a physical cutter ([`s2g_geom::Cutter`]) and its cutting data, and the
 //! [`Envelope`] the layer planner keeps out of the part.
 
+use s2g_gcode::Coolant;
 use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat};
 
 /// A milling cutter with its cutting data. The programmed point is the tool tip.
@@ -24,6 +25,9 @@ pub struct Tool {
     pub spindle_rpm: f64,
     /// Tool number in the magazine (the T word).
     pub number: u32,
+    /// Coolant while this tool cuts: turned on after the spindle starts and off before it
+    /// stops; [`Coolant::Off`] writes no coolant words.
+    pub coolant: Coolant,
 }
 
 /// The solid of revolution that layer planning keeps out of the part: a cylinder of
@@ -52,7 +56,7 @@ impl Tool {
     pub const DEFAULT_SPINDLE_RPM: f64 = 10_000.0;
 
     /// `cutter` with default cutting data: feed [`DEFAULT_FEED`](Self::DEFAULT_FEED)
-    /// (1000/min), plunge feed 300/min, 10,000 rpm, tool number 1.
+    /// (1000/min), plunge feed 300/min, 10,000 rpm, tool number 1, no coolant.
     pub fn new(cutter: Cutter) -> Self {
         Self {
             cutter,
@@ -60,6 +64,7 @@ impl Tool {
             plunge_feed: Self::DEFAULT_PLUNGE_FEED,
             spindle_rpm: Self::DEFAULT_SPINDLE_RPM,
             number: 1,
+            coolant: Coolant::Off,
         }
     }
 
