@@ -67,6 +67,11 @@ HEADER = """\
 #
 # Units: millimetres; surface speed in m/min.
 #
+# [machine]                     the machine the tools are fitted to (every field optional)
+#   name, max_feed (mm/min), rapid (mm/min per axis X, Y, Z), accel (mm/s^2 per axis),
+#   junction_deviation (mm, as grbl's $11), spindle_rpm ([min, max]), tool_change_s,
+#   lookahead (blocks the trajectory planner plans ahead)
+#
 # [[material]]                  one per workpiece material
 #   name          the key tools' cutting data refer to (`s2g mill --material NAME`)
 #   description   free text
@@ -98,7 +103,23 @@ HEADER = """\
 
 
 def main():
-    parts = [HEADER]
+    parts = [
+        HEADER,
+        "\n".join(
+            [
+                "[machine]",
+                'name = "generic-router"',
+                "max_feed = 5000.0",
+                "rapid = [5000.0, 5000.0, 5000.0]",
+                "accel = [500.0, 500.0, 300.0]",
+                "junction_deviation = 0.01",
+                "spindle_rpm = [1000.0, 24000.0]",
+                "tool_change_s = 10.0",
+                "lookahead = 32",
+            ]
+        )
+        + "\n",
+    ]
     for name, desc, coolant, vc, fzk, lo, hi, ap, ae, plunge in MATERIALS:
         parts.append(
             "\n".join(

@@ -42,7 +42,7 @@ pub use crate::learn::{
 };
 pub use crate::pipeline::{
     MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
-    StageSeconds, mill,
+    StageSeconds, default_tool_library, mill,
 };
 pub use crate::policy::{
     Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,

@@ -7,4 +7,5 @@ mod e2e {
     #[cfg(feature = "learn")]
     mod learn;
     mod mill;
+    mod shop;
 }

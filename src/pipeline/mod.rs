@@ -29,11 +29,13 @@ mod per_setup;
 mod pipe;
 mod rotary;
 mod run;
+mod tooling;
 
 pub use self::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
 };
 pub use self::run::MillRun;
+pub use self::tooling::default_tool_library;
 
 use crate::geom::Mesh;
 use crate::policy::Policy;

@@ -86,7 +86,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<ToolLibrary, LibraryError
         });
     }
     tools.sort_by_key(|t| t.number);
-    let lib = ToolLibrary { materials: Vec::new(), tools };
+    let lib = ToolLibrary { tools, ..ToolLibrary::default() };
     lib.validate(path)?;
     Ok(lib)
 }

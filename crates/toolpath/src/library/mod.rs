@@ -143,9 +143,13 @@ pub struct Cutting {
     pub coolant: Coolant,
 }
 
-/// A tool library: tools and the materials their cutting data refer to.
+/// A tool library: the machine it is for, tools, and the materials their cutting data
+/// refer to.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ToolLibrary {
+    /// The machine these tools are fitted to (its `[machine]` table; every field optional,
+    /// defaults of [`MachineProfile::default`]). `None`: the file names none.
+    pub machine: Option<MachineProfile>,
     /// Materials, by name.
     pub materials: Vec<Material>,
     /// Tools, in ascending number.
@@ -171,12 +175,13 @@ impl LibraryTool {
     }
 
     /// Spindle speed, feeds and depth limits of this tool in `material` on `machine`:
-    /// `n = 1000 vc / (π D)` within the spindle range, `vf = fz z n` capped by the
+    /// `n = 1000 vc / (π D)` rounded to whole rpm, within the spindle range, `vf = fz z n` capped by the
     /// machine's largest feed, the plunge feed that fraction of it.
     pub fn cutting(&self, material: &Material, machine: &MachineProfile) -> Result<Cutting, LibraryError> {
         let c = self.cutting_data(material)?;
         let d = self.cutter.diameter();
-        let rpm = machine.clamp_rpm(1000.0 * c.surface_speed / (std::f64::consts::PI * d));
+        // A spindle is set in whole revolutions per minute.
+        let rpm = machine.clamp_rpm((1000.0 * c.surface_speed / (std::f64::consts::PI * d)).round());
         let feed = (c.chip_load * self.flutes as f64 * rpm).min(machine.max_feed);
         Ok(Cutting {
             spindle_rpm: rpm,
@@ -211,7 +216,7 @@ impl ToolLibrary {
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
             Some("tbl") => Self::from_linuxcnc_table(&text, path),
             Some("fctb") => {
-                read_fctb(&text, path).map(|tool| Self { materials: Vec::new(), tools: vec![tool] })
+                read_fctb(&text, path).map(|tool| Self { tools: vec![tool], ..Self::default() })
             }
             _ => Self::from_toml(&text, path),
         }
@@ -254,9 +259,12 @@ impl ToolLibrary {
         self.tools.iter().find(|t| t.number == number)
     }
 
-    /// Adds `other`'s materials and tools; a tool or material of the same number or name
-    /// replaces this library's.
+    /// Adds `other`'s machine, materials and tools; a machine, or a tool or material of
+    /// the same number or name, replaces this library's.
     pub fn merge(&mut self, other: ToolLibrary) {
+        if other.machine.is_some() {
+            self.machine = other.machine;
+        }
         for m in other.materials {
             self.materials.retain(|x| x.name != m.name);
             self.materials.push(m);
@@ -271,6 +279,11 @@ impl ToolLibrary {
     /// Checks every tool and material; the message names the tool or material and field.
     pub fn validate(&self, path: &Path) -> Result<(), LibraryError> {
         let bad = |message: String| Err(LibraryError::Invalid { path: path.to_path_buf(), message });
+        if let Some(m) = &self.machine
+            && let Err(e) = m.validate()
+        {
+            return bad(format!("machine: {e}"));
+        }
         let mut numbers = std::collections::BTreeSet::new();
         for t in &self.tools {
             if t.number == 0 {

@@ -42,6 +42,7 @@ fn the_default_library_has_what_the_issue_asks_for() {
     }
     assert_eq!(lib.material("aluminium-6061").unwrap().coolant, Coolant::Flood);
     assert_eq!(lib.material("wax").unwrap().coolant, Coolant::Off);
+    assert_eq!(lib.machine, Some(MachineProfile::default()));
 }
 
 #[test]
@@ -49,11 +50,11 @@ fn feeds_and_speeds_follow_the_chart_formulas() {
     let lib = default_library();
     let alu = lib.material("aluminium-6061").unwrap();
     let machine = MachineProfile::default();
-    // 6 mm, 3 flutes, vc 250 m/min, fz 0.036 mm: n = 250000 / (6 pi) = 13,262.9 rpm,
+    // 6 mm, 3 flutes, vc 250 m/min, fz 0.036 mm: n = 250000 / (6 pi) = 13,263 rpm,
     // vf = 0.036 * 3 * n = 1,432.4 mm/min.
     let t6 = lib.tools.iter().find(|t| t.name.starts_with("6 mm flat")).unwrap();
     let c = t6.cutting(alu, &machine).unwrap();
-    let n = 250_000.0 / (6.0 * std::f64::consts::PI);
+    let n = (250_000.0 / (6.0 * std::f64::consts::PI)).round();
     close(c.spindle_rpm, n, "rpm");
     close(c.feed, 0.036 * 3.0 * n, "feed");
     close(c.plunge_feed, 0.3 * c.feed, "plunge");

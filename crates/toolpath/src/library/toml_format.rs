@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use s2g_gcode::Coolant;
+use s2g_gcode::{Coolant, MachineProfile};
 use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat, Holder};
 
 use super::{CuttingData, LibraryError, LibraryTool, Material, ToolLibrary};
@@ -13,10 +13,63 @@ use super::{CuttingData, LibraryError, LibraryTool, Material, ToolLibrary};
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct LibraryToml {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    machine: Option<MachineToml>,
     #[serde(default, rename = "material")]
     materials: Vec<MaterialToml>,
     #[serde(default, rename = "tool")]
     tools: Vec<ToolToml>,
+}
+
+/// A [`MachineProfile`]: every field optional, defaults as documented there.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MachineToml {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    name: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    max_feed: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rapid: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    accel: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    junction_deviation: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    spindle_rpm: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tool_change_s: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    lookahead: Option<usize>,
+}
+
+impl MachineToml {
+    fn profile(self) -> MachineProfile {
+        let d = MachineProfile::default();
+        MachineProfile {
+            name: self.name.unwrap_or(d.name),
+            max_feed: self.max_feed.unwrap_or(d.max_feed),
+            rapid: self.rapid.unwrap_or(d.rapid),
+            accel: self.accel.unwrap_or(d.accel),
+            junction_deviation: self.junction_deviation.unwrap_or(d.junction_deviation),
+            spindle_rpm: self.spindle_rpm.unwrap_or(d.spindle_rpm),
+            tool_change_s: self.tool_change_s.unwrap_or(d.tool_change_s),
+            lookahead: self.lookahead.unwrap_or(d.lookahead),
+        }
+    }
+
+    fn from_profile(m: &MachineProfile) -> Self {
+        Self {
+            name: Some(m.name.clone()),
+            max_feed: Some(m.max_feed),
+            rapid: Some(m.rapid),
+            accel: Some(m.accel),
+            junction_deviation: Some(m.junction_deviation),
+            spindle_rpm: Some(m.spindle_rpm),
+            tool_change_s: Some(m.tool_change_s),
+            lookahead: Some(m.lookahead),
+        }
+    }
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -168,13 +221,15 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<ToolLibrary, LibraryError
         })
         .collect();
     tools.sort_by_key(|t| t.number);
-    let lib = ToolLibrary { materials, tools };
+    let machine = raw.machine.map(MachineToml::profile);
+    let lib = ToolLibrary { machine, materials, tools };
     lib.validate(path)?;
     Ok(lib)
 }
 
 pub(super) fn write(lib: &ToolLibrary) -> String {
     let raw = LibraryToml {
+        machine: lib.machine.as_ref().map(MachineToml::from_profile),
         materials: lib
             .materials
             .iter()
