@@ -4,8 +4,8 @@ use crate::gcode::{Dialect, MachineProfile, RotaryAxes};
 use crate::geom::{Aabb, Mesh, Setup, ShapeMetrics, Vector3};
 use crate::orient::OrientationResult;
 use crate::policy::{Action, ActionSpace, StrategyKind};
-use crate::toolpath::{PlanSummary, Tool};
 use crate::toolpath::library::ToolLibrary;
+use crate::toolpath::{PlanSummary, Tool};
 use crate::trace::PathTrace;
 use crate::voxsim::{Carver, RewardWeights, Rewards, SimReport};
 
@@ -150,7 +150,10 @@ impl MillOptions {
         let mut space = match self.preset {
             Preset::Paper => ActionSpace::paper().scaled(self.paper_scale_mm),
             Preset::Shop => ActionSpace {
-                radii: super::tooling::flat_end_mills(self.library()).iter().map(|t| t.cutter.radius).collect(),
+                radii: super::tooling::flat_end_mills(self.library())
+                    .iter()
+                    .map(|t| t.cutter.radius)
+                    .collect(),
                 ..ActionSpace::shop()
             },
         };

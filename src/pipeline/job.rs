@@ -2,9 +2,9 @@
 //! options, and the features the policy sees.
 
 use super::api::{MillError, MillOptions};
+use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
 use crate::policy::{Action, ActionSpace, SetupFeatures};
-use crate::gcode::MachineProfile;
 use crate::toolpath::library::Cutting;
 use crate::toolpath::{PlanOptions, Tool, strategies};
 
@@ -42,7 +42,8 @@ impl Job {
             // A library tool roughs as deep as its axial limit in the material allows.
             roughing_depth: match cutting {
                 Some(c) => Some(c.max_axial_depth),
-                None => (opts.roughing_depth_diameters > 0.0).then(|| opts.roughing_depth_diameters * tool.diameter()),
+                None => (opts.roughing_depth_diameters > 0.0)
+                    .then(|| opts.roughing_depth_diameters * tool.diameter()),
             },
             clearance_height: clearance,
             stock: Some(stock_in_setup(stock, setup)),
@@ -51,7 +52,9 @@ impl Job {
         };
         // A library tool steps over no more than its radial limit.
         let popts = match cutting {
-            Some(c) => PlanOptions { stepover: popts.stepover.min(c.max_radial_depth / tool.diameter()), ..popts },
+            Some(c) => {
+                PlanOptions { stepover: popts.stepover.min(c.max_radial_depth / tool.diameter()), ..popts }
+            }
             None => popts,
         };
         Ok(Self { setup: *setup, action: *action, tool, popts })

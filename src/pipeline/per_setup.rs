@@ -218,7 +218,10 @@ pub(super) fn simulating<'a>(
     sim: &'a RefCell<Simulator>,
     trace: Option<&'a mut PathTrace>,
 ) -> Simulating<'a> {
-    Tee::new(Watcher { trace, frame: Setup::top(), setups: 0, last: None, watch: None, clock: None }, SimSink(sim))
+    Tee::new(
+        Watcher { trace, frame: Setup::top(), setups: 0, last: None, watch: None, clock: None },
+        SimSink(sim),
+    )
 }
 
 /// Watches the motions on their way to the simulator: records the first setup's path in

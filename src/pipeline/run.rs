@@ -8,9 +8,9 @@ use super::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
 };
 use super::job::{Job, feeds, setup_features};
-use super::tooling::{Tooling, planned_tool};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
+use super::tooling::{Tooling, planned_tool};
 use crate::gcode::{ArcFitOptions, FooterRetract, WriterOptions};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
@@ -399,7 +399,8 @@ impl MillRun {
         self.check_deadline(|| format!("starting setup {} of {}", i + 1, self.setup_count()))?;
         let tool = self.tool_for(action.tool_radius)?;
         let o = &self.opts;
-        let job = Job::new(&self.orientation.setups[i], &action, tool, &self.stock, self.rapid, self.clearance, o)?;
+        let job =
+            Job::new(&self.orientation.setups[i], &action, tool, &self.stock, self.rapid, self.clearance, o)?;
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
             return Err(MillError::ActionTooLarge {

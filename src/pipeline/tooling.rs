@@ -56,18 +56,22 @@ impl Tooling {
         if opts.preset == Preset::Paper {
             if opts.tools.is_some() {
                 return Err(MillError::InvalidOption(
-                    "a tool library is for the shop preset; the paper preset machines with the paper's tools".into(),
+                    "a tool library is for the shop preset; the paper preset machines with the paper's tools"
+                        .into(),
                 ));
             }
             return Ok(Self::Planned { diag, feed });
         }
         let lib = opts.library();
-        let material = lib.material(&opts.material).map_err(|e| MillError::InvalidOption(e.to_string()))?.clone();
+        let material =
+            lib.material(&opts.material).map_err(|e| MillError::InvalidOption(e.to_string()))?.clone();
         let machine = opts.machine.clone().or_else(|| lib.machine.clone()).unwrap_or_default();
         machine.validate().map_err(|e| MillError::InvalidOption(format!("machine: {e}")))?;
         let flats = flat_end_mills(lib);
         if flats.is_empty() {
-            return Err(MillError::InvalidOption("the tool library has no flat end mill to rough with".into()));
+            return Err(MillError::InvalidOption(
+                "the tool library has no flat end mill to rough with".into(),
+            ));
         }
         for t in &flats {
             t.cutting(&material, &machine).map_err(|e| MillError::InvalidOption(e.to_string()))?;
@@ -100,7 +104,8 @@ impl Tooling {
             Self::Planned { diag, feed } => Ok((planned_tool(radius, number, *diag, *feed), None)),
             Self::Library { flats, material, machine, .. } => {
                 let Some(t) = flats.iter().find(|t| t.cutter.radius == radius) else {
-                    let have: Vec<String> = flats.iter().map(|t| format!("{}", t.cutter.diameter())).collect();
+                    let have: Vec<String> =
+                        flats.iter().map(|t| format!("{}", t.cutter.diameter())).collect();
                     return Err(MillError::InvalidOption(format!(
                         "the tool library has no flat end mill of diameter {} mm (it has {})",
                         2.0 * radius,
@@ -108,7 +113,10 @@ impl Tooling {
                     )));
                 };
                 let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
-                Ok((t.tool(material, machine).map_err(bad)?, Some(t.cutting(material, machine).map_err(bad)?)))
+                Ok((
+                    t.tool(material, machine).map_err(bad)?,
+                    Some(t.cutting(material, machine).map_err(bad)?),
+                ))
             }
         }
     }

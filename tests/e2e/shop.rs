@@ -71,7 +71,11 @@ fn setups_cut_with_the_library_s_tools_at_their_cutting_data() {
         assert!((timed - machine_time_of(text)).abs() <= 1e-9 * timed, "setup {}: {timed}", i + 1);
         feed_time += timed;
     }
-    assert!(feed_time >= milled.simulation.machining_time_s, "{feed_time} < {}", milled.simulation.machining_time_s);
+    assert!(
+        feed_time >= milled.simulation.machining_time_s,
+        "{feed_time} < {}",
+        milled.simulation.machining_time_s
+    );
     let report = milled.report_json(false);
     assert_eq!(report["machining_time_s"].as_f64().unwrap(), (feed_time * 1000.0).round() / 1000.0);
     assert!(report["setups"][0]["tool"]["number"].as_u64().is_some());

@@ -291,7 +291,9 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
     let input_scale = input_scale(args, mesh, preset)?;
     let shop_only = args.tools.is_some() || args.tool_table.is_some() || args.material != "aluminium-6061";
     if preset == Preset::Paper && shop_only {
-        bail!("--tools, --material and --tool-table are for the shop preset; the paper preset machines with the paper's tools");
+        bail!(
+            "--tools, --material and --tool-table are for the shop preset; the paper preset machines with the paper's tools"
+        );
     }
     let tools = args.tools.as_ref().map(|p| crate::tools::library(Some(p))).transpose()?;
     Ok(MillOptions {

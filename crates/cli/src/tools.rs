@@ -56,7 +56,10 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         machine.spindle_rpm[1],
         machine.max_feed
     );
-    println!("{:>5}  {:<5} {:>6} {:>3} {:>6} {:>7} {:>7} {:>7} {:>6} {:>6}  name", "T", "shape", "D", "z", "flutes", "rpm", "feed", "plunge", "ap", "ae");
+    println!(
+        "{:>5}  {:<5} {:>6} {:>3} {:>6} {:>7} {:>7} {:>7} {:>6} {:>6}  name",
+        "T", "shape", "D", "z", "flutes", "rpm", "feed", "plunge", "ap", "ae"
+    );
     for t in &lib.tools {
         let shape = match t.cutter.shape {
             CutterShape::Flat(_) => "flat",
@@ -80,7 +83,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     if let Some(path) = &args.toml {
-        write_bytes_atomic(path, lib.to_toml().as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+        write_bytes_atomic(path, lib.to_toml().as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     if let Some(path) = &args.table {
         write_bytes_atomic(path, lib.to_linuxcnc_table().as_bytes())

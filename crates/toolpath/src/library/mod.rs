@@ -215,9 +215,7 @@ impl ToolLibrary {
             .map_err(|source| LibraryError::Io { path: path.to_path_buf(), source })?;
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
             Some("tbl") => Self::from_linuxcnc_table(&text, path),
-            Some("fctb") => {
-                read_fctb(&text, path).map(|tool| Self { tools: vec![tool], ..Self::default() })
-            }
+            Some("fctb") => read_fctb(&text, path).map(|tool| Self { tools: vec![tool], ..Self::default() }),
             _ => Self::from_toml(&text, path),
         }
     }
