@@ -42,7 +42,7 @@ pub use crate::learn::{
 };
 pub use crate::pipeline::{
     Datum, MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
-    StageSeconds, Stock, mill,
+    StageSeconds, Stock, default_tool_library, mill,
 };
 pub use crate::policy::{
     Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,

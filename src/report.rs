@@ -2,6 +2,7 @@
 
 use serde_json::{Value, json};
 
+use crate::gcode::Coolant;
 use crate::pipeline::{Milled, Preset};
 
 fn round(x: f64, decimals: i32) -> f64 {
@@ -25,7 +26,7 @@ impl Milled {
             .iter()
             .enumerate()
             .map(|(i, s)| {
-                json!({
+                let mut setup = json!({
                     "index": i + 1,
                     "tool_axis": v3(&s.setup.tool_axis().into_inner()),
                     "tool_radius": s.action.tool_radius,
@@ -37,7 +38,25 @@ impl Milled {
                     "program_lines": s.lines,
                     "gouge_voxels": s.gouge_voxels,
                     "rapid_collision_lines": s.rapid_collision_lines,
-                })
+                });
+                if self.preset == Preset::Shop {
+                    let t = &s.tool;
+                    setup["tool"] = json!({
+                        "number": t.number,
+                        "diameter": round(t.diameter(), 6),
+                        "flute_length": round(t.flute_length(), 6),
+                        "spindle_rpm": round(t.spindle_rpm, 3),
+                        "feed": round(t.feed, 3),
+                        "plunge_feed": round(t.plunge_feed, 3),
+                        "coolant": match t.coolant {
+                            Coolant::Flood => "flood",
+                            Coolant::Mist => "mist",
+                            Coolant::Off => "none",
+                        },
+                    });
+                    setup["machine_time_s"] = json!(s.machine_time_s.map(|t| round(t, 3)));
+                }
+                setup
             })
             .collect();
         let o = &self.orientation;
@@ -71,6 +90,15 @@ impl Milled {
             "setups": setups,
         });
         self.stock_json(&mut report);
+        if self.preset == Preset::Shop {
+            // The shop's time is the machine's, acceleration included; the simulator's
+            // length / feed stays beside it.
+            let machine: Option<f64> = self.setups.iter().map(|s| s.machine_time_s).sum();
+            if let Some(t) = machine {
+                report["machining_time_s"] = json!(round(t, 3));
+                report["feed_time_s"] = json!(round(sim.machining_time_s, 3));
+            }
+        }
         if timings {
             let t = &self.stage_seconds;
             report["stage_seconds"] = json!({

@@ -8,4 +8,5 @@ mod e2e {
     mod learn;
     mod mill;
     mod stock;
+    mod shop;
 }

@@ -1,10 +1,11 @@
 //! The public types of a milling run: options, presets, layouts, stages, errors and results.
 
-use crate::gcode::{Dialect, RotaryAxes};
+use crate::gcode::{Dialect, MachineProfile, RotaryAxes};
 use crate::geom::{Aabb, Mesh, Setup, ShapeMetrics, Vector3};
 use crate::orient::OrientationResult;
 use crate::policy::{Action, ActionSpace, StrategyKind};
-use crate::toolpath::PlanSummary;
+use crate::toolpath::library::ToolLibrary;
+use crate::toolpath::{PlanSummary, Tool};
 use crate::trace::PathTrace;
 use crate::voxsim::{Carver, RewardWeights, Rewards, SimReport};
 
@@ -178,6 +179,19 @@ pub struct MillOptions {
     /// arc comes nearer the part than planned, and the simulator follows arcs within 1/64
     /// of a voxel. `None` (the default, the paper's programs) writes straight moves only.
     pub arc_tolerance: Option<f64>,
+    /// Shop preset: the tool library whose flat end mills rough (the action space's radii
+    /// are theirs), at their cutting data in [`material`](Self::material) on the library's
+    /// machine. `None`: the shipped library ([`default_tool_library`](super::default_tool_library),
+    /// `assets/tools/default.toml`). The paper preset machines with the paper's tools and
+    /// refuses a library. Default `None`.
+    pub tools: Option<ToolLibrary>,
+    /// Shop preset: the workpiece material, a name in the tool library. Default
+    /// `aluminium-6061`.
+    pub material: String,
+    /// Shop preset: the machine that limits spindle speeds and feeds and times the
+    /// programs (with acceleration). `None`: the library's `[machine]`, else
+    /// [`MachineProfile::default`]. Default `None`.
+    pub machine: Option<MachineProfile>,
 }
 
 impl MillOptions {
@@ -187,10 +201,23 @@ impl MillOptions {
     pub fn action_space(&self) -> ActionSpace {
         let mut space = match self.preset {
             Preset::Paper => ActionSpace::paper().scaled(self.paper_scale_mm),
-            Preset::Shop => ActionSpace::shop(),
+            Preset::Shop => ActionSpace {
+                radii: super::tooling::flat_end_mills(self.library())
+                    .iter()
+                    .map(|t| t.cutter.radius)
+                    .collect(),
+                ..ActionSpace::shop()
+            },
         };
         space.strategies.retain(|s| self.strategies.contains(s));
         space
+    }
+}
+
+impl MillOptions {
+    /// The shop preset's tool library: [`tools`](Self::tools), or the shipped one.
+    pub fn library(&self) -> &ToolLibrary {
+        self.tools.as_ref().unwrap_or_else(|| super::default_tool_library())
     }
 }
 
@@ -221,6 +248,9 @@ impl Default for MillOptions {
             max_estimated_hours: 10_000.0,
             input_scale: 1.0,
             arc_tolerance: None,
+            tools: None,
+            material: "aluminium-6061".into(),
+            machine: None,
         }
     }
 }
@@ -429,6 +459,14 @@ pub struct SetupProgram {
     pub setup: Setup,
     /// The action the policy chose.
     pub action: Action,
+    /// The tool it was machined with: the cutter, its number, spindle speed, feeds and
+    /// coolant.
+    pub tool: Tool,
+    /// Seconds this setup's program runs on the run's machine, acceleration included
+    /// ([`MachineTime`](crate::gcode::MachineTime)): the shop preset's (its library's
+    /// machine) in the per-setup layout; `None` in the paper preset, whose times are the
+    /// paper's (length / feed), and in the rotary layout.
+    pub machine_time_s: Option<f64>,
     /// The planner's summary.
     pub plan: PlanSummary,
     /// The G-code text: this setup's program, or in the rotary layout this setup's section

@@ -1,24 +1,12 @@
 //! What a setup is planned with: a policy's action mapped to a tool, feeds and plan
 //! options, and the features the policy sees.
 
-use super::api::{MillError, MillOptions, Preset};
+use super::api::{MillError, MillOptions};
+use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
 use crate::policy::{Action, ActionSpace, SetupFeatures};
+use crate::toolpath::library::Cutting;
 use crate::toolpath::{PlanOptions, Tool, strategies};
-use crate::voxsim::Cutter;
-
-/// The tool a setup is planned with, whose cutter the simulator cuts with (tool `number`
-/// of its table): a flat end mill of `radius` with flutes as long as the stock's diagonal
-/// `diag`, at the cutting `feed`, a third of it for plunges, and 12,000 rpm.
-pub(super) fn planned_tool(radius: f64, number: u32, diag: f64, feed: f64) -> Tool {
-    Tool {
-        feed,
-        plunge_feed: feed / 3.0,
-        spindle_rpm: 12000.0,
-        number,
-        ..Tool::new(Cutter::flat(radius, diag))
-    }
-}
 
 /// What one setup is planned with.
 #[derive(Clone)]
@@ -32,19 +20,17 @@ pub(super) struct Job {
 }
 
 impl Job {
-    #[allow(clippy::too_many_arguments)] // Private: the run's constants, passed once per setup.
+    /// `tool` planned with `action` in `setup`; `cutting` (a library tool's) limits the
+    /// roughing depth and the stepover.
     pub(super) fn new(
         setup: &Setup,
         action: &Action,
-        number: u32,
+        (tool, cutting): (Tool, Option<Cutting>),
         stock: &Aabb,
-        diag: f64,
-        feed: f64,
         rapid: f64,
         clearance: f64,
         opts: &MillOptions,
     ) -> Result<Self, MillError> {
-        let tool = planned_tool(action.tool_radius, number, diag, feed);
         let strategy =
             strategies().get(action.strategy.name()).map_err(|e| MillError::InvalidOption(e.to_string()))?;
         let popts = PlanOptions {
@@ -55,12 +41,23 @@ impl Job {
             // side: the walls keep that much more, so no arc comes nearer the part than
             // planned.
             finishing_allowance: opts.arc_tolerance.unwrap_or(0.0),
-            roughing_depth: (opts.roughing_depth_diameters > 0.0)
-                .then(|| opts.roughing_depth_diameters * tool.diameter()),
+            // A library tool roughs as deep as its axial limit in the material allows.
+            roughing_depth: match cutting {
+                Some(c) => Some(c.max_axial_depth),
+                None => (opts.roughing_depth_diameters > 0.0)
+                    .then(|| opts.roughing_depth_diameters * tool.diameter()),
+            },
             clearance_height: clearance,
             stock: Some(stock_in_setup(stock, setup)),
             rapid_feed: rapid,
             ..PlanOptions::default()
+        };
+        // A library tool steps over no more than its radial limit.
+        let popts = match cutting {
+            Some(c) => {
+                PlanOptions { stepover: popts.stepover.min(c.max_radial_depth / tool.diameter()), ..popts }
+            }
+            None => popts,
         };
         Ok(Self { setup: *setup, action: *action, tool, popts, note: None })
     }
@@ -78,10 +75,12 @@ impl Job {
     }
 }
 
-/// Feed and rapid rates (per minute, in planning units) of a preset.
-pub(super) fn feeds(_preset: Preset) -> (f64, f64) {
-    // Both presets plan in millimetres: 600 mm/min cutting, 5000 mm/min rapids.
-    (600.0, 5000.0)
+/// Feed and rapid rates (per minute, in planning units) of the paper's planned tools, and
+/// the rapid rate of a machine's (its slowest axis).
+pub(super) fn feeds(machine: Option<&MachineProfile>) -> (f64, f64) {
+    // The paper's tools are planned in millimetres: 600 mm/min cutting, 5000 mm/min rapids.
+    let rapid = machine.map_or(5000.0, |m| m.rapid.iter().copied().fold(f64::INFINITY, f64::min));
+    (600.0, rapid)
 }
 
 /// Tool numbers follow the action space's radii: T1 is the smallest.

@@ -30,12 +30,14 @@ mod pipe;
 mod rotary;
 mod run;
 mod stock;
+mod tooling;
 
 pub use self::api::{
     Datum, MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
     StageSeconds, Stock,
 };
 pub use self::run::MillRun;
+pub use self::tooling::default_tool_library;
 
 use crate::geom::Mesh;
 use crate::policy::Policy;

@@ -9,7 +9,8 @@ use super::api::{MillError, SetupProgram, Stage, StageSeconds};
 use super::job::Job;
 use super::pipe::chunk_channel;
 use crate::gcode::{
-    Dialect, GcodeWriter, Motion, MotionSink, ParseOptions, Tee, ToolChange, WriterOptions, parse_reader,
+    Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, Tee, ToolChange,
+    WriterOptions, parse_reader,
 };
 use crate::geom::{Mesh, Point3, Setup, VoxelGrid};
 use crate::toolpath::{PlanProgress, VoxelMaterial, plan_setup_watched};
@@ -33,6 +34,8 @@ pub(super) struct Ctx<'a> {
     pub(super) outputs: Option<&'a ProgramOutputs>,
     /// When the run must have finished, and its limit in seconds.
     pub(super) deadline: Option<(Instant, f64)>,
+    /// The machine that times each program, where the run has one (a library's).
+    pub(super) machine: Option<&'a MachineProfile>,
 }
 
 /// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
@@ -76,6 +79,7 @@ pub(super) fn machine_setup(
         (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>())
     };
     let mut tee = simulating(ctx.sim, trace);
+    tee.first.clock = ctx.machine.map(|m| MachineTime::new(m.clone()));
     // A 3-axis program per setup: the fixture rotation is in its header comment,
     // so the simulator is told the frame here.
     tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
@@ -136,6 +140,7 @@ pub(super) fn machine_setup(
         let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
         (planned, parsed, waited)
     });
+    let mut clock = tee.first.clock.take();
     if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
         && Instant::now() >= at
     {
@@ -173,9 +178,15 @@ pub(super) fn machine_setup(
     let rapid_collision_lines =
         report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
     times.simulation += t.elapsed().saturating_sub(waited).as_secs_f64();
+    let machine_time_s = clock.as_mut().map(|c| {
+        let Ok(()) = c.finish();
+        c.seconds()
+    });
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
+        tool: job.tool,
+        machine_time_s,
         plan,
         text,
         rotary_deg: None,
@@ -212,7 +223,10 @@ pub(super) fn simulating<'a>(
     sim: &'a RefCell<Simulator>,
     trace: Option<&'a mut PathTrace>,
 ) -> Simulating<'a> {
-    Tee::new(Watcher { trace, frame: Setup::top(), setups: 0, last: None, watch: None }, SimSink(sim))
+    Tee::new(
+        Watcher { trace, frame: Setup::top(), setups: 0, last: None, watch: None, clock: None },
+        SimSink(sim),
+    )
 }
 
 /// Watches the motions on their way to the simulator: records the first setup's path in
@@ -226,6 +240,8 @@ pub(super) struct Watcher<'a> {
     pub(super) last: Option<(Point3, Point3)>,
     /// Where to report [`Stage::Layers`] ([`Watcher::watching`]).
     pub(super) watch: Option<Watch<'a>>,
+    /// Times the program on a machine, where the run has one.
+    pub(super) clock: Option<MachineTime>,
 }
 
 /// What a [`Watcher`] reports progress with.
@@ -256,6 +272,7 @@ impl<'a> Watcher<'a> {
             setups: self.setups,
             last: self.last,
             watch: Some(Watch { progress, planner, setup, setups, moves: 0 }),
+            clock: self.clock,
         }
     }
 }
@@ -274,6 +291,9 @@ impl MotionSink for Watcher<'_> {
                 trace.push(from, to, !matches!(m, Motion::Rapid { .. }), [was.z, at.z], 1e-9);
             }
             self.last = Some((to, at));
+        }
+        if let Some(clock) = &mut self.clock {
+            let Ok(()) = clock.motion(m);
         }
         if let Some(w) = &mut self.watch {
             w.moves += 1;

@@ -254,6 +254,9 @@ pub(super) fn mill_rotary(
         setups.push(SetupProgram {
             setup: Setup { frame: placements[i].frame },
             action: job.action,
+            tool: job.tool,
+            // The one program runs through setups without stopping: it is timed whole.
+            machine_time_s: None,
             plan: sec.plan.clone(),
             text: source.text[sec.bytes.clone()].to_owned(),
             rotary_deg: Some(placements[i].angles),

@@ -8,10 +8,11 @@ use super::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
     Stock,
 };
-use super::job::{Job, feeds, planned_tool, setup_features};
+use super::job::{Job, feeds, setup_features};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
+use super::tooling::{Tooling, planned_tool};
 use crate::gcode::{ArcFitOptions, FooterRetract, WriterOptions};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
@@ -20,6 +21,8 @@ use crate::geom::{
 };
 use crate::orient::{OrientOptions, OrientationResult, select_orientations, select_orientations_in_stock};
 use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
+use crate::toolpath::Tool;
+use crate::toolpath::library::Cutting;
 use crate::trace::PathTrace;
 use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
 
@@ -76,6 +79,8 @@ pub struct MillRun {
     outputs: Option<ProgramOutputs>,
     /// When the run must have finished, and its limit ([`Self::time_limit`]).
     deadline: Option<(Instant, f64)>,
+    /// The cutters: the paper's planned ones, or a library's.
+    tooling: Tooling,
     diag: f64,
     feed: f64,
     rapid: f64,
@@ -163,13 +168,20 @@ impl MillRun {
             .collect();
         times.action_selection = (t.elapsed() + beside[1]).as_secs_f64();
 
-        // The simulator knows every tool of the action space: T1 is the smallest radius.
-        let (feed, rapid) = feeds(opts.preset);
+        // The simulator knows every tool of the action space: in the paper preset T1 is the
+        // smallest radius; a library's tools keep their numbers.
+        let (feed, _) = feeds(None);
+        let tooling = Tooling::new(opts, diag, feed)?;
+        let (feed, rapid) = feeds(tooling.machine());
         let t = Instant::now();
         let first = space.radii.first().copied().unwrap_or(1.0);
-        let mut tools = ToolTable::single(planned_tool(first, 1, diag, feed).cutter);
+        let mut tools = ToolTable::single(tooling.tool(first, 1)?.0.cutter);
         for (i, &r) in space.radii.iter().enumerate() {
-            tools = tools.with(i as u32 + 1, planned_tool(r, i as u32 + 1, diag, feed).cutter);
+            let (tool, _) = tooling.tool(r, i as u32 + 1)?;
+            tools = tools.with(tool.number, tool.cutter);
+        }
+        for (number, cutter) in tooling.library_cutters() {
+            tools = tools.with(number, cutter);
         }
         let mut sim_opts =
             SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
@@ -219,12 +231,15 @@ impl MillRun {
                     xy_only: true,
                     ..ArcFitOptions::default()
                 }),
+                // A shop's programs set each tool's length offset after its change.
+                tool_length_offset: tooling.machine().is_some(),
                 ..WriterOptions::default()
             },
             keep_programs: true,
             keep_trace: true,
             outputs: None,
             deadline: None,
+            tooling,
             diag,
             feed,
             rapid,
@@ -246,6 +261,7 @@ impl MillRun {
             keep_programs: self.keep_programs,
             outputs: self.outputs.as_ref(),
             deadline: self.deadline,
+            machine: self.tooling.machine(),
         }
     }
 
@@ -367,18 +383,25 @@ impl MillRun {
         &self.setups
     }
 
-    /// The tool number of `radius`. A radius outside the action space (a fixed action's)
-    /// gets a tool of its own, added to the simulator's table, so that the simulation cuts
-    /// with the radius the planner planned for.
-    fn tool_number(&mut self, radius: f64) -> Result<u32, MillError> {
-        if let Some(i) = self.tool_radii.iter().position(|&r| r == radius) {
-            return Ok(i as u32 + 1);
+    /// The tool of `radius` and its cutting data (a library tool's). In the paper preset a
+    /// radius outside the action space (a fixed action's) gets a tool of its own, added to
+    /// the simulator's table, so that the simulation cuts with the radius the planner
+    /// planned for; a library has the tools it has.
+    fn tool_for(&mut self, radius: f64) -> Result<(Tool, Option<Cutting>), MillError> {
+        if let Tooling::Planned { .. } = self.tooling {
+            let number = match self.tool_radii.iter().position(|&r| r == radius) {
+                Some(i) => i as u32 + 1,
+                None => {
+                    let number = self.tool_radii.len() as u32 + 1;
+                    let cutter = planned_tool(radius, number, self.diag, self.feed).cutter;
+                    self.sim.get_mut().add_tool(number, cutter).map_err(sim_error)?;
+                    self.tool_radii.push(radius);
+                    number
+                }
+            };
+            return self.tooling.tool(radius, number);
         }
-        let number = self.tool_radii.len() as u32 + 1;
-        let cutter = planned_tool(radius, number, self.diag, self.feed).cutter;
-        self.sim.get_mut().add_tool(number, cutter).map_err(sim_error)?;
-        self.tool_radii.push(radius);
-        Ok(number)
+        self.tooling.tool(radius, 0)
     }
 
     /// Cuts the next setup with `action`: plans it against the material left, writes its
@@ -390,7 +413,7 @@ impl MillRun {
             return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
         };
         self.check_deadline(|| format!("starting setup {} of {}", i + 1, self.setup_count()))?;
-        let number = self.tool_number(action.tool_radius)?;
+        let tool = self.tool_for(action.tool_radius)?;
         let o = &self.opts;
         let (setup, note) = match o.datum {
             Some(d) => {
@@ -399,17 +422,7 @@ impl MillRun {
             }
             None => (self.orientation.setups[i], None),
         };
-        let mut job = Job::new(
-            &setup,
-            &action,
-            number,
-            &self.stock,
-            self.diag,
-            self.feed,
-            self.rapid,
-            self.clearance,
-            o,
-        )?;
+        let mut job = Job::new(&setup, &action, tool, &self.stock, self.rapid, self.clearance, o)?;
         job.note = note;
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {

@@ -52,9 +52,14 @@ static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
 /// error lines (it stops at the first error with a non-zero status), if any. Panics with
 /// an install hint when `rs274` is missing.
 pub fn rs274_errors(program: &Path) -> Vec<String> {
+    let tools: String = (0..100).map(|t| format!("T{t} P{t} Z0 D0\n")).collect();
+    rs274_errors_with_table(program, &tools)
+}
+
+/// As [`rs274_errors`], with the tool table `tools` (LinuxCNC's format).
+pub fn rs274_errors_with_table(program: &Path, tools: &str) -> Vec<String> {
     let dir = program.parent().expect("program has a folder");
     let table = dir.join("tools.tbl");
-    let tools: String = (0..100).map(|t| format!("T{t} P{t} Z0 D0\n")).collect();
     std::fs::write(&table, tools).expect("write tool table");
     let _one_at_a_time = RS274.lock().unwrap_or_else(|e| e.into_inner());
     let run = || {

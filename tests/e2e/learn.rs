@@ -11,11 +11,15 @@ use shape2gcode::{
 
 use super::common::data;
 
-/// A cheap environment: the 10 mm FDM cube in the shop preset (tools of 0.5-6 mm, layers of
-/// 0.25-2 mm) in a 16 mm block, two setups, zigzag only (20 actions), a 24³ grid.
+/// A cheap environment: the 10 mm FDM cube in the shop preset (the shipped library's flat
+/// end mills of 1, 2, 3, 6 and 12 mm, layers of 0.25-2 mm) in a 16 mm block, two setups,
+/// zigzag only (20 actions), a 24³ grid.
 fn cheap() -> (Vec<(String, shape2gcode::geom::Mesh)>, MillOptions) {
     let cube = load_mesh(data("fdm/models/cube10.stl")).expect("cube10");
+    let mut tools = shape2gcode::default_tool_library().clone();
+    tools.tools.retain(|t| [1.0, 2.0, 3.0, 6.0, 12.0].contains(&t.cutter.diameter()));
     let opts = MillOptions {
+        tools: Some(tools),
         preset: Preset::Shop,
         resolution: 24,
         orient_points: 512,
@@ -138,7 +142,7 @@ fn a_trained_policy_saves_loads_and_mills_like_itself() {
     let (path, a) = assert_saved_policy_mills_alike(&mut policy, &parts, &opts, dir.path(), "p.s2gp");
     assert_eq!(a.policy, "learned");
     // By path through the policy names, too.
-    let space = shape2gcode::ActionSpace::shop();
+    let space = opts.action_space();
     let mut by_name = policy_by_name(path.to_str().unwrap(), &space, 0).expect("a policy file by path");
     let c = mill(&parts[0].1, by_name.as_mut(), &opts, &mut |_| {}).unwrap();
     assert_eq!(c.programs, a.programs);

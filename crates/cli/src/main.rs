@@ -17,6 +17,7 @@ mod mill;
 mod orient;
 mod reconstruct;
 mod simulate;
+mod tools;
 mod train;
 
 /// Shape2Gcode: 3-D shapes to machine programs and machine programs back to shapes.
@@ -50,6 +51,8 @@ enum Command {
     Reconstruct(reconstruct::Args),
     /// Simulate a G-code program on a voxel stock: removed volume, gouges, collisions, time.
     Simulate(simulate::Args),
+    /// A tool library's feeds and speeds in a material; write it as TOML or a LinuxCNC tool table.
+    Tools(tools::Args),
     /// Train the DQN policy that picks tool radius, layer height and strategy per setup.
     Train(train::Args),
 }
@@ -77,6 +80,7 @@ fn main() -> ExitCode {
         Command::Orient(args) => orient::run(args),
         Command::Reconstruct(args) => reconstruct::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Tools(args) => tools::run(args),
         Command::Train(args) => train::run(args),
     };
     match result {

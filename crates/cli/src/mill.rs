@@ -136,6 +136,20 @@ pub struct Args {
     /// term)
     #[arg(long)]
     visibility_only_setups: bool,
+    /// Tool library (shop preset): TOML in the format of assets/tools/default.toml, a
+    /// LinuxCNC tool table (.tbl) or a FreeCAD tool bit (.fctb). Its flat end mills rough,
+    /// at the cutting data of --material on its [machine]; a file without materials or
+    /// machine takes those of the shipped library. Default: the shipped library
+    #[arg(long, value_name = "FILE")]
+    tools: Option<PathBuf>,
+    /// Workpiece material (shop preset), a name in the tool library: aluminium-6061,
+    /// mild-steel, pom or wax in the shipped one
+    #[arg(long, value_name = "NAME", default_value = "aluminium-6061")]
+    material: String,
+    /// Write the tool library as a LinuxCNC tool table here (shop preset), so the programs
+    /// run in `rs274 -t FILE` and on a machine with the same tool numbers
+    #[arg(long, value_name = "FILE")]
+    tool_table: Option<PathBuf>,
 }
 
 /// `--stock-box` and `--stock-cylinder` as a [`Stock`].
@@ -302,6 +316,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             write_bytes_atomic(path, text.as_bytes())?;
         }
     }
+    if let Some(path) = &args.tool_table {
+        write_bytes_atomic(path, opts.library().to_linuxcnc_table().as_bytes())?;
+    }
     let text = write_report(&args, &milled, &mesh_path, &paths)?;
     if args.json {
         print!("{text}");
@@ -337,7 +354,16 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         l => bail!("unknown layout {l:?} (per-setup, ac or bc)"),
     };
     let input_scale = input_scale(args, mesh, preset)?;
+    let shop_only = args.tools.is_some() || args.tool_table.is_some() || args.material != "aluminium-6061";
+    if preset == Preset::Paper && shop_only {
+        bail!(
+            "--tools, --material and --tool-table are for the shop preset; the paper preset machines with the paper's tools"
+        );
+    }
+    let tools = args.tools.as_ref().map(|p| crate::tools::library(Some(p))).transpose()?;
     Ok(MillOptions {
+        tools,
+        material: args.material.clone(),
         preset,
         input_scale,
         setups: parse_setups(&args.setups)?,
@@ -550,10 +576,28 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
             sp.plan.layers,
             paths.get(i).unwrap_or(&paths[0]).display()
         );
+        if let Some(t) = sp.machine_time_s {
+            let tool = &sp.tool;
+            println!(
+                "    T{} ({} mm, flutes {} mm) S{:.0} F{:.0}: {} on the machine",
+                tool.number,
+                tool.diameter(),
+                tool.flute_length(),
+                tool.spindle_rpm,
+                tool.feed,
+                human_duration(t)
+            );
+        }
     }
+    // The shop's time is the machine's (acceleration included), the paper's length / feed.
+    let machine: Option<f64> = milled.setups.iter().map(|sp| sp.machine_time_s).sum();
     println!(
         "IoU {:.4}  F1 {:.4}  CD x1000 {:.4}  NC {:.4}  time {:.1} s",
-        m.iou, m.f1, m.chamfer_x1000, m.normal_consistency, s.machining_time_s
+        m.iou,
+        m.f1,
+        m.chamfer_x1000,
+        m.normal_consistency,
+        machine.unwrap_or(s.machining_time_s)
     );
     println!("gouges {} voxels, rapid collisions {}", s.gouge_voxels, milled.rapid_collisions());
     let t = &milled.stage_seconds;

@@ -13,6 +13,7 @@ mod arc;
 mod dialect;
 mod error;
 mod expr;
+mod machine;
 mod motion;
 mod parser;
 mod rotary;
@@ -30,6 +31,7 @@ pub use crate::dialect::{
     TimeUnit, ToolChange, UnknownDialect,
 };
 pub use crate::error::{GcodeError, GcodeErrorKind, ParseError};
+pub use crate::machine::{MachineProfile, MachineTime, junction_speed};
 pub use crate::motion::{
     ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionRecorder, MotionSink,
     PECK_CLEARANCE_MM, Plane, SpindleDirection,

@@ -116,6 +116,7 @@ mod error;
 pub mod features;
 pub mod finish;
 mod layer;
+pub mod library;
 mod link;
 mod options;
 mod plan;

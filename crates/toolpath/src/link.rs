@@ -9,7 +9,7 @@
 
 use std::f64::consts::PI;
 
-use s2g_gcode::{ArcDirection, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use s2g_gcode::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
 use s2g_geom::{Aabb, Point3, Setup};
 
 use crate::error::ToolpathError;
@@ -123,6 +123,9 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         self.send(Motion::Comment(c.into()))?;
         self.send(Motion::ToolChange { tool: self.tool.number })?;
         self.send(Motion::Spindle { rpm: self.tool.spindle_rpm, direction: SpindleDirection::Clockwise })?;
+        if self.tool.coolant != Coolant::Off {
+            self.send(Motion::Coolant(self.tool.coolant))?;
+        }
         // Eq. (4) of the Shape2Gcode paper: G0 to the start position at a safe height.
         self.rapid(Point3::new(start.x, start.y, self.p.clear_z.max(start.z)))
     }
@@ -139,6 +142,9 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
 
     pub fn finish(&mut self) -> Result<(), ToolpathError<S::Error>> {
         self.retract()?;
+        if self.tool.coolant != Coolant::Off {
+            self.send(Motion::Coolant(Coolant::Off))?;
+        }
         self.send(Motion::Spindle { rpm: 0.0, direction: SpindleDirection::Off })
     }
 

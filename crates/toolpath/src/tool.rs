@@ -1,6 +1,7 @@
 //! [`Tool`]: a physical cutter ([`s2g_geom::Cutter`]) and its cutting data, and the
 //! [`Envelope`] the layer planner keeps out of the part.
 
+use s2g_gcode::Coolant;
 use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat};
 
 /// A milling cutter with its cutting data. The programmed point is the tool tip.
@@ -24,6 +25,9 @@ pub struct Tool {
     pub spindle_rpm: f64,
     /// Tool number in the magazine (the T word).
     pub number: u32,
+    /// Coolant while this tool cuts: turned on after the spindle starts and off before it
+    /// stops; [`Coolant::Off`] writes no coolant words.
+    pub coolant: Coolant,
 }
 
 /// The solid of revolution that layer planning keeps out of the part: a cylinder of
@@ -38,8 +42,8 @@ pub struct Tool {
 pub struct Envelope {
     /// Radius of the cylinder: the tool-centre keep-out is the part grown by it.
     pub radius: f64,
-    /// Length of the cylinder from the tip (the flute length; `f64::INFINITY` when
-    /// unlimited): planning never goes deeper than this below the stock top.
+    /// How far the tool reaches below the stock's top ([`Tool::envelope`]; `f64::INFINITY`
+    /// when unlimited): planning never goes deeper.
     pub length: f64,
 }
 
@@ -52,7 +56,7 @@ impl Tool {
     pub const DEFAULT_SPINDLE_RPM: f64 = 10_000.0;
 
     /// `cutter` with default cutting data: feed [`DEFAULT_FEED`](Self::DEFAULT_FEED)
-    /// (1000/min), plunge feed 300/min, 10,000 rpm, tool number 1.
+    /// (1000/min), plunge feed 300/min, 10,000 rpm, tool number 1, no coolant.
     pub fn new(cutter: Cutter) -> Self {
         Self {
             cutter,
@@ -60,6 +64,7 @@ impl Tool {
             plunge_feed: Self::DEFAULT_PLUNGE_FEED,
             spindle_rpm: Self::DEFAULT_SPINDLE_RPM,
             number: 1,
+            coolant: Coolant::Off,
         }
     }
 
@@ -112,9 +117,15 @@ impl Tool {
     }
 
     /// What layer planning keeps out of the part: today the cutter's enclosing cylinder,
-    /// of its cutting radius and flute length, whatever its end shape (see [`Envelope`]).
+    /// of its cutting radius, whatever its end shape (see [`Envelope`]), as long as the
+    /// tool can reach: its flute length, or, where the shank is no wider than the flutes,
+    /// its stick-out (the shank then follows the flutes down through what they cut above
+    /// it, and the holder stays above the stock's top; the simulator counts any shank or
+    /// holder contact as a holder collision).
     pub fn envelope(&self) -> Envelope {
-        Envelope { radius: self.cutter.radius, length: self.cutter.flute_length }
+        let c = &self.cutter;
+        let length = if c.shank_radius <= c.radius { c.stickout.max(c.flute_length) } else { c.flute_length };
+        Envelope { radius: c.radius, length }
     }
 
     /// Checks that the tool can exist; the message names the offending field. The cutter
@@ -168,7 +179,10 @@ mod tests {
         assert_eq!(t.diameter(), 6.0);
         assert_eq!(t.flute_length(), 12.0);
         assert_eq!(t.shape(), CutterShape::BullNose(BullNose { corner_radius: 1.0 }));
-        assert_eq!(t.envelope(), Envelope { radius: 3.0, length: 12.0 });
+        // The shank is as wide as the flutes: the tool reaches down to its holder.
+        assert_eq!(t.envelope(), Envelope { radius: 3.0, length: 24.0 });
+        let necked = Tool::new(Cutter { shank_radius: 4.0, ..Cutter::bull(3.0, 1.0, 12.0) });
+        assert_eq!(necked.envelope(), Envelope { radius: 3.0, length: 12.0 });
         assert_eq!((t.feed, t.plunge_feed, t.spindle_rpm, t.number), (1000.0, 300.0, 10_000.0, 1));
         assert!(t.validate().is_ok());
     }

@@ -1,0 +1,146 @@
+//! Which cutters a run machines with, at which feeds: the paper's planned flat end mills at
+//! one feed, or the flat end mills of a shop's [`ToolLibrary`] at their cutting data in a
+//! material on a machine.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use super::api::{MillError, MillOptions, Preset};
+use crate::gcode::MachineProfile;
+use crate::geom::CutterShape;
+use crate::toolpath::Tool;
+use crate::toolpath::library::{Cutting, LibraryTool, Material, ToolLibrary};
+use crate::voxsim::Cutter;
+
+/// The shipped tool library, `assets/tools/default.toml`: flat end mills of 1-12 mm, ball
+/// end mills of 1-10 mm and two bull noses, with cutting data for aluminium 6061, mild
+/// steel, POM and machining wax, on a generic router.
+pub fn default_tool_library() -> &'static ToolLibrary {
+    static DEFAULT: OnceLock<ToolLibrary> = OnceLock::new();
+    DEFAULT.get_or_init(|| {
+        let text = include_str!("../../assets/tools/default.toml");
+        // The file is part of the crate and a test reads it: it always parses.
+        ToolLibrary::from_toml(text, Path::new("assets/tools/default.toml")).unwrap_or_default()
+    })
+}
+
+/// The cutters of a run.
+#[derive(Debug, Clone)]
+pub(super) enum Tooling {
+    /// The paper's: a flat end mill of any radius, its flutes as long as the stock's
+    /// diagonal, at one feed and 12,000 rpm ([`planned_tool`]).
+    Planned {
+        /// The stock's diagonal (flute length).
+        diag: f64,
+        /// Cutting feed, mm/min.
+        feed: f64,
+    },
+    /// A shop's: the library's flat end mills at their cutting data.
+    Library {
+        /// The flat end mills, by ascending radius.
+        flats: Vec<LibraryTool>,
+        /// Every tool of the library.
+        all: Vec<LibraryTool>,
+        /// The workpiece material.
+        material: Material,
+        /// The machine.
+        machine: MachineProfile,
+    },
+}
+
+impl Tooling {
+    /// The tooling of `opts`: the paper preset's planned tools, or the shop preset's
+    /// library ([`MillOptions::tools`], the shipped one by default) in
+    /// [`MillOptions::material`].
+    pub(super) fn new(opts: &MillOptions, diag: f64, feed: f64) -> Result<Self, MillError> {
+        if opts.preset == Preset::Paper {
+            if opts.tools.is_some() {
+                return Err(MillError::InvalidOption(
+                    "a tool library is for the shop preset; the paper preset machines with the paper's tools"
+                        .into(),
+                ));
+            }
+            return Ok(Self::Planned { diag, feed });
+        }
+        let lib = opts.library();
+        let material =
+            lib.material(&opts.material).map_err(|e| MillError::InvalidOption(e.to_string()))?.clone();
+        let machine = opts.machine.clone().or_else(|| lib.machine.clone()).unwrap_or_default();
+        machine.validate().map_err(|e| MillError::InvalidOption(format!("machine: {e}")))?;
+        let flats = flat_end_mills(lib);
+        if flats.is_empty() {
+            return Err(MillError::InvalidOption(
+                "the tool library has no flat end mill to rough with".into(),
+            ));
+        }
+        for t in &flats {
+            t.cutting(&material, &machine).map_err(|e| MillError::InvalidOption(e.to_string()))?;
+        }
+        Ok(Self::Library { flats, all: lib.tools.clone(), material, machine })
+    }
+
+    /// Every cutter the simulator must know, by tool number: the library's (finishing and
+    /// rest tools included); none of the planned ones (the run adds those per radius).
+    pub(super) fn library_cutters(&self) -> Vec<(u32, Cutter)> {
+        match self {
+            Self::Planned { .. } => Vec::new(),
+            Self::Library { all, .. } => all.iter().map(|t| (t.number, t.cutter)).collect(),
+        }
+    }
+
+    /// The machine whose limits time the programs, where the tooling has one.
+    pub(super) fn machine(&self) -> Option<&MachineProfile> {
+        match self {
+            Self::Planned { .. } => None,
+            Self::Library { machine, .. } => Some(machine),
+        }
+    }
+
+    /// The tool of `radius`: the planned flat end mill numbered `number`, or the library's
+    /// flat end mill of that radius (with the library's number; `number` is unused) with
+    /// its cutting data. A radius the library lacks is an error that lists the radii it has.
+    pub(super) fn tool(&self, radius: f64, number: u32) -> Result<(Tool, Option<Cutting>), MillError> {
+        match self {
+            Self::Planned { diag, feed } => Ok((planned_tool(radius, number, *diag, *feed), None)),
+            Self::Library { flats, material, machine, .. } => {
+                let Some(t) = flats.iter().find(|t| t.cutter.radius == radius) else {
+                    let have: Vec<String> =
+                        flats.iter().map(|t| format!("{}", t.cutter.diameter())).collect();
+                    return Err(MillError::InvalidOption(format!(
+                        "the tool library has no flat end mill of diameter {} mm (it has {})",
+                        2.0 * radius,
+                        have.join(", ")
+                    )));
+                };
+                let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
+                Ok((
+                    t.tool(material, machine).map_err(bad)?,
+                    Some(t.cutting(material, machine).map_err(bad)?),
+                ))
+            }
+        }
+    }
+}
+
+/// The flat end mills of `lib`, by ascending radius (the first of a radius kept).
+pub(super) fn flat_end_mills(lib: &ToolLibrary) -> Vec<LibraryTool> {
+    let mut flats: Vec<LibraryTool> =
+        lib.tools.iter().filter(|t| matches!(t.cutter.shape, CutterShape::Flat(_))).cloned().collect();
+    flats.sort_by(|a, b| a.cutter.radius.total_cmp(&b.cutter.radius).then(a.number.cmp(&b.number)));
+    flats.dedup_by(|b, a| a.cutter.radius == b.cutter.radius);
+    flats
+}
+
+/// The tool a setup is planned with in the paper preset, whose cutter the simulator cuts
+/// with (tool `number` of its table): a flat end mill of `radius` with flutes as long as
+/// the stock's diagonal `diag`, at the cutting `feed`, a third of it for plunges, and
+/// 12,000 rpm.
+pub(super) fn planned_tool(radius: f64, number: u32, diag: f64, feed: f64) -> Tool {
+    Tool {
+        feed,
+        plunge_feed: feed / 3.0,
+        spindle_rpm: 12000.0,
+        number,
+        ..Tool::new(Cutter::flat(radius, diag))
+    }
+}
