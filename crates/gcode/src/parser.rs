@@ -77,8 +77,10 @@ mod flow;
 mod interp;
 mod lex;
 mod moves;
+mod offsets;
 mod options;
 mod pipeline;
+mod special;
 #[cfg(test)]
 mod testing;
 mod words;

@@ -205,11 +205,12 @@ impl Interp<'_> {
         let Some(Groups { g: groups, g53 }) = self.g_groups()? else { return Ok(()) };
         let m = self.m_codes()?;
         self.check_words(&groups)?;
-        let spindle_changed = self.feed_speed_tool()?;
+        let spindle_changed = self.feed_speed_tool(groups[5].map_or(self.inverse_time, |g| g.0 == 930))?;
         self.m_actions(&m, spindle_changed, sink)?;
         self.dwell(groups[0], sink)?;
         self.modal_settings(&groups);
-        let axis_words_used = self.non_modal(groups[0], sink)?;
+        // `G43.1 Z..` (dynamic tool length) takes the axis words: they move nothing.
+        let axis_words_used = self.non_modal(groups[0], sink)? | groups[8].is_some_and(|g| g.0 == 431);
         self.motion(&groups, g53, axis_words_used, m.stop, sink)
     }
 
@@ -223,8 +224,8 @@ impl Interp<'_> {
             let (code, col) = self.block.g[k];
             let col = col as usize;
             let group = match code {
-                0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 | 331
-                | 382 => 1,
+                0 | 10 | 20 | 30 | 50 | 51 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880
+                | 890 | 330 | 331 | 382..=385 => 1,
                 170 | 180 | 190 => 2,
                 900 | 910 => 3,
                 901 | 911 => 4,
@@ -394,6 +395,15 @@ impl Interp<'_> {
                 ));
             }
         }
+        if self.strict {
+            // `rs274` (no U, V, W axes configured): "Bad character 'w' used".
+            if let Some(l) = [b'u', b'v', b'w'].into_iter().find(|&l| self.block.has(l)) {
+                return Err(Fail::Line(
+                    self.block.col(l),
+                    GcodeErrorKind::NotGcode(format!("bad character '{}' used", l as char)),
+                ));
+            }
+        }
         let non_modal = groups[0];
         // Marlin style `G28 X Y` and `M84 X Y E`.
         let novalue_allowed = (matches!(non_modal, Some((280 | 300, _))) && self.fdm)
@@ -412,16 +422,17 @@ impl Interp<'_> {
             // `M84 X Y E`: the letters name axes, they are not moves.
             self.block.mask &= !self.block.novalue;
         }
-        if groups[5].is_some_and(|(c, _)| c == 930 || c == 950) {
-            let (c, col) = groups[5].unwrap_or((930, 0));
+        if groups[5].is_some_and(|(c, _)| c == 950) {
+            let (c, col) = groups[5].unwrap_or((950, 0));
             return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{} feed mode", fmt_code(c)))));
         }
 
         Ok(())
     }
 
-    /// F, S and T words (in that order). Returns whether S changed the speed.
-    fn feed_speed_tool<E>(&mut self) -> Res<bool, E> {
+    /// F, S and T words (in that order); under `G93` (`inverse`) F belongs to the block's
+    /// move. Returns whether S changed the speed.
+    fn feed_speed_tool<E>(&mut self, inverse: bool) -> Res<bool, E> {
         if let Some(f) = self.block.get(b'f') {
             if f < 0.0 {
                 return Err(Fail::Line(
@@ -429,7 +440,9 @@ impl Interp<'_> {
                     GcodeErrorKind::BadValue("negative feed rate".into()),
                 ));
             }
-            self.feed = f * self.scale();
+            if !inverse {
+                self.feed = f * self.scale();
+            }
         }
         let mut spindle_changed = false;
         if let Some(s) = self.block.get(b's') {
@@ -580,6 +593,13 @@ impl Interp<'_> {
             }
             self.inch = code == 200 || code == 700;
         }
+        if let Some((code, _)) = groups[8] {
+            // `G43.1 Z`: the given length; `G43` reads the tool table, which the parser
+            // does not have (as `rs274`'s with zero lengths); `G49` cancels.
+            let z = if code == 431 { self.block.get(b'z').unwrap_or(0.0) * self.scale() } else { 0.0 };
+            self.tlo = if z.is_finite() { z } else { 0.0 };
+            self.update_frame();
+        }
         if let Some((code, _)) = groups[3] {
             self.absolute = code == 900;
             if self.fdm {
@@ -588,6 +608,9 @@ impl Interp<'_> {
         }
         if let Some((code, _)) = groups[4] {
             self.ijk_absolute = code == 901;
+        }
+        if let Some((code, _)) = groups[5] {
+            self.inverse_time = code == 930;
         }
         if let Some((code, _)) = groups[9] {
             self.retract_r_plane = code == 990;
@@ -667,6 +690,7 @@ impl Interp<'_> {
                     return self.end_of_block(m_stop, sink);
                 }
                 730 | 810 | 820 | 830 => Mode::Cycle(code),
+                50 | 51 | 330 | 331 | 382..=385 => Mode::Special(code),
                 _ => {
                     return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{}", fmt_code(code)))));
                 }
@@ -719,6 +743,7 @@ impl Interp<'_> {
                     10 => Mode::Linear,
                     20 => Mode::Arc(ArcDirection::Clockwise),
                     30 => Mode::Arc(ArcDirection::CounterClockwise),
+                    c @ (50 | 51 | 330 | 331 | 382..=385) => Mode::Special(c),
                     c => Mode::Cycle(c),
                 });
             }
@@ -741,6 +766,10 @@ impl Interp<'_> {
                         }
                     }
                     Some(Mode::Arc(dir)) => self.arc(dir, explicit.map(|e| e.1), sink)?,
+                    Some(Mode::Special(code)) => {
+                        let col = explicit.map_or(0, |e| e.1);
+                        self.special(code, col, sink)?;
+                    }
                     Some(Mode::Cycle(code)) => {
                         if let Err(e) = self.cycle(code, prev_mode, sink) {
                             // LinuxCNC discards a failing block, its motion mode included.
