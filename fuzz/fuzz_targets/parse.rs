@@ -42,7 +42,7 @@ fuzz_target!(|data: &[u8]| {
         dialect,
         rotary,
         stop_at_program_end: false,
-        max_steps: 20_000,
+        max_steps: 2_000,
         ..ParseOptions::default()
     };
     let mut a = Count(0);

@@ -83,6 +83,7 @@ mod pipeline;
 mod special;
 #[cfg(test)]
 mod testing;
+mod threading;
 mod words;
 
 pub use options::{ParseDialect, ParseOptions, ParseSummary};

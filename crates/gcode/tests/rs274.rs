@@ -4,7 +4,7 @@
 //! For every sample program and for a set of feature programs written here, the
 //! canonical moves `rs274 -g` prints (STRAIGHT_TRAVERSE, STRAIGHT_FEED, ARC_FEED) must
 //! match our motions: end points, arc centres, directions and turns within 1e-4 in the
-//! program's units (the precision `rs274` prints; 1e-4 mm for metric programs).
+//! units in force (the precision `rs274` prints: 1e-4 mm or 1e-4 inch), compared in mm.
 //! Where `rs274` rejects a program, our strict mode ([`ParseDialect::Cnc`]) must reject
 //! the same line after the same moves.
 
@@ -23,10 +23,13 @@ static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
 #[derive(Debug, Clone, PartialEq)]
 struct Canon {
     kind: &'static str,
-    /// End point, program units.
+    /// End point, mm.
     to: [f64; 3],
-    /// Arc centre in the plane (program units), rotation (signed turns: + is CCW).
+    /// Arc centre in the plane (mm), rotation (signed turns: + is CCW).
     arc: Option<([f64; 2], i64)>,
+    /// mm per program unit where rs274 printed it (its 4 decimals are 1e-4 of these); 1
+    /// for ours.
+    unit: f64,
 }
 
 #[derive(Debug)]
@@ -71,8 +74,13 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
     let stdout = String::from_utf8_lossy(&out.stdout);
     let mut moves: Vec<Canon> = Vec::new();
     let mut plane = Plane::XY;
+    let mut unit = 1.0;
     for line in stdout.lines() {
         let Some(call) = line.split_whitespace().nth(2) else { continue };
+        if call.starts_with("USE_LENGTH_UNITS") {
+            unit = if call.contains("INCHES") { 25.4 } else { 1.0 };
+            continue;
+        }
         if call.starts_with("SELECT_PLANE") {
             plane = if call.contains("XZ") {
                 Plane::ZX
@@ -85,7 +93,7 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
         }
         // A spline: rs274 prints no coordinates; the next move's start checks its end.
         if call.starts_with("NURBS_FEED") {
-            moves.push(Canon { kind: "spline", to: [0.0; 3], arc: None });
+            moves.push(Canon { kind: "spline", to: [0.0; 3], arc: None, unit });
             continue;
         }
         let kind = if call.starts_with("STRAIGHT_TRAVERSE") {
@@ -95,17 +103,23 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
             "feed"
         } else if call.starts_with("RIGID_TAP") {
             // Rigid tapping: in to the point, and back out to where it started.
-            let v = nums(&line[line.find(call).unwrap_or(0)..]);
+            let v: Vec<f64> = nums(&line[line.find(call).unwrap_or(0)..]).iter().map(|x| x * unit).collect();
             let back = moves.iter().rev().find(|m| m.kind != "spline").map_or([0.0; 3], |m| m.to);
-            moves.push(Canon { kind: "feed", to: [v[0], v[1], v[2]], arc: None });
-            moves.push(Canon { kind: "feed", to: back, arc: None });
+            moves.push(Canon { kind: "feed", to: [v[0], v[1], v[2]], arc: None, unit });
+            moves.push(Canon { kind: "feed", to: back, arc: None, unit });
             continue;
         } else if call.starts_with("ARC_FEED") {
             "arc"
         } else {
             continue;
         };
-        let v = nums(&line[line.find(call).unwrap_or(0)..]);
+        let mut v = nums(&line[line.find(call).unwrap_or(0)..]);
+        for (i, x) in v.iter_mut().enumerate() {
+            // The arc's rotation (5th number) is a count, not a length.
+            if !(kind == "arc" && i == 4) {
+                *x *= unit;
+            }
+        }
         if kind == "arc" {
             // ARC_FEED(first_end, second_end, first_axis, second_axis, rotation, axis_end, ...)
             let (to, c) = match plane {
@@ -115,9 +129,9 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
                 // G19: first = Y, second = Z, axis = X.
                 Plane::YZ => ([v[5], v[0], v[1]], [v[2], v[3]]),
             };
-            moves.push(Canon { kind, to, arc: Some((c, v[4] as i64)) });
+            moves.push(Canon { kind, to, arc: Some((c, v[4] as i64)), unit });
         } else {
-            moves.push(Canon { kind, to: [v[0], v[1], v[2]], arc: None });
+            moves.push(Canon { kind, to: [v[0], v[1], v[2]], arc: None, unit });
         }
     }
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -132,7 +146,7 @@ fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
     Rs274Run { moves, error }
 }
 
-/// Our motions as canonical moves in program units (the unit in force at each line).
+/// Our motions as canonical moves (mm).
 fn ours(text: &str, opts: &ParseOptions) -> (Vec<Canon>, Option<(u64, String)>) {
     let mut rec = MotionRecorder::default();
     let s = parse_str(text, opts, &mut rec).expect("parse");
@@ -140,27 +154,9 @@ fn ours(text: &str, opts: &ParseOptions) -> (Vec<Canon>, Option<(u64, String)>) 
     (canon_of(text, &rec), err)
 }
 
-/// The recorded motions as canonical moves in program units (the unit in force at each line).
+/// The recorded motions as canonical moves (mm).
 fn canon_of(text: &str, rec: &MotionRecorder) -> Vec<Canon> {
     let lines: Vec<&str> = text.lines().collect();
-    let unit_of = |l: &str| -> Option<bool> {
-        let u = l.to_ascii_uppercase().replace(' ', "");
-        let code = u.split(['(', ';']).next().unwrap_or("");
-        if code.contains("G21") {
-            Some(false)
-        } else if code.contains("G20") {
-            Some(true)
-        } else {
-            None
-        }
-    };
-    // Subroutine bodies usually come before the main program's G20/G21 and run after it:
-    // lines before the first unit code take that code's units.
-    let first_unit = lines.iter().find_map(|l| unit_of(l)).unwrap_or(false);
-    let inch_at = |line: u64| -> bool {
-        // The units in force after a line: the last G20/G21 at or before it.
-        lines.iter().take(line as usize).rev().find_map(|l| unit_of(l)).unwrap_or(first_unit)
-    };
     // `G5`/`G5.1` lines: their straight feeds are one spline, as rs274 reports it.
     let is_spline = |line: u64| -> bool {
         let l = lines.get(line as usize - 1).unwrap_or(&"").to_ascii_uppercase().replace(' ', "");
@@ -173,19 +169,18 @@ fn canon_of(text: &str, rec: &MotionRecorder) -> Vec<Canon> {
     let mut out: Vec<Canon> = Vec::new();
     let mut last_line = 0;
     for (line, m) in &rec.motions {
-        let k = if inch_at(*line) { 25.4 } else { 1.0 };
         if matches!(m, Motion::Linear { .. }) && is_spline(*line) {
             if !(last_line == *line && out.last().is_some_and(|c| c.kind == "spline")) {
-                out.push(Canon { kind: "spline", to: [0.0; 3], arc: None });
+                out.push(Canon { kind: "spline", to: [0.0; 3], arc: None, unit: 1.0 });
             }
             last_line = *line;
             continue;
         }
         last_line = *line;
-        let p = |q: nalgebra::Point3<f64>| [q.x / k, q.y / k, q.z / k];
+        let p = |q: nalgebra::Point3<f64>| [q.x, q.y, q.z];
         match m {
-            Motion::Rapid { to } => out.push(Canon { kind: "rapid", to: p(*to), arc: None }),
-            Motion::Linear { to, .. } => out.push(Canon { kind: "feed", to: p(*to), arc: None }),
+            Motion::Rapid { to } => out.push(Canon { kind: "rapid", to: p(*to), arc: None, unit: 1.0 }),
+            Motion::Linear { to, .. } => out.push(Canon { kind: "feed", to: p(*to), arc: None, unit: 1.0 }),
             Motion::Arc { to, center, plane, direction, turns, .. } => {
                 let c = p(*center);
                 let uv = match plane {
@@ -195,7 +190,7 @@ fn canon_of(text: &str, rec: &MotionRecorder) -> Vec<Canon> {
                 };
                 let n = *turns as i64 + 1;
                 let rot = if *direction == ArcDirection::CounterClockwise { n } else { -n };
-                out.push(Canon { kind: "arc", to: p(*to), arc: Some((uv, rot)) });
+                out.push(Canon { kind: "arc", to: p(*to), arc: Some((uv, rot)), unit: 1.0 });
             }
             _ => {}
         }
@@ -205,7 +200,8 @@ fn canon_of(text: &str, rec: &MotionRecorder) -> Vec<Canon> {
 
 fn compare(name: &str, reference: &[Canon], got: &[Canon]) {
     for (i, (r, g)) in reference.iter().zip(got).enumerate() {
-        let near = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= TOL + 1e-9);
+        let tol = TOL * r.unit + 1e-9;
+        let near = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol);
         let ok = r.kind == g.kind
             && (r.kind == "spline" || near(&r.to, &g.to))
             && match (&r.arc, &g.arc) {
@@ -397,6 +393,9 @@ fn feature_programs_agree_with_rs274() {
         ("probe_too_close", "G21 F100\nG0 Z1\nG38.2 Z1\nM2\n"),
         ("tapping", "G21 F100 S500 M3\nG0 X1 Y1 Z2\nG33.1 Z-5 K1\nG0 X2\nG33 Z-3 K1.5\nX3 Z-4 K1\nG0 Z5\nM2\n"),
         ("uvw_axes", "G21 F100\nG0 X1\nG1 V2\nM2\n"),
+        ("g76_outside", "G20 G18 S800 M3\nG0 X.2 Z.2\nG76 P.05 Z-.5 I-.075 J.008 K.045 H3 R2 Q29.5 E.05 L2\nG0 X.5\nM2\n"),
+        ("g76_inside_tapers", "G21 G18 S500 M3\nG0 X10 Z2\nG76 P1.5 Z-20 I1 J0.2 K0.9 H1 R1.5 Q30 E2 L3\nG0 Z5\nM2\n"),
+        ("g76_toward_plus_z", "G21 G18 S500 M3\nG0 X10 Z-20\nG76 P1 Z0 I-1 J0.3 K0.6 E1 L1\nM2\n"),
     ];
     let mut errors = 0;
     for (name, text) in programs {

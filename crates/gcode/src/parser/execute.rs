@@ -225,7 +225,7 @@ impl Interp<'_> {
             let col = col as usize;
             let group = match code {
                 0 | 10 | 20 | 30 | 50 | 51 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880
-                | 890 | 330 | 331 | 382..=385 => 1,
+                | 890 | 330 | 331 | 382..=385 | 760 => 1,
                 170 | 180 | 190 => 2,
                 900 | 910 => 3,
                 901 | 911 => 4,
@@ -383,7 +383,8 @@ impl Interp<'_> {
 
     /// Word sanity: line number, value-less words, unsupported feed modes.
     fn check_words<E>(&mut self, groups: &[Option<(u16, usize)>; 14]) -> Res<(), E> {
-        if self.block.has(b'e') {
+        // `G76 E` is the threading cycle's taper, not extrusion.
+        if self.block.has(b'e') && groups[1].is_none_or(|g| g.0 != 760) {
             self.fdm_evidence();
         }
         if let Some(n) = self.block.get(b'n') {
@@ -690,7 +691,7 @@ impl Interp<'_> {
                     return self.end_of_block(m_stop, sink);
                 }
                 730 | 810 | 820 | 830 => Mode::Cycle(code),
-                50 | 51 | 330 | 331 | 382..=385 => Mode::Special(code),
+                50 | 51 | 330 | 331 | 382..=385 | 760 => Mode::Special(code),
                 _ => {
                     return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{}", fmt_code(code)))));
                 }
@@ -743,7 +744,7 @@ impl Interp<'_> {
                     10 => Mode::Linear,
                     20 => Mode::Arc(ArcDirection::Clockwise),
                     30 => Mode::Arc(ArcDirection::CounterClockwise),
-                    c @ (50 | 51 | 330 | 331 | 382..=385) => Mode::Special(c),
+                    c @ (50 | 51 | 330 | 331 | 382..=385 | 760) => Mode::Special(c),
                     c => Mode::Cycle(c),
                 });
             }

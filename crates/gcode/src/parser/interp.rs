@@ -65,7 +65,7 @@ pub(super) enum Mode {
     Arc(ArcDirection),
     /// G73, G81, G82, G83 (code × 10).
     Cycle(u16),
-    /// G5, G5.1, G33, G33.1, G38.x (code × 10): see [`super::special`].
+    /// G5, G5.1, G33, G33.1, G38.x, G76 (code × 10): see [`super::special`].
     Special(u16),
 }
 

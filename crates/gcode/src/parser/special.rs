@@ -16,11 +16,12 @@ const PROBE_MIN_MM: f64 = 1e-9;
 const MAX_SPLINE_SEGMENTS: usize = 10_000;
 
 impl Interp<'_> {
-    /// Runs motion code `code` (× 10): `G5`, `G5.1`, `G33`, `G33.1` or `G38.x`.
+    /// Runs motion code `code` (× 10): `G5`, `G5.1`, `G33`, `G33.1`, `G38.x` or `G76`.
     pub(super) fn special<S: MotionSink>(&mut self, code: u16, col: usize, sink: &mut S) -> Res<(), S::Error> {
         match code {
             50 | 51 => self.spline(code == 50, col, sink),
             330 | 331 => self.spindle_sync(code == 331, col, sink),
+            760 => self.g76(col, sink),
             _ => self.probe(code, col, sink),
         }
     }
