@@ -224,8 +224,27 @@ impl Interp<'_> {
             let (code, col) = self.block.g[k];
             let col = col as usize;
             let group = match code {
-                0 | 10 | 20 | 30 | 50 | 51 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880
-                | 890 | 330 | 331 | 382..=385 | 760 => 1,
+                0
+                | 10
+                | 20
+                | 30
+                | 50
+                | 51
+                | 730
+                | 800
+                | 810
+                | 820
+                | 830
+                | 840
+                | 850
+                | 860
+                | 870
+                | 880
+                | 890
+                | 330
+                | 331
+                | 382..=385
+                | 760 => 1,
                 170 | 180 | 190 => 2,
                 900 | 910 => 3,
                 901 | 911 => 4,
@@ -241,7 +260,9 @@ impl Interp<'_> {
                 110 if self.fdm || !self.strict => 0,
                 40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
                 530 => 12,
-                700 | 710 if !self.strict => 6,
+                // Old Fanuc/Mach inch/mm, when lenient; with a Q word (its profile
+                // subroutine) LinuxCNC's lathe cycle, which is not interpreted.
+                700 | 710 if !self.strict && !self.block.has(b'q') => 6,
                 _ => {
                     let name = format!("G{}", fmt_code(code));
                     if self.strict {

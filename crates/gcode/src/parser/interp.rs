@@ -387,11 +387,7 @@ impl<'o> Interp<'o> {
 
     #[inline]
     pub(super) fn work(&self, i: usize) -> f64 {
-        if self.plain_frame {
-            self.mpos[i] - self.g5x[i] - self.g92[i]
-        } else {
-            self.work_rotated(i)
-        }
+        if self.plain_frame { self.mpos[i] - self.g5x[i] - self.g92[i] } else { self.work_rotated(i) }
     }
 
     /// [`Self::work`] in a rotated coordinate system: X and Y turned back by its angle.
@@ -424,7 +420,11 @@ impl<'o> Interp<'o> {
     pub(super) fn machine_of(&self, w: [f64; 3]) -> [f64; 3] {
         let (c, s) = self.rot_xy;
         let (qx, qy) = (w[0] + self.g92[0], w[1] + self.g92[1]);
-        [c * qx - s * qy + self.g5x[0], s * qx + c * qy + self.g5x[1], w[2] + self.g92[2] + self.g5x[2] + self.tlo]
+        [
+            c * qx - s * qy + self.g5x[0],
+            s * qx + c * qy + self.g5x[1],
+            w[2] + self.g92[2] + self.g5x[2] + self.tlo,
+        ]
     }
 
     pub(super) fn work_pos(&self) -> Point3<f64> {

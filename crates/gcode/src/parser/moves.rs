@@ -65,11 +65,7 @@ impl Interp<'_> {
         for i in 0..3 {
             if let Some(v) = self.block.get(AXES[i]) {
                 let v = v * s;
-                t[i] = if self.absolute {
-                    v
-                } else {
-                    t[i] + v
-                };
+                t[i] = if self.absolute { v } else { t[i] + v };
             }
         }
         t

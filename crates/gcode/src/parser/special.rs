@@ -17,7 +17,12 @@ const MAX_SPLINE_SEGMENTS: usize = 10_000;
 
 impl Interp<'_> {
     /// Runs motion code `code` (× 10): `G5`, `G5.1`, `G33`, `G33.1`, `G38.x` or `G76`.
-    pub(super) fn special<S: MotionSink>(&mut self, code: u16, col: usize, sink: &mut S) -> Res<(), S::Error> {
+    pub(super) fn special<S: MotionSink>(
+        &mut self,
+        code: u16,
+        col: usize,
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
         match code {
             50 | 51 => self.spline(code == 50, col, sink),
             330 | 331 => self.spindle_sync(code == 331, col, sink),
@@ -37,7 +42,10 @@ impl Interp<'_> {
             Some(f) if f > 0.0 => Ok(f * len),
             _ => {
                 let col = self.block.col(b'f');
-                Err(Fail::Line(col, GcodeErrorKind::ZeroFeed(format!("F word missing with inverse time {what} move"))))
+                Err(Fail::Line(
+                    col,
+                    GcodeErrorKind::ZeroFeed(format!("F word missing with inverse time {what} move")),
+                ))
             }
         }
     }
@@ -76,7 +84,10 @@ impl Interp<'_> {
         let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         // Probing toward a point needs a move; probing away (`G38.4`, `G38.5`) does not.
         if dist <= PROBE_MIN_MM && code <= 383 {
-            return Err(Fail::Line(col, GcodeErrorKind::BadValue("start point too close to probe point".into())));
+            return Err(Fail::Line(
+                col,
+                GcodeErrorKind::BadValue("start point too close to probe point".into()),
+            ));
         }
         let feed = self.move_feed(dist, "G38")?;
         self.emit(sink, &Motion::Linear { to: Point3::new(t[0], t[1], t[2]), feed, extrude: None })?;
@@ -96,7 +107,10 @@ impl Interp<'_> {
     /// straight feeds within [`ParseOptions::spline_tolerance_mm`](crate::ParseOptions::spline_tolerance_mm).
     fn spline<S: MotionSink>(&mut self, cubic: bool, col: usize, sink: &mut S) -> Res<(), S::Error> {
         if self.plane != Plane::XY {
-            return Err(Fail::Line(col, GcodeErrorKind::ModalConflict("splines need the XY plane (G17)".into())));
+            return Err(Fail::Line(
+                col,
+                GcodeErrorKind::ModalConflict("splines need the XY plane (G17)".into()),
+            ));
         }
         let s = self.scale();
         let p0 = [self.work(0), self.work(1)];
@@ -109,7 +123,10 @@ impl Interp<'_> {
             let ij = match (word(b'i'), word(b'j'), self.last_spline_pq) {
                 (None, None, Some((p, q))) => [-p, -q],
                 (None, None, None) => {
-                    return Err(Fail::Line(col, GcodeErrorKind::MissingWord { code: "G5".into(), letter: 'I' }));
+                    return Err(Fail::Line(
+                        col,
+                        GcodeErrorKind::MissingWord { code: "G5".into(), letter: 'I' },
+                    ));
                 }
                 (i, j, _) => [i.unwrap_or(0.0), j.unwrap_or(0.0)],
             };
@@ -122,7 +139,10 @@ impl Interp<'_> {
         } else {
             let (i, j) = (word(b'i').unwrap_or(0.0), word(b'j').unwrap_or(0.0));
             if i == 0.0 && j == 0.0 {
-                return Err(Fail::Line(col, GcodeErrorKind::MissingWord { code: "G5.1".into(), letter: 'I' }));
+                return Err(Fail::Line(
+                    col,
+                    GcodeErrorKind::MissingWord { code: "G5.1".into(), letter: 'I' },
+                ));
             }
             ctrl.push([p0[0] + i, p0[1] + j]);
             self.last_spline_pq = None;

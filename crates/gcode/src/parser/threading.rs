@@ -42,7 +42,10 @@ impl Interp<'_> {
     /// traverse to the drive line's end.
     pub(super) fn g76<S: MotionSink>(&mut self, col: usize, sink: &mut S) -> Res<(), S::Error> {
         if self.plane != Plane::ZX {
-            return Err(Fail::Line(col, GcodeErrorKind::ModalConflict("G76 only in the XZ plane (G18)".into())));
+            return Err(Fail::Line(
+                col,
+                GcodeErrorKind::ModalConflict("G76 only in the XZ plane (G18)".into()),
+            ));
         }
         let s = self.scale();
         for l in [b'p', b'i', b'j', b'k'] {
@@ -53,7 +56,8 @@ impl Interp<'_> {
         }
         let get = |l: u8| self.block.get(l).unwrap_or(0.0);
         let (pitch, i, j, k) = (get(b'p') * s, get(b'i') * s, get(b'j').abs() * s, get(b'k').abs() * s);
-        if pitch <= 0.0 || j <= 0.0 || !(pitch.is_finite() && i.is_finite() && j.is_finite() && k.is_finite()) {
+        if pitch <= 0.0 || j <= 0.0 || !(pitch.is_finite() && i.is_finite() && j.is_finite() && k.is_finite())
+        {
             return Err(Fail::Line(col, GcodeErrorKind::BadValue("G76 needs P > 0 and J > 0".into())));
         }
         let degression = self.block.get(b'r').filter(|r| *r >= 1.0).unwrap_or(1.0);
