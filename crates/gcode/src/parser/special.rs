@@ -92,8 +92,8 @@ impl Interp<'_> {
         let feed = self.move_feed(dist, "G38")?;
         self.emit(sink, &Motion::Linear { to: Point3::new(t[0], t[1], t[2]), feed, extrude: None })?;
         let s = self.scale();
-        for i in 0..3 {
-            self.params.numbered[5061 + i] = t[i] / s;
+        for (i, v) in t.iter().enumerate() {
+            self.params.numbered[5061 + i] = v / s;
         }
         self.params.numbered[5070] = 0.0;
         let k = if dist > 0.0 { PROBE_BACKOFF_MM / dist } else { 0.0 };
@@ -179,8 +179,9 @@ fn bezier(ctrl: &[[f64; 2]], u: f64) -> [f64; 2] {
     p[..n].copy_from_slice(&ctrl[..n]);
     for r in 1..n {
         for i in 0..n - r {
-            for a in 0..2 {
-                p[i][a] = p[i][a] * (1.0 - u) + p[i + 1][a] * u;
+            let next = p[i + 1];
+            for (a, b) in p[i].iter_mut().zip(next) {
+                *a = *a * (1.0 - u) + b * u;
             }
         }
     }
