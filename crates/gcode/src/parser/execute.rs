@@ -6,23 +6,12 @@ use super::interp::{Fail, Interp, Mode, POLAR_A, POLAR_R, Res, bit, fmt_code};
 use super::words::Pre;
 use crate::error::GcodeErrorKind;
 use crate::expr::ParamKey;
-use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use crate::motion::{ArcDirection, Marker, Motion, MotionSink, Plane};
 
 /// A block's G codes by modal group (index: group; 0 non-modal, 12 `G53`).
 struct Groups {
     g: [Option<(u16, usize)>; 14],
     g53: bool,
-}
-
-/// A block's M codes by modal group.
-#[derive(Clone, Copy)]
-struct MCodes {
-    spindle: Option<(u16, usize)>,
-    tool: Option<(u16, usize)>,
-    stop: Option<(u16, usize)>,
-    coolant: [Option<Coolant>; 2],
-    e_mode: Option<u16>,
-    retract_set: Option<usize>,
 }
 
 impl Interp<'_> {
@@ -301,107 +290,6 @@ impl Interp<'_> {
         Ok(Some(Groups { g: groups, g53 }))
     }
 
-    /// Classifies the block's M codes by modal group and checks conflicts; notes FDM evidence.
-    fn m_codes<E>(&mut self) -> Res<MCodes, E> {
-        let mut m_spindle: Option<(u16, usize)> = None;
-        let mut m_tool = None;
-        let mut m_stop = None;
-        let mut coolant: [Option<Coolant>; 2] = [None, None];
-        let mut m_e_mode = None;
-        let mut m_retract_set = None;
-        for k in 0..self.block.nm {
-            let (code, col) = self.block.m[k];
-            let col = col as usize;
-            let slot = match code {
-                3..=5 => &mut m_spindle,
-                6 | 61 => &mut m_tool,
-                0 | 1 | 2 | 30 | 60 => &mut m_stop,
-                7..=9 => {
-                    let c = match code {
-                        7 => Coolant::Mist,
-                        8 => Coolant::Flood,
-                        _ => Coolant::Off,
-                    };
-                    if coolant[0].is_none() {
-                        coolant[0] = Some(c);
-                    } else {
-                        coolant[1] = Some(c);
-                    }
-                    continue;
-                }
-                82 | 83 => {
-                    self.fdm_evidence();
-                    m_e_mode = Some(code);
-                    continue;
-                }
-                207 => {
-                    m_retract_set = Some(col);
-                    continue;
-                }
-                104 | 109 | 140 | 190 => {
-                    self.fdm_evidence();
-                    continue;
-                }
-                // LinuxCNC: overrides, I/O, spindle orient, modal state save/restore.
-                19 | 48..=53 | 62..=68 | 70..=73 => continue,
-                // Common printer codes with no motion meaning.
-                17
-                | 18
-                | 84
-                | 105
-                | 106
-                | 107
-                | 110
-                | 112
-                | 114
-                | 115
-                | 117
-                | 80
-                | 81
-                | 92
-                | 201..=206
-                | 220
-                | 221
-                | 400
-                | 420
-                | 500
-                | 501
-                | 503
-                | 851
-                | 900
-                    if !self.strict =>
-                {
-                    continue;
-                }
-                _ => {
-                    let k = GcodeErrorKind::UnknownCode(format!("M{code}"));
-                    if self.strict {
-                        return Err(Fail::Line(col, k));
-                    }
-                    self.warn(col, k);
-                    continue;
-                }
-            };
-            if let Some((other, _)) = *slot {
-                return Err(Fail::Line(
-                    col,
-                    GcodeErrorKind::ModalConflict(format!(
-                        "M{other} and M{code} are in the same modal group"
-                    )),
-                ));
-            }
-            *slot = Some((code, col));
-        }
-        Ok(MCodes {
-            spindle: m_spindle,
-            tool: m_tool,
-            stop: m_stop,
-            coolant,
-            e_mode: m_e_mode,
-            retract_set: m_retract_set,
-        })
-    }
-
     /// Word sanity: line number, value-less words, unsupported feed modes.
     fn check_words<E>(&mut self, groups: &[Option<(u16, usize)>; 14]) -> Res<(), E> {
         // `G76 E` is the threading cycle's taper, not extrusion.
@@ -489,71 +377,6 @@ impl Interp<'_> {
         Ok(spindle_changed)
     }
 
-    /// Tool change (`M6`, `M61`), spindle (`M3`-`M5`, or a new S), coolant (`M7`-`M9`),
-    /// extrusion mode (`M82`/`M83`) and firmware-retract length (`M207`).
-    fn m_actions<S: MotionSink>(
-        &mut self,
-        m: &MCodes,
-        spindle_changed: bool,
-        sink: &mut S,
-    ) -> Res<(), S::Error> {
-        let MCodes {
-            spindle: m_spindle,
-            tool: m_tool,
-            coolant,
-            e_mode: m_e_mode,
-            retract_set: m_retract_set,
-            ..
-        } = *m;
-        if let Some((code, col)) = m_tool {
-            let tool = if code == 61 {
-                match self.block.get(b'q') {
-                    Some(q) if q >= 0.0 && q.fract() == 0.0 && q <= u32::MAX as f64 => Some(q as u32),
-                    _ => {
-                        return Err(Fail::Line(
-                            col,
-                            GcodeErrorKind::MissingWord { code: "M61".into(), letter: 'Q' },
-                        ));
-                    }
-                }
-            } else {
-                self.tool
-            };
-            if let Some(tool) = tool {
-                self.tool = Some(tool);
-                self.emit(sink, &Motion::ToolChange { tool })?;
-            } else {
-                self.lenient(col, GcodeErrorKind::MissingWord { code: "M6".into(), letter: 'T' })?;
-            }
-        }
-        if let Some((code, _)) = m_spindle {
-            self.spindle = match code {
-                3 => SpindleDirection::Clockwise,
-                4 => SpindleDirection::CounterClockwise,
-                _ => SpindleDirection::Off,
-            };
-            self.emit(sink, &Motion::Spindle { rpm: self.rpm, direction: self.spindle })?;
-        } else if spindle_changed && self.spindle != SpindleDirection::Off {
-            self.emit(sink, &Motion::Spindle { rpm: self.rpm, direction: self.spindle })?;
-        }
-        for c in coolant.into_iter().flatten() {
-            self.emit(sink, &Motion::Coolant(c))?;
-        }
-        if let Some(code) = m_e_mode {
-            self.e_relative = code == 83;
-            self.e_axis = true;
-        }
-        if let Some(col) = m_retract_set
-            && let Some(s) = self.block.get(b's')
-        {
-            if s < 0.0 {
-                return Err(Fail::Line(col, GcodeErrorKind::BadValue("negative retract length".into())));
-            }
-            self.retract_len = s;
-        }
-        Ok(())
-    }
-
     /// `G4`: dwell (milliseconds in FDM, Fanuc's `G4 X` when lenient).
     fn dwell<S: MotionSink>(&mut self, non_modal: Option<(u16, usize)>, sink: &mut S) -> Res<(), S::Error> {
         if let Some((40, col)) = non_modal {
@@ -596,7 +419,8 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// Plane (group 2), units (6), distance modes (3, 4), cycle return (9) and
+    /// Plane (group 2), units (6), cutter compensation (7: a warning, it is not applied),
+    /// tool length (8), distance modes (3, 4), feed mode (5), cycle return (9) and
     /// coordinate system (10).
     fn modal_settings(&mut self, groups: &[Option<(u16, usize)>; 14]) {
         if let Some((code, _)) = groups[2] {
@@ -614,6 +438,16 @@ impl Interp<'_> {
                 );
             }
             self.inch = code == 200 || code == 700;
+        }
+        if let Some((code, col)) = groups[7]
+            && code != 400
+            && !self.warned_comp
+            && (code == 410 || code == 420 || self.block.get(b'd').is_some_and(|d| d != 0.0))
+        {
+            // The tool table (G41/G42) and the compensated path are not known here.
+            self.warned_comp = true;
+            let what = "cutter radius compensation not applied: moves are the programmed path (warned once)";
+            self.warn(col, GcodeErrorKind::Unsupported(what.into()));
         }
         if let Some((code, _)) = groups[8] {
             // `G43.1 Z`: the given length; `G43` reads the tool table, which the parser

@@ -146,6 +146,7 @@ pub(super) struct Interp<'o> {
     pub(super) last_spline_pq: Option<(f64, f64)>,
     pub(super) warned_feed: bool,
     pub(super) warned_fanuc_dwell: bool,
+    pub(super) warned_comp: bool,
     /// Use [`Self::fast_straight`] (always, except in tests).
     pub(super) fast_path: bool,
     pub(super) rpm: f64,
@@ -210,6 +211,7 @@ impl<'o> Interp<'o> {
             last_spline_pq: None,
             warned_feed: false,
             warned_fanuc_dwell: false,
+            warned_comp: false,
             fast_path: true,
             rpm: 0.0,
             spindle: SpindleDirection::Off,
