@@ -254,16 +254,21 @@ impl Interp<'_> {
                 ));
             }
         }
-        let sweep = {
+        let what = if dir == ArcDirection::Clockwise { "G2" } else { "G3" };
+        let feed = if self.inverse_time {
+            // Under G93 the feed follows the arc's length (angle swept times radius, with
+            // the helix); computed only then, to keep plain arcs cheap.
             let (a0, a1) = ((sv - cv).atan2(su - cu), (end[v] - cv).atan2(end[u] - cu));
-            let mut d = if dir == ArcDirection::Clockwise { a0 - a1 } else { a1 - a0 };
-            if d <= 0.0 {
-                d += std::f64::consts::TAU;
+            let mut sweep = if dir == ArcDirection::Clockwise { a0 - a1 } else { a1 - a0 };
+            if sweep <= 0.0 {
+                sweep += std::f64::consts::TAU;
             }
-            d + std::f64::consts::TAU * turns as f64
+            sweep += std::f64::consts::TAU * turns as f64;
+            self.move_feed(hyp(sweep * hyp(su - cu, sv - cv), end[w] - start[w]), what)?
+        } else {
+            self.need_feed(what)?;
+            self.feed
         };
-        let len = hyp(sweep * hyp(su - cu, sv - cv), end[w] - start[w]);
-        let feed = self.move_feed(len, if dir == ArcDirection::Clockwise { "G2" } else { "G3" })?;
         let mut c = start;
         c[u] = cu;
         c[v] = cv;
