@@ -41,7 +41,7 @@ impl Interp<'_> {
         match self.block.get(b'f') {
             Some(f) if f > 0.0 => Ok(f * len),
             _ => {
-                let col = self.block.col(b'f');
+                let col = if self.block.has(b'f') { self.block.col(b'f') } else { 0 };
                 Err(Fail::Line(
                     col,
                     GcodeErrorKind::ZeroFeed(format!("F word missing with inverse time {what} move")),
