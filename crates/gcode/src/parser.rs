@@ -34,11 +34,29 @@
 //! - Parameters: numbered `#1`..`#5601` and named `#<name>` (case and blanks ignored);
 //!   all assignments of a line take effect after the line's reads. Coordinate-system
 //!   parameters (`#5221`.., `#5211`.., `#5161`..) are stored in mm.
-//! - `G41`/`G42` cutter compensation and `G43` tool length are accepted and ignored: the
-//!   programmed path is reported (as `rs274` does with zero tool diameters and lengths).
-//! - Rotary and UVW axis words are accepted and ignored, unless
+//! - `G41`/`G42`/`G41.1`/`G42.1` cutter compensation is accepted and not applied: the
+//!   programmed path is reported (as `rs274` does with zero tool diameters), with one
+//!   warning when a radius may be in force. `G43` reads no tool table (lengths 0);
+//!   `G43.1 Z` sets a tool length offset, which shifts the program's Z as in LinuxCNC.
+//! - Coordinate systems follow LinuxCNC: machine = rot(work + `G92` offset) + `G5x`
+//!   offset (+ tool length on Z), where rot turns X and Y by the system's `G10 L2 R`
+//!   angle (parameter `#5230` for `G54`, 20 apart for the others). Motions are reported
+//!   in work (program) coordinates, as `rs274` prints them; `G53`, `G28`/`G30`, `G92`
+//!   and `G10 L20` (no R, as in `rs274`) go through the rotation.
+//! - Beyond `G0`-`G3` and drilling: `G5`/`G5.1` splines become straight feeds within
+//!   [`ParseOptions::spline_tolerance_mm`]; `G33` is a feed to its target and `G33.1`
+//!   (rigid tapping) a feed in and one back out to the start; `G38.2`-`G38.5` probe
+//!   moves are feeds to the target (the probe never trips, as in `rs274`'s simulation),
+//!   after which the position backs off 0.254 mm and `#5061`-`#5063` hold the target;
+//!   `G76` threading is expanded into its passes as `rs274` makes them; under `G93` a
+//!   feed move's F is moves per minute (the reported feed is F times the length) and
+//!   is required on every feed block. `G70`-`G72` lathe cycles and `G95` are not
+//!   supported.
+//! - Rotary axis words are accepted and ignored, unless
 //!   [`ParseOptions::rotary`] names a kinematics: then A/B/C words become
-//!   [`Motion::Setup`](crate::Motion::Setup) (see [`crate::rotary_frame`]).
+//!   [`Motion::Setup`](crate::Motion::Setup) (see [`crate::rotary_frame`]). U, V and W
+//!   words are ignored too, and an error under [`ParseDialect::Cnc`] (`rs274` has no
+//!   such axes configured).
 //! - A Fanuc program number (`O1234` alone on a line, optionally with a comment) is a
 //!   label: nothing runs, [`ParseSummary::program_number`] keeps the first one. Under
 //!   [`ParseDialect::Cnc`] it is an error, as in `rs274`.
@@ -76,11 +94,15 @@ mod execute;
 mod flow;
 mod interp;
 mod lex;
+mod mcodes;
 mod moves;
+mod offsets;
 mod options;
 mod pipeline;
+mod special;
 #[cfg(test)]
 mod testing;
+mod threading;
 mod words;
 
 pub use options::{ParseDialect, ParseOptions, ParseSummary};

@@ -30,6 +30,11 @@ impl Interp<'_> {
         prev: Option<Mode>,
         sink: &mut S,
     ) -> Res<(), S::Error> {
+        if let Some(l) = [b'a', b'b', b'c'].into_iter().find(|&l| self.block.has(l)) {
+            // `rs274`: "Cannot put an a in canned cycle"; lenient: the word is ignored.
+            let what = format!("{} word in a canned cycle", l.to_ascii_uppercase() as char);
+            self.lenient(self.block.col(l), GcodeErrorKind::ModalConflict(what))?;
+        }
         let (ua, ub, uc) = self.plane_axes();
         let s = self.scale();
         let name = format!("G{}", fmt_code(code));

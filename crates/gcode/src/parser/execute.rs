@@ -6,23 +6,12 @@ use super::interp::{Fail, Interp, Mode, POLAR_A, POLAR_R, Res, bit, fmt_code};
 use super::words::Pre;
 use crate::error::GcodeErrorKind;
 use crate::expr::ParamKey;
-use crate::motion::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use crate::motion::{ArcDirection, Marker, Motion, MotionSink, Plane};
 
 /// A block's G codes by modal group (index: group; 0 non-modal, 12 `G53`).
 struct Groups {
     g: [Option<(u16, usize)>; 14],
     g53: bool,
-}
-
-/// A block's M codes by modal group.
-#[derive(Clone, Copy)]
-struct MCodes {
-    spindle: Option<(u16, usize)>,
-    tool: Option<(u16, usize)>,
-    stop: Option<(u16, usize)>,
-    coolant: [Option<Coolant>; 2],
-    e_mode: Option<u16>,
-    retract_set: Option<usize>,
 }
 
 impl Interp<'_> {
@@ -205,11 +194,12 @@ impl Interp<'_> {
         let Some(Groups { g: groups, g53 }) = self.g_groups()? else { return Ok(()) };
         let m = self.m_codes()?;
         self.check_words(&groups)?;
-        let spindle_changed = self.feed_speed_tool()?;
+        let spindle_changed = self.feed_speed_tool(groups[5].map_or(self.inverse_time, |g| g.0 == 930))?;
         self.m_actions(&m, spindle_changed, sink)?;
         self.dwell(groups[0], sink)?;
         self.modal_settings(&groups);
-        let axis_words_used = self.non_modal(groups[0], sink)?;
+        // `G43.1 Z..` (dynamic tool length) takes the axis words: they move nothing.
+        let axis_words_used = self.non_modal(groups[0], sink)? | groups[8].is_some_and(|g| g.0 == 431);
         self.motion(&groups, g53, axis_words_used, m.stop, sink)
     }
 
@@ -223,8 +213,27 @@ impl Interp<'_> {
             let (code, col) = self.block.g[k];
             let col = col as usize;
             let group = match code {
-                0 | 10 | 20 | 30 | 730 | 800 | 810 | 820 | 830 | 840 | 850 | 860 | 870 | 880 | 890 | 331
-                | 382 => 1,
+                0
+                | 10
+                | 20
+                | 30
+                | 50
+                | 51
+                | 730
+                | 800
+                | 810
+                | 820
+                | 830
+                | 840
+                | 850
+                | 860
+                | 870
+                | 880
+                | 890
+                | 330
+                | 331
+                | 382..=385
+                | 760 => 1,
                 170 | 180 | 190 => 2,
                 900 | 910 => 3,
                 901 | 911 => 4,
@@ -240,7 +249,9 @@ impl Interp<'_> {
                 110 if self.fdm || !self.strict => 0,
                 40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
                 530 => 12,
-                700 | 710 if !self.strict => 6,
+                // Old Fanuc/Mach inch/mm, when lenient; with a Q word (its profile
+                // subroutine) LinuxCNC's lathe cycle, which is not interpreted.
+                700 | 710 if !self.strict && !self.block.has(b'q') => 6,
                 _ => {
                     let name = format!("G{}", fmt_code(code));
                     if self.strict {
@@ -279,110 +290,10 @@ impl Interp<'_> {
         Ok(Some(Groups { g: groups, g53 }))
     }
 
-    /// Classifies the block's M codes by modal group and checks conflicts; notes FDM evidence.
-    fn m_codes<E>(&mut self) -> Res<MCodes, E> {
-        let mut m_spindle: Option<(u16, usize)> = None;
-        let mut m_tool = None;
-        let mut m_stop = None;
-        let mut coolant: [Option<Coolant>; 2] = [None, None];
-        let mut m_e_mode = None;
-        let mut m_retract_set = None;
-        for k in 0..self.block.nm {
-            let (code, col) = self.block.m[k];
-            let col = col as usize;
-            let slot = match code {
-                3..=5 => &mut m_spindle,
-                6 | 61 => &mut m_tool,
-                0 | 1 | 2 | 30 | 60 => &mut m_stop,
-                7..=9 => {
-                    let c = match code {
-                        7 => Coolant::Mist,
-                        8 => Coolant::Flood,
-                        _ => Coolant::Off,
-                    };
-                    if coolant[0].is_none() {
-                        coolant[0] = Some(c);
-                    } else {
-                        coolant[1] = Some(c);
-                    }
-                    continue;
-                }
-                82 | 83 => {
-                    self.fdm_evidence();
-                    m_e_mode = Some(code);
-                    continue;
-                }
-                207 => {
-                    m_retract_set = Some(col);
-                    continue;
-                }
-                104 | 109 | 140 | 190 => {
-                    self.fdm_evidence();
-                    continue;
-                }
-                // LinuxCNC: overrides, I/O, spindle orient, modal state save/restore.
-                19 | 48..=53 | 62..=68 | 70..=73 => continue,
-                // Common printer codes with no motion meaning.
-                17
-                | 18
-                | 84
-                | 105
-                | 106
-                | 107
-                | 110
-                | 112
-                | 114
-                | 115
-                | 117
-                | 80
-                | 81
-                | 92
-                | 201..=206
-                | 220
-                | 221
-                | 400
-                | 420
-                | 500
-                | 501
-                | 503
-                | 851
-                | 900
-                    if !self.strict =>
-                {
-                    continue;
-                }
-                _ => {
-                    let k = GcodeErrorKind::UnknownCode(format!("M{code}"));
-                    if self.strict {
-                        return Err(Fail::Line(col, k));
-                    }
-                    self.warn(col, k);
-                    continue;
-                }
-            };
-            if let Some((other, _)) = *slot {
-                return Err(Fail::Line(
-                    col,
-                    GcodeErrorKind::ModalConflict(format!(
-                        "M{other} and M{code} are in the same modal group"
-                    )),
-                ));
-            }
-            *slot = Some((code, col));
-        }
-        Ok(MCodes {
-            spindle: m_spindle,
-            tool: m_tool,
-            stop: m_stop,
-            coolant,
-            e_mode: m_e_mode,
-            retract_set: m_retract_set,
-        })
-    }
-
     /// Word sanity: line number, value-less words, unsupported feed modes.
     fn check_words<E>(&mut self, groups: &[Option<(u16, usize)>; 14]) -> Res<(), E> {
-        if self.block.has(b'e') {
+        // `G76 E` is the threading cycle's taper, not extrusion.
+        if self.block.has(b'e') && groups[1].is_none_or(|g| g.0 != 760) {
             self.fdm_evidence();
         }
         if let Some(n) = self.block.get(b'n') {
@@ -391,6 +302,15 @@ impl Interp<'_> {
                 return Err(Fail::Line(
                     self.block.col(b'n'),
                     GcodeErrorKind::BadValue(format!("line number N{n}")),
+                ));
+            }
+        }
+        if self.strict {
+            // `rs274` (no U, V, W axes configured): "Bad character 'w' used".
+            if let Some(l) = [b'u', b'v', b'w'].into_iter().find(|&l| self.block.has(l)) {
+                return Err(Fail::Line(
+                    self.block.col(l),
+                    GcodeErrorKind::NotGcode(format!("bad character '{}' used", l as char)),
                 ));
             }
         }
@@ -412,16 +332,17 @@ impl Interp<'_> {
             // `M84 X Y E`: the letters name axes, they are not moves.
             self.block.mask &= !self.block.novalue;
         }
-        if groups[5].is_some_and(|(c, _)| c == 930 || c == 950) {
-            let (c, col) = groups[5].unwrap_or((930, 0));
+        if groups[5].is_some_and(|(c, _)| c == 950) {
+            let (c, col) = groups[5].unwrap_or((950, 0));
             return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{} feed mode", fmt_code(c)))));
         }
 
         Ok(())
     }
 
-    /// F, S and T words (in that order). Returns whether S changed the speed.
-    fn feed_speed_tool<E>(&mut self) -> Res<bool, E> {
+    /// F, S and T words (in that order); under `G93` (`inverse`) F belongs to the block's
+    /// move. Returns whether S changed the speed.
+    fn feed_speed_tool<E>(&mut self, inverse: bool) -> Res<bool, E> {
         if let Some(f) = self.block.get(b'f') {
             if f < 0.0 {
                 return Err(Fail::Line(
@@ -429,7 +350,9 @@ impl Interp<'_> {
                     GcodeErrorKind::BadValue("negative feed rate".into()),
                 ));
             }
-            self.feed = f * self.scale();
+            if !inverse {
+                self.feed = f * self.scale();
+            }
         }
         let mut spindle_changed = false;
         if let Some(s) = self.block.get(b's') {
@@ -452,71 +375,6 @@ impl Interp<'_> {
             self.tool = Some(t as u32);
         }
         Ok(spindle_changed)
-    }
-
-    /// Tool change (`M6`, `M61`), spindle (`M3`-`M5`, or a new S), coolant (`M7`-`M9`),
-    /// extrusion mode (`M82`/`M83`) and firmware-retract length (`M207`).
-    fn m_actions<S: MotionSink>(
-        &mut self,
-        m: &MCodes,
-        spindle_changed: bool,
-        sink: &mut S,
-    ) -> Res<(), S::Error> {
-        let MCodes {
-            spindle: m_spindle,
-            tool: m_tool,
-            coolant,
-            e_mode: m_e_mode,
-            retract_set: m_retract_set,
-            ..
-        } = *m;
-        if let Some((code, col)) = m_tool {
-            let tool = if code == 61 {
-                match self.block.get(b'q') {
-                    Some(q) if q >= 0.0 && q.fract() == 0.0 && q <= u32::MAX as f64 => Some(q as u32),
-                    _ => {
-                        return Err(Fail::Line(
-                            col,
-                            GcodeErrorKind::MissingWord { code: "M61".into(), letter: 'Q' },
-                        ));
-                    }
-                }
-            } else {
-                self.tool
-            };
-            if let Some(tool) = tool {
-                self.tool = Some(tool);
-                self.emit(sink, &Motion::ToolChange { tool })?;
-            } else {
-                self.lenient(col, GcodeErrorKind::MissingWord { code: "M6".into(), letter: 'T' })?;
-            }
-        }
-        if let Some((code, _)) = m_spindle {
-            self.spindle = match code {
-                3 => SpindleDirection::Clockwise,
-                4 => SpindleDirection::CounterClockwise,
-                _ => SpindleDirection::Off,
-            };
-            self.emit(sink, &Motion::Spindle { rpm: self.rpm, direction: self.spindle })?;
-        } else if spindle_changed && self.spindle != SpindleDirection::Off {
-            self.emit(sink, &Motion::Spindle { rpm: self.rpm, direction: self.spindle })?;
-        }
-        for c in coolant.into_iter().flatten() {
-            self.emit(sink, &Motion::Coolant(c))?;
-        }
-        if let Some(code) = m_e_mode {
-            self.e_relative = code == 83;
-            self.e_axis = true;
-        }
-        if let Some(col) = m_retract_set
-            && let Some(s) = self.block.get(b's')
-        {
-            if s < 0.0 {
-                return Err(Fail::Line(col, GcodeErrorKind::BadValue("negative retract length".into())));
-            }
-            self.retract_len = s;
-        }
-        Ok(())
     }
 
     /// `G4`: dwell (milliseconds in FDM, Fanuc's `G4 X` when lenient).
@@ -561,7 +419,8 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// Plane (group 2), units (6), distance modes (3, 4), cycle return (9) and
+    /// Plane (group 2), units (6), cutter compensation (7: a warning, it is not applied),
+    /// tool length (8), distance modes (3, 4), feed mode (5), cycle return (9) and
     /// coordinate system (10).
     fn modal_settings(&mut self, groups: &[Option<(u16, usize)>; 14]) {
         if let Some((code, _)) = groups[2] {
@@ -580,6 +439,23 @@ impl Interp<'_> {
             }
             self.inch = code == 200 || code == 700;
         }
+        if let Some((code, col)) = groups[7]
+            && code != 400
+            && !self.warned_comp
+            && (code == 410 || code == 420 || self.block.get(b'd').is_some_and(|d| d != 0.0))
+        {
+            // The tool table (G41/G42) and the compensated path are not known here.
+            self.warned_comp = true;
+            let what = "cutter radius compensation not applied: moves are the programmed path (warned once)";
+            self.warn(col, GcodeErrorKind::Unsupported(what.into()));
+        }
+        if let Some((code, _)) = groups[8] {
+            // `G43.1 Z`: the given length; `G43` reads the tool table, which the parser
+            // does not have (as `rs274`'s with zero lengths); `G49` cancels.
+            let z = if code == 431 { self.block.get(b'z').unwrap_or(0.0) * self.scale() } else { 0.0 };
+            self.tlo = if z.is_finite() { z } else { 0.0 };
+            self.update_frame();
+        }
         if let Some((code, _)) = groups[3] {
             self.absolute = code == 900;
             if self.fdm {
@@ -588,6 +464,9 @@ impl Interp<'_> {
         }
         if let Some((code, _)) = groups[4] {
             self.ijk_absolute = code == 901;
+        }
+        if let Some((code, _)) = groups[5] {
+            self.inverse_time = code == 930;
         }
         if let Some((code, _)) = groups[9] {
             self.retract_r_plane = code == 990;
@@ -667,6 +546,7 @@ impl Interp<'_> {
                     return self.end_of_block(m_stop, sink);
                 }
                 730 | 810 | 820 | 830 => Mode::Cycle(code),
+                50 | 51 | 330 | 331 | 382..=385 | 760 => Mode::Special(code),
                 _ => {
                     return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{}", fmt_code(code)))));
                 }
@@ -719,6 +599,7 @@ impl Interp<'_> {
                     10 => Mode::Linear,
                     20 => Mode::Arc(ArcDirection::Clockwise),
                     30 => Mode::Arc(ArcDirection::CounterClockwise),
+                    c @ (50 | 51 | 330 | 331 | 382..=385 | 760) => Mode::Special(c),
                     c => Mode::Cycle(c),
                 });
             }
@@ -741,6 +622,10 @@ impl Interp<'_> {
                         }
                     }
                     Some(Mode::Arc(dir)) => self.arc(dir, explicit.map(|e| e.1), sink)?,
+                    Some(Mode::Special(code)) => {
+                        let col = explicit.map_or(0, |e| e.1);
+                        self.special(code, col, sink)?;
+                    }
                     Some(Mode::Cycle(code)) => {
                         if let Err(e) = self.cycle(code, prev_mode, sink) {
                             // LinuxCNC discards a failing block, its motion mode included.

@@ -65,6 +65,8 @@ pub(super) enum Mode {
     Arc(ArcDirection),
     /// G73, G81, G82, G83 (code × 10).
     Cycle(u16),
+    /// G5, G5.1, G33, G33.1, G38.x, G76 (code × 10): see [`super::special`].
+    Special(u16),
 }
 
 pub(super) const fn bit(letter: u8) -> u32 {
@@ -119,10 +121,18 @@ pub(super) struct Interp<'o> {
     pub(super) strict: bool,
     pub(super) fdm: bool,
     pub(super) params: Params,
-    // Positions and offsets, all mm: work = machine - g5x - g92.
+    // Positions and offsets, all mm: machine = rot(work + g92) + g5x, where rot turns
+    // X and Y about Z by the coordinate system's `G10 L2 R` angle (LinuxCNC's order).
     pub(super) mpos: [f64; 3],
     pub(super) g5x: [f64; 3],
     pub(super) g92: [f64; 3],
+    /// The active coordinate system's XY rotation as (cos, sin); (1, 0) when none.
+    pub(super) rot_xy: (f64, f64),
+    /// Tool length offset along Z (mm; `G43.1 Z`, `G49`): the machine point is the work
+    /// point's plus this, so a change moves the program's Z without a move.
+    pub(super) tlo: f64,
+    /// No rotation and no tool length offset: the plain arithmetic of the fast path.
+    pub(super) plain_frame: bool,
     pub(super) coord: usize,
     pub(super) inch: bool,
     pub(super) absolute: bool,
@@ -130,8 +140,13 @@ pub(super) struct Interp<'o> {
     pub(super) plane: Plane,
     pub(super) mode: Option<Mode>,
     pub(super) feed: f64,
+    /// `G93`: a feed move's F word is moves per minute.
+    pub(super) inverse_time: bool,
+    /// The `P Q` offsets (mm) of the last `G5`, which a following `G5` may mirror.
+    pub(super) last_spline_pq: Option<(f64, f64)>,
     pub(super) warned_feed: bool,
     pub(super) warned_fanuc_dwell: bool,
+    pub(super) warned_comp: bool,
     /// Use [`Self::fast_straight`] (always, except in tests).
     pub(super) fast_path: bool,
     pub(super) rpm: f64,
@@ -182,6 +197,9 @@ impl<'o> Interp<'o> {
             mpos: [0.0; 3],
             g5x: [0.0; 3],
             g92: [0.0; 3],
+            rot_xy: (1.0, 0.0),
+            tlo: 0.0,
+            plain_frame: true,
             coord: 1,
             inch: false,
             absolute: true,
@@ -189,8 +207,11 @@ impl<'o> Interp<'o> {
             plane: Plane::XY,
             mode: None,
             feed: 0.0,
+            inverse_time: false,
+            last_spline_pq: None,
             warned_feed: false,
             warned_fanuc_dwell: false,
+            warned_comp: false,
             fast_path: true,
             rpm: 0.0,
             spindle: SpindleDirection::Off,
@@ -368,7 +389,44 @@ impl<'o> Interp<'o> {
 
     #[inline]
     pub(super) fn work(&self, i: usize) -> f64 {
-        self.mpos[i] - self.g5x[i] - self.g92[i]
+        if self.plain_frame { self.mpos[i] - self.g5x[i] - self.g92[i] } else { self.work_rotated(i) }
+    }
+
+    /// [`Self::work`] in a rotated coordinate system: X and Y turned back by its angle.
+    #[cold]
+    fn work_rotated(&self, i: usize) -> f64 {
+        if i == 2 {
+            return self.mpos[2] - self.g5x[2] - self.g92[2] - self.tlo;
+        }
+        let (c, s) = self.rot_xy;
+        let (px, py) = (self.mpos[0] - self.g5x[0], self.mpos[1] - self.g5x[1]);
+        let q = if i == 0 { c * px + s * py } else { -s * px + c * py };
+        q - self.g92[i]
+    }
+
+    /// The work position of machine point `m` in the active system.
+    pub(super) fn work_of(&self, m: [f64; 3]) -> [f64; 3] {
+        let q = self.unrotated(m);
+        [q[0] - self.g92[0], q[1] - self.g92[1], q[2] - self.g92[2]]
+    }
+
+    /// Machine point `m` less the `G5x` offset, turned back by the system's rotation:
+    /// the work position before the `G92` offset.
+    pub(super) fn unrotated(&self, m: [f64; 3]) -> [f64; 3] {
+        let (c, s) = self.rot_xy;
+        let (px, py) = (m[0] - self.g5x[0], m[1] - self.g5x[1]);
+        [c * px + s * py, -s * px + c * py, m[2] - self.g5x[2] - self.tlo]
+    }
+
+    /// The machine position of work point `w` in the active system (offsets and rotation).
+    pub(super) fn machine_of(&self, w: [f64; 3]) -> [f64; 3] {
+        let (c, s) = self.rot_xy;
+        let (qx, qy) = (w[0] + self.g92[0], w[1] + self.g92[1]);
+        [
+            c * qx - s * qy + self.g5x[0],
+            s * qx + c * qy + self.g5x[1],
+            w[2] + self.g92[2] + self.g5x[2] + self.tlo,
+        ]
     }
 
     pub(super) fn work_pos(&self) -> Point3<f64> {
@@ -377,16 +435,29 @@ impl<'o> Interp<'o> {
 
     #[inline]
     pub(super) fn set_work(&mut self, w: [f64; 3]) {
-        for (i, &v) in w.iter().enumerate() {
-            self.mpos[i] = v + self.g5x[i] + self.g92[i];
+        if self.plain_frame {
+            for (i, &v) in w.iter().enumerate() {
+                self.mpos[i] = v + self.g5x[i] + self.g92[i];
+            }
+        } else {
+            self.mpos = self.machine_of(w);
         }
     }
 
+    /// Sets [`Self::plain_frame`] after a change of rotation or tool length offset.
+    pub(super) fn update_frame(&mut self) {
+        self.plain_frame = self.rot_xy == (1.0, 0.0) && self.tlo == 0.0;
+    }
+
+    /// Loads the active coordinate system's offsets and rotation (`#5221`.. and `#5230`
+    /// for `G54`, 20 apart for the others; the rotation in degrees).
     pub(super) fn load_g5x(&mut self) {
         let base = 5201 + 20 * self.coord;
         for i in 0..3 {
             self.g5x[i] = self.params.numbered[base + i];
         }
+        self.rot_xy = rotation_of(self.params.numbered[base + 9]);
+        self.update_frame();
         self.params.numbered[5220] = self.coord as f64;
     }
 
@@ -409,6 +480,16 @@ impl<'o> Interp<'o> {
         }
         Ok(())
     }
+}
+
+/// (cos, sin) of a rotation in degrees; exactly (1, 0) for none, so that unrotated
+/// systems keep the plain arithmetic.
+pub(super) fn rotation_of(deg: f64) -> (f64, f64) {
+    if deg == 0.0 || !deg.is_finite() {
+        return (1.0, 0.0);
+    }
+    let r = deg.to_radians();
+    (r.cos(), r.sin())
 }
 
 /// `G91.1` style text of a code stored × 10.

@@ -25,7 +25,7 @@ impl Interp<'_> {
             _ => return Ok(false),
         };
         let mode = match explicit.or(self.mode) {
-            Some(m @ (Mode::Rapid | Mode::Linear)) => m,
+            Some(m @ (Mode::Rapid | Mode::Linear)) if !self.inverse_time => m,
             _ => return Ok(false),
         };
         if blk.get(b'n').is_some_and(|n| n < 0.0) || blk.get(b'f').is_some_and(|f| f < 0.0) {
@@ -52,17 +52,20 @@ impl Interp<'_> {
     /// Target of a straight move in work coordinates, from the axis words.
     pub(super) fn target(&self, g53: bool) -> [f64; 3] {
         let s = self.scale();
+        if g53 {
+            let mut m = self.mpos;
+            for (i, &axis) in AXES.iter().enumerate() {
+                if let Some(v) = self.block.get(axis) {
+                    m[i] = v * s;
+                }
+            }
+            return self.work_of(m);
+        }
         let mut t = [self.work(0), self.work(1), self.work(2)];
         for i in 0..3 {
             if let Some(v) = self.block.get(AXES[i]) {
                 let v = v * s;
-                t[i] = if g53 {
-                    v - self.g5x[i] - self.g92[i]
-                } else if self.absolute {
-                    v
-                } else {
-                    t[i] + v
-                };
+                t[i] = if self.absolute { v } else { t[i] + v };
             }
         }
         t
@@ -102,9 +105,16 @@ impl Interp<'_> {
             self.set_work(t);
             return self.emit(sink, &Motion::Rapid { to });
         }
-        self.need_feed(if rapid { "G0 with E" } else { "G1" })?;
+        let what = if rapid { "G0 with E" } else { "G1" };
+        let feed = if self.inverse_time {
+            let start = self.work_pos();
+            self.move_feed((to - start).norm(), what)?
+        } else {
+            self.need_feed(what)?;
+            self.feed
+        };
         self.set_work(t);
-        self.emit(sink, &Motion::Linear { to, feed: self.feed, extrude })
+        self.emit(sink, &Motion::Linear { to, feed, extrude })
     }
 
     /// With [`ParseOptions::rotary`](crate::ParseOptions::rotary): emits the setup of the block's rotary words, if
@@ -244,7 +254,21 @@ impl Interp<'_> {
                 ));
             }
         }
-        self.need_feed(if dir == ArcDirection::Clockwise { "G2" } else { "G3" })?;
+        let what = if dir == ArcDirection::Clockwise { "G2" } else { "G3" };
+        let feed = if self.inverse_time {
+            // Under G93 the feed follows the arc's length (angle swept times radius, with
+            // the helix); computed only then, to keep plain arcs cheap.
+            let (a0, a1) = ((sv - cv).atan2(su - cu), (end[v] - cv).atan2(end[u] - cu));
+            let mut sweep = if dir == ArcDirection::Clockwise { a0 - a1 } else { a1 - a0 };
+            if sweep <= 0.0 {
+                sweep += std::f64::consts::TAU;
+            }
+            sweep += std::f64::consts::TAU * turns as f64;
+            self.move_feed(hyp(sweep * hyp(su - cu, sv - cv), end[w] - start[w]), what)?
+        } else {
+            self.need_feed(what)?;
+            self.feed
+        };
         let mut c = start;
         c[u] = cu;
         c[v] = cv;
@@ -260,53 +284,10 @@ impl Interp<'_> {
                 plane,
                 direction: dir,
                 turns,
-                feed: self.feed,
+                feed,
                 extrude,
             },
         )
-    }
-
-    pub(super) fn g10<S: MotionSink>(&mut self, col: usize, sink: &mut S) -> Res<(), S::Error> {
-        let Some(l) = self.block.get(b'l') else {
-            if self.fdm || (!self.strict && !self.block.has(b'p')) {
-                // Firmware retract.
-                self.e_axis = true;
-                let to = self.work_pos();
-                return self
-                    .emit(sink, &Motion::Linear { to, feed: self.feed, extrude: Some(-self.retract_len) });
-            }
-            return Err(Fail::Line(col, GcodeErrorKind::MissingWord { code: "G10".into(), letter: 'L' }));
-        };
-        match l as i64 {
-            2 | 20 => {
-                let p = self.block.get(b'p').unwrap_or(-1.0);
-                if !(0.0..=9.0).contains(&p) || p.fract() != 0.0 {
-                    return Err(Fail::Line(
-                        col,
-                        GcodeErrorKind::BadValue(format!("G10 coordinate system P{p}")),
-                    ));
-                }
-                if self.block.has(b'r') {
-                    return Err(Fail::Line(col, GcodeErrorKind::Unsupported("G10 R rotation".into())));
-                }
-                let idx = if p == 0.0 { self.coord } else { p as usize };
-                let base = 5201 + 20 * idx;
-                let s = self.scale();
-                for (i, &axis) in AXES.iter().enumerate() {
-                    if let Some(v) = self.block.get(axis) {
-                        let v = v * s;
-                        self.params.numbered[base + i] =
-                            if l as i64 == 2 { v } else { self.mpos[i] - self.g92[i] - v };
-                    }
-                }
-                if idx == self.coord {
-                    self.load_g5x();
-                }
-                Ok(())
-            }
-            1 | 10 | 11 => Ok(()),
-            _ => Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G10 L{l}")))),
-        }
     }
 
     pub(super) fn home<S: MotionSink>(&mut self, code: u16, col: usize, sink: &mut S) -> Res<(), S::Error> {
@@ -343,10 +324,11 @@ impl Interp<'_> {
             920 => {
                 let s = self.scale();
                 let mut any = false;
+                let q = self.unrotated(self.mpos);
                 for (i, &axis) in AXES.iter().enumerate() {
                     if let Some(v) = self.block.get(axis) {
                         any = true;
-                        self.g92[i] = self.mpos[i] - self.g5x[i] - v * s;
+                        self.g92[i] = q[i] - v * s;
                         self.params.numbered[5211 + i] = self.g92[i];
                     }
                 }
@@ -359,9 +341,7 @@ impl Interp<'_> {
                 if !any && self.block.mask & others == 0 {
                     if self.fdm {
                         // Marlin: a bare G92 zeroes every axis.
-                        for i in 0..3 {
-                            self.g92[i] = self.mpos[i] - self.g5x[i];
-                        }
+                        self.g92 = self.unrotated(self.mpos);
                         self.e_pos = 0.0;
                     } else {
                         return Err(Fail::Line(

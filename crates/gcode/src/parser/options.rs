@@ -63,6 +63,9 @@ pub struct ParseOptions {
     /// is added after the program (errors in it are reported past the program's last
     /// line). Default: none.
     pub subroutine_path: Vec<std::path::PathBuf>,
+    /// Most distance (mm) between a `G5`/`G5.1` spline and the straight feeds it becomes.
+    /// Default: 0.001.
+    pub spline_tolerance_mm: f64,
 }
 
 impl Default for ParseOptions {
@@ -80,6 +83,7 @@ impl Default for ParseOptions {
             max_steps: 10_000_000,
             max_call_depth: 100,
             subroutine_path: Vec::new(),
+            spline_tolerance_mm: 0.001,
         }
     }
 }
