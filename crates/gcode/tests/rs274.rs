@@ -538,11 +538,16 @@ fn extra_programs_agree_with_rs274() {
         .map(PathBuf::from)
         .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
     let extra = shared.join("extra");
-    assert!(
-        extra.is_dir(),
-        "{} missing: the shared corpus lies beside the repository (or set S2G_SHARED_DATA)",
-        extra.display()
-    );
+    // The programs are GPL and stay out of the repository: a clone without the shared
+    // corpus beside it says so and checks nothing here (the LinuxCNC samples, installed
+    // with rs274, are checked by `linuxcnc_samples_agree_with_rs274` everywhere).
+    if !extra.is_dir() {
+        eprintln!(
+            "{} missing (the shared corpus lies beside the repository, or set S2G_SHARED_DATA): the extra programs are not compared",
+            extra.display()
+        );
+        return;
+    }
     let programs = ngc_files(&extra.join("cnc"));
     assert_eq!(programs.len(), 7, "the seven LinuxCNC programs");
     let (differ, clean) = check_all(&programs);
