@@ -7,6 +7,6 @@ mod e2e {
     #[cfg(feature = "learn")]
     mod learn;
     mod mill;
-    mod stock;
     mod shop;
+    mod stock;
 }

@@ -8,7 +8,7 @@ use super::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
     Stock,
 };
-use super::job::{Job, feeds, setup_features};
+use super::job::{Job, feeds, setup_features, stock_in_setup};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
@@ -24,7 +24,7 @@ use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
 use crate::toolpath::Tool;
 use crate::toolpath::library::Cutting;
 use crate::trace::PathTrace;
-use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator, ToolTable};
+use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator};
 
 /// A milling run one setup at a time: what [`mill`](super::mill) does, opened up so that a caller (the
 /// learning environment, an interactive tool) picks each setup's [`Action`] after seeing
@@ -168,21 +168,11 @@ impl MillRun {
             .collect();
         times.action_selection = (t.elapsed() + beside[1]).as_secs_f64();
 
-        // The simulator knows every tool of the action space: in the paper preset T1 is the
-        // smallest radius; a library's tools keep their numbers.
         let (feed, _) = feeds(None);
         let tooling = Tooling::new(opts, diag, feed)?;
         let (feed, rapid) = feeds(tooling.machine());
         let t = Instant::now();
-        let first = space.radii.first().copied().unwrap_or(1.0);
-        let mut tools = ToolTable::single(tooling.tool(first, 1)?.0.cutter);
-        for (i, &r) in space.radii.iter().enumerate() {
-            let (tool, _) = tooling.tool(r, i as u32 + 1)?;
-            tools = tools.with(tool.number, tool.cutter);
-        }
-        for (number, cutter) in tooling.library_cutters() {
-            tools = tools.with(number, cutter);
-        }
+        let tools = tooling.tool_table(&space.radii)?;
         let mut sim_opts =
             SimOptions { carver: opts.carver, rapid_rate_mm_per_min: rapid, ..SimOptions::default() };
         if opts.arc_tolerance.is_some() {
@@ -387,7 +377,7 @@ impl MillRun {
     /// radius outside the action space (a fixed action's) gets a tool of its own, added to
     /// the simulator's table, so that the simulation cuts with the radius the planner
     /// planned for; a library has the tools it has.
-    fn tool_for(&mut self, radius: f64) -> Result<(Tool, Option<Cutting>), MillError> {
+    fn tool_for(&mut self, radius: f64, depth: f64) -> Result<(Tool, Option<Cutting>), MillError> {
         if let Tooling::Planned { .. } = self.tooling {
             let number = match self.tool_radii.iter().position(|&r| r == radius) {
                 Some(i) => i as u32 + 1,
@@ -399,9 +389,9 @@ impl MillRun {
                     number
                 }
             };
-            return self.tooling.tool(radius, number);
+            return self.tooling.tool(radius, number, depth);
         }
-        self.tooling.tool(radius, 0)
+        self.tooling.tool(radius, 0, depth)
     }
 
     /// Cuts the next setup with `action`: plans it against the material left, writes its
@@ -413,7 +403,11 @@ impl MillRun {
             return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
         };
         self.check_deadline(|| format!("starting setup {} of {}", i + 1, self.setup_count()))?;
-        let tool = self.tool_for(action.tool_radius)?;
+        // The stock's depth along the setup's axis: how far its tool may have to reach.
+        let depth = stock_in_setup(&self.stock, &self.orientation.setups[i]).extent().z;
+        let tool = self.tool_for(action.tool_radius, depth)?;
+        // The action records the tool actually used (a library may give a longer one).
+        let action = Action { tool_radius: tool.0.radius(), ..action };
         let o = &self.opts;
         let (setup, note) = match o.datum {
             Some(d) => {

@@ -10,7 +10,7 @@ use crate::gcode::MachineProfile;
 use crate::geom::CutterShape;
 use crate::toolpath::Tool;
 use crate::toolpath::library::{Cutting, LibraryTool, Material, ToolLibrary};
-use crate::voxsim::Cutter;
+use crate::voxsim::{Cutter, ToolTable};
 
 /// The shipped tool library, `assets/tools/default.toml`: flat end mills of 1-12 mm, ball
 /// end mills of 1-10 mm and two bull noses, with cutting data for aluminium 6061, mild
@@ -36,16 +36,20 @@ pub(super) enum Tooling {
         feed: f64,
     },
     /// A shop's: the library's flat end mills at their cutting data.
-    Library {
-        /// The flat end mills, by ascending radius.
-        flats: Vec<LibraryTool>,
-        /// Every tool of the library.
-        all: Vec<LibraryTool>,
-        /// The workpiece material.
-        material: Material,
-        /// The machine.
-        machine: MachineProfile,
-    },
+    Library(Box<Shop>),
+}
+
+/// A shop's tooling ([`Tooling::Library`]).
+#[derive(Debug, Clone)]
+pub(super) struct Shop {
+    /// The flat end mills, by ascending radius.
+    flats: Vec<LibraryTool>,
+    /// Every tool of the library.
+    all: Vec<LibraryTool>,
+    /// The workpiece material.
+    material: Material,
+    /// The machine.
+    machine: MachineProfile,
 }
 
 impl Tooling {
@@ -76,7 +80,7 @@ impl Tooling {
         for t in &flats {
             t.cutting(&material, &machine).map_err(|e| MillError::InvalidOption(e.to_string()))?;
         }
-        Ok(Self::Library { flats, all: lib.tools.clone(), material, machine })
+        Ok(Self::Library(Box::new(Shop { flats, all: lib.tools.clone(), material, machine })))
     }
 
     /// Every cutter the simulator must know, by tool number: the library's (finishing and
@@ -84,26 +88,51 @@ impl Tooling {
     pub(super) fn library_cutters(&self) -> Vec<(u32, Cutter)> {
         match self {
             Self::Planned { .. } => Vec::new(),
-            Self::Library { all, .. } => all.iter().map(|t| (t.number, t.cutter)).collect(),
+            Self::Library(shop) => shop.all.iter().map(|t| (t.number, t.cutter)).collect(),
         }
+    }
+
+    /// The simulator's tool table: every tool of the action space's `radii` (in the paper
+    /// preset T1 is the smallest radius) and every library tool (by its number).
+    pub(super) fn tool_table(&self, radii: &[f64]) -> Result<ToolTable, MillError> {
+        let first = radii.first().copied().unwrap_or(1.0);
+        let mut tools = ToolTable::single(self.tool(first, 1, 0.0)?.0.cutter);
+        for (i, &r) in radii.iter().enumerate() {
+            let (tool, _) = self.tool(r, i as u32 + 1, 0.0)?;
+            tools = tools.with(tool.number, tool.cutter);
+        }
+        for (number, cutter) in self.library_cutters() {
+            tools = tools.with(number, cutter);
+        }
+        Ok(tools)
     }
 
     /// The machine whose limits time the programs, where the tooling has one.
     pub(super) fn machine(&self) -> Option<&MachineProfile> {
         match self {
             Self::Planned { .. } => None,
-            Self::Library { machine, .. } => Some(machine),
+            Self::Library(shop) => Some(&shop.machine),
         }
     }
 
     /// The tool of `radius`: the planned flat end mill numbered `number`, or the library's
     /// flat end mill of that radius (with the library's number; `number` is unused) with
-    /// its cutting data. A radius the library lacks is an error that lists the radii it has.
-    pub(super) fn tool(&self, radius: f64, number: u32) -> Result<(Tool, Option<Cutting>), MillError> {
+    /// its cutting data. A library tool that cannot reach `depth` below the stock's top
+    /// ([`Tool::envelope`]) gives way to the smallest larger flat end mill that can (or,
+    /// where none can, the one that reaches deepest), as a machinist takes a longer tool
+    /// rather than leave the setup half cut; the setup's report names the tool used. A
+    /// radius the library lacks is an error that lists the radii it has.
+    pub(super) fn tool(
+        &self,
+        radius: f64,
+        number: u32,
+        depth: f64,
+    ) -> Result<(Tool, Option<Cutting>), MillError> {
         match self {
             Self::Planned { diag, feed } => Ok((planned_tool(radius, number, *diag, *feed), None)),
-            Self::Library { flats, material, machine, .. } => {
-                let Some(t) = flats.iter().find(|t| t.cutter.radius == radius) else {
+            Self::Library(shop) => {
+                let Shop { flats, material, machine, .. } = &**shop;
+                let Some(i) = flats.iter().position(|t| t.cutter.radius == radius) else {
                     let have: Vec<String> =
                         flats.iter().map(|t| format!("{}", t.cutter.diameter())).collect();
                     return Err(MillError::InvalidOption(format!(
@@ -112,6 +141,10 @@ impl Tooling {
                         have.join(", ")
                     )));
                 };
+                let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
+                let t = flats[i..].iter().find(|t| reach(t) >= depth).unwrap_or_else(|| {
+                    flats[i..].iter().max_by(|a, b| reach(a).total_cmp(&reach(b))).unwrap_or(&flats[i])
+                });
                 let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
                 Ok((
                     t.tool(material, machine).map_err(bad)?,

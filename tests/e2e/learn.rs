@@ -296,7 +296,12 @@ fn the_bundled_policy_names_the_heuristic_when_it_chooses_for_it() {
     assert_eq!(b.policy, "heuristic");
     let actions = |m: &shape2gcode::Milled| m.setups.iter().map(|p| p.action).collect::<Vec<_>>();
     assert_eq!(actions(&a), actions(&b));
-    let paper = MillOptions { preset: Preset::Paper, strategies: shape2gcode::StrategyKind::all(), ..opts };
+    let paper = MillOptions {
+        preset: Preset::Paper,
+        strategies: shape2gcode::StrategyKind::all(),
+        tools: None,
+        ..opts
+    };
     let mut learned = LearnedPolicy::bundled().unwrap();
     let c = mill(&parts[0].1, &mut learned, &paper, &mut |_| {}).unwrap();
     assert_eq!(c.policy, "learned");

@@ -528,8 +528,8 @@ fn linuxcnc_samples_agree_with_rs274() {
     eprintln!("{} of {} samples agree with rs274 ({gaps} known gaps)", files.len() - gaps, files.len());
 }
 
-/// The shared corpus's extra programs (GPL, so read in place from `../shared`, which CI
-/// lays beside the clone; `S2G_SHARED_DATA` overrides the folder): the seven real
+/// The shared corpus's extra programs (GPL, so read in place from `../shared` beside the
+/// clone where it is there; `S2G_SHARED_DATA` overrides the folder): the seven real
 /// LinuxCNC programs agree with `rs274` (but for the [`KNOWN_GAPS`]), and the odd ones
 /// get its verdict (the same first error line after the same moves, or agreement).
 #[test]

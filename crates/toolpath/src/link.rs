@@ -19,6 +19,29 @@ use crate::region::{Point2, Polyline2, RegionIndex};
 use crate::rest::RemainingMaterial;
 use crate::tool::Tool;
 
+/// Books a move of the tool from `pos` to `to` at `feed` (units per minute): its length
+/// into `length` (the cutting or the rapid total) and its time into `time_s`, and `pos`
+/// becomes `to`. `false` for a move to where the tool already is (nothing to send); the
+/// first move, from an unknown position, is sent but not booked.
+pub(crate) fn book_move(
+    pos: &mut Option<Point3>,
+    to: Point3,
+    feed: f64,
+    length: &mut f64,
+    time_s: &mut f64,
+) -> bool {
+    if let Some(p) = *pos {
+        if p == to {
+            return false;
+        }
+        let l = (to - p).norm();
+        *length += l;
+        *time_s += l / feed * 60.0;
+    }
+    *pos = Some(to);
+    true
+}
+
 pub(crate) struct LinkParams {
     pub clear_z: f64,
     pub gap: f64,
@@ -82,28 +105,22 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
     }
 
     fn rapid(&mut self, to: Point3) -> Result<(), ToolpathError<S::Error>> {
-        if let Some(p) = self.pos {
-            if p == to {
-                return Ok(());
-            }
-            let l = (to - p).norm();
-            self.stats.rapid_length += l;
-            self.stats.time_s += l / self.rapid_feed * 60.0;
+        if !book_move(
+            &mut self.pos,
+            to,
+            self.rapid_feed,
+            &mut self.stats.rapid_length,
+            &mut self.stats.time_s,
+        ) {
+            return Ok(());
         }
-        self.pos = Some(to);
         self.send(Motion::Rapid { to })
     }
 
     fn feed(&mut self, to: Point3, feed: f64) -> Result<(), ToolpathError<S::Error>> {
-        if let Some(p) = self.pos {
-            if p == to {
-                return Ok(());
-            }
-            let l = (to - p).norm();
-            self.stats.cutting_length += l;
-            self.stats.time_s += l / feed * 60.0;
+        if !book_move(&mut self.pos, to, feed, &mut self.stats.cutting_length, &mut self.stats.time_s) {
+            return Ok(());
         }
-        self.pos = Some(to);
         self.send(Motion::Linear { to, feed, extrude: None })
     }
 

@@ -22,6 +22,7 @@ use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
 
 use super::{FinishContext, FinishingStrategy};
 use crate::error::ToolpathError;
+use crate::link::book_move;
 use crate::tool::Tool;
 
 /// Options of [`finish_setup_opt`] (lengths in the mesh's units, mm for real parts).
@@ -214,28 +215,22 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     fn rapid(&mut self, to: Point3) -> Result<(), ToolpathError<S::Error>> {
-        if let Some(p) = self.pos {
-            if p == to {
-                return Ok(());
-            }
-            let l = (to - p).norm();
-            self.sum.rapid_length += l;
-            self.sum.time_s += l / self.opts.rapid_feed * 60.0;
+        if !book_move(
+            &mut self.pos,
+            to,
+            self.opts.rapid_feed,
+            &mut self.sum.rapid_length,
+            &mut self.sum.time_s,
+        ) {
+            return Ok(());
         }
-        self.pos = Some(to);
         self.send(Motion::Rapid { to })
     }
 
     fn feed(&mut self, to: Point3, feed: f64) -> Result<(), ToolpathError<S::Error>> {
-        if let Some(p) = self.pos {
-            if p == to {
-                return Ok(());
-            }
-            let l = (to - p).norm();
-            self.sum.cutting_length += l;
-            self.sum.time_s += l / feed * 60.0;
+        if !book_move(&mut self.pos, to, feed, &mut self.sum.cutting_length, &mut self.sum.time_s) {
+            return Ok(());
         }
-        self.pos = Some(to);
         self.send(Motion::Linear { to, feed, extrude: None })
     }
 
