@@ -89,6 +89,11 @@ pub enum GcodeErrorKind {
     /// Axis words without an active motion mode (after `G80`, or before any motion code).
     #[error("axis words without a motion mode (G0, G1, G2, G3 or a canned cycle)")]
     AxisWordsWithoutMotion,
+    /// Cutter radius compensation (`G40`-`G42`, `G41.1`, `G42.1`) that cannot be made as
+    /// LinuxCNC makes it: a gouging corner, an entry move shorter than the tool radius,
+    /// a code not allowed while it is on (`G28`, `G92`, a canned cycle, ...).
+    #[error("cutter radius compensation: {0}")]
+    CutterComp(String),
     /// An invalid canned-cycle setup (R below Z, non-positive Q, ...).
     #[error("canned cycle: {0}")]
     CannedCycle(String),

@@ -34,9 +34,15 @@
 //! - Parameters: numbered `#1`..`#5601` and named `#<name>` (case and blanks ignored);
 //!   all assignments of a line take effect after the line's reads. Coordinate-system
 //!   parameters (`#5221`.., `#5211`.., `#5161`..) are stored in mm.
-//! - `G41`/`G42`/`G41.1`/`G42.1` cutter compensation is accepted and not applied: the
-//!   programmed path is reported (as `rs274` does with zero tool diameters), with one
-//!   warning when a radius may be in force. `G43` reads no tool table (lengths 0);
+//! - Cutter radius compensation runs as in LinuxCNC: `G41.1`/`G42.1` with the diameter
+//!   `D` (and under `G18` a lathe tool orientation `L`), `G41`/`G42` with the diameter of
+//!   tool `D` in [`ParseOptions::tool_diameters`] (0 when not listed: the programmed path);
+//!   entry move, arcs about convex corners, concave corners cut back to where the offset
+//!   paths meet, one move held back until its corner is known (`G40`, `M0`-`M2`, `M30`
+//!   send it; a program that ends without them loses it, as `rs274` does), and LinuxCNC's
+//!   errors ([`GcodeErrorKind::CutterComp`](crate::GcodeErrorKind::CutterComp)): gouging
+//!   corners, entry moves within the tool radius, `G28`, `G92`, `G53`, canned cycles,
+//!   plane, tool offset or coordinate system changes while on. `G43` reads no tool table (lengths 0);
 //!   `G43.1 Z` sets a tool length offset, which shifts the program's Z as in LinuxCNC.
 //! - Coordinate systems follow LinuxCNC: machine = rot(work + `G92` offset) + `G5x`
 //!   offset (+ tool length on Z), where rot turns X and Y by the system's `G10 L2 R`
@@ -89,6 +95,7 @@ use crate::motion::MotionSink;
 use interp::{Interp, parse_bytes};
 use words::find_eol;
 
+mod comp;
 mod cycle;
 mod execute;
 mod flow;

@@ -2,6 +2,7 @@
 
 use std::borrow::Cow;
 
+use super::comp::comp_refused;
 use super::interp::{Fail, Interp, Mode, POLAR_A, POLAR_R, Res, bit, fmt_code};
 use super::words::Pre;
 use crate::error::GcodeErrorKind;
@@ -197,7 +198,7 @@ impl Interp<'_> {
         let spindle_changed = self.feed_speed_tool(groups[5].map_or(self.inverse_time, |g| g.0 == 930))?;
         self.m_actions(&m, spindle_changed, sink)?;
         self.dwell(groups[0], sink)?;
-        self.modal_settings(&groups);
+        self.modal_settings(&groups, sink)?;
         // `G43.1 Z..` (dynamic tool length) takes the axis words: they move nothing.
         let axis_words_used = self.non_modal(groups[0], sink)? | groups[8].is_some_and(|g| g.0 == 431);
         self.motion(&groups, g53, axis_words_used, m.stop, sink)
@@ -304,6 +305,15 @@ impl Interp<'_> {
                     GcodeErrorKind::BadValue(format!("line number N{n}")),
                 ));
             }
+        }
+        if self.strict
+            && self.block.has(b'd')
+            && !groups[7].is_some_and(|g| matches!(g.0, 410 | 420 | 411 | 421))
+        {
+            return Err(Fail::Line(
+                self.block.col(b'd'),
+                GcodeErrorKind::NotGcode("D word with no G41, G41.1, G42 or G42.1 to use it".into()),
+            ));
         }
         if self.strict {
             // `rs274` (no U, V, W axes configured): "Bad character 'w' used".
@@ -419,16 +429,24 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// Plane (group 2), units (6), cutter compensation (7: a warning, it is not applied),
-    /// tool length (8), distance modes (3, 4), feed mode (5), cycle return (9) and
-    /// coordinate system (10).
-    fn modal_settings(&mut self, groups: &[Option<(u16, usize)>; 14]) {
-        if let Some((code, _)) = groups[2] {
-            self.plane = match code {
+    /// Plane (group 2), units (6), cutter radius compensation (7), tool length (8),
+    /// distance modes (3, 4), feed mode (5), cycle return (9) and coordinate system (10).
+    fn modal_settings<S: MotionSink>(
+        &mut self,
+        groups: &[Option<(u16, usize)>; 14],
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        let comp_on = self.comp.side.is_some();
+        if let Some((code, col)) = groups[2] {
+            let plane = match code {
                 170 => Plane::XY,
                 180 => Plane::ZX,
                 _ => Plane::YZ,
             };
+            if comp_on && plane != self.plane {
+                return Err(comp_refused(col, "cannot change planes with cutter radius compensation on"));
+            }
+            self.plane = plane;
         }
         if let Some((code, col)) = groups[6] {
             if code == 700 || code == 710 {
@@ -439,15 +457,23 @@ impl Interp<'_> {
             }
             self.inch = code == 200 || code == 700;
         }
-        if let Some((code, col)) = groups[7]
-            && code != 400
-            && !self.warned_comp
-            && (code == 410 || code == 420 || self.block.get(b'd').is_some_and(|d| d != 0.0))
+        match groups[7] {
+            Some((400, _)) => self.comp_off(sink)?,
+            Some((code, col)) => self.comp_on(code, col)?,
+            None => {}
+        }
+        if let Some((_, col)) = groups[8]
+            && comp_on
         {
-            // The tool table (G41/G42) and the compensated path are not known here.
-            self.warned_comp = true;
-            let what = "cutter radius compensation not applied: moves are the programmed path (warned once)";
-            self.warn(col, GcodeErrorKind::Unsupported(what.into()));
+            return Err(comp_refused(col, "cannot change tool offset with cutter radius compensation on"));
+        }
+        if let Some((_, col)) = groups[10]
+            && comp_on
+        {
+            return Err(comp_refused(
+                col,
+                "cannot change coordinate systems with cutter radius compensation on",
+            ));
         }
         if let Some((code, _)) = groups[8] {
             // `G43.1 Z`: the given length; `G43` reads the tool table, which the parser
@@ -485,6 +511,7 @@ impl Interp<'_> {
             };
             self.load_g5x();
         }
+        Ok(())
     }
 
     /// Non-modal group 0 (`G10`, `G11`, `G28`, `G30`, `G28.1`, `G30.1`, `G92`..).
@@ -495,6 +522,17 @@ impl Interp<'_> {
         sink: &mut S,
     ) -> Res<bool, S::Error> {
         let mut axis_words_used = false;
+        if let Some((code, col)) = non_modal
+            && self.comp.side.is_some()
+        {
+            match code {
+                280 | 300 => return Err(comp_refused(col, "cannot use G28 or G30 with cutter radius comp")),
+                920..=923 => {
+                    return Err(comp_refused(col, "cannot change axis offsets with cutter radius comp"));
+                }
+                _ => {}
+            }
+        }
         match non_modal {
             Some((100, col)) => {
                 axis_words_used = true;
@@ -627,7 +665,13 @@ impl Interp<'_> {
                         self.special(code, col, sink)?;
                     }
                     Some(Mode::Cycle(code)) => {
-                        if let Err(e) = self.cycle(code, prev_mode, sink) {
+                        let r = if self.comp.side.is_some() {
+                            let col = explicit.map_or(0, |e| e.1);
+                            Err(comp_refused(col, "cannot use canned cycles with cutter compensation on"))
+                        } else {
+                            self.cycle(code, prev_mode, sink)
+                        };
+                        if let Err(e) = r {
                             // LinuxCNC discards a failing block, its motion mode included.
                             self.mode = prev_mode;
                             return Err(e);
@@ -644,6 +688,11 @@ impl Interp<'_> {
         m_stop: Option<(u16, usize)>,
         sink: &mut S,
     ) -> Res<(), S::Error> {
+        if let Some((code, _)) = m_stop
+            && (self.comp.side.is_some() || self.comp.holding())
+        {
+            self.comp_stop(code == 2 || code == 30, sink)?;
+        }
         if let Some((2 | 30, _)) = m_stop {
             self.emit(sink, &Motion::End)?;
             self.summary.program_end = Some(self.lineno);

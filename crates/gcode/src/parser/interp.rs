@@ -146,7 +146,8 @@ pub(super) struct Interp<'o> {
     pub(super) last_spline_pq: Option<(f64, f64)>,
     pub(super) warned_feed: bool,
     pub(super) warned_fanuc_dwell: bool,
-    pub(super) warned_comp: bool,
+    /// Cutter radius compensation and its held moves.
+    pub(super) comp: super::comp::Comp,
     /// Use [`Self::fast_straight`] (always, except in tests).
     pub(super) fast_path: bool,
     pub(super) rpm: f64,
@@ -211,7 +212,7 @@ impl<'o> Interp<'o> {
             last_spline_pq: None,
             warned_feed: false,
             warned_fanuc_dwell: false,
-            warned_comp: false,
+            comp: super::comp::Comp::default(),
             fast_path: true,
             rpm: 0.0,
             spindle: SpindleDirection::Off,
@@ -374,9 +375,25 @@ impl<'o> Interp<'o> {
 
     #[inline]
     pub(super) fn emit<S: MotionSink>(&mut self, sink: &mut S, m: &Motion<'_>) -> Res<(), S::Error> {
-        if self.reported_line != self.lineno {
-            self.reported_line = self.lineno;
-            sink.source_line(self.lineno).map_err(Fail::Sink)?;
+        if self.comp.holding() {
+            // Behind moves that cutter compensation holds back: in order, with them.
+            self.comp_hold(m);
+            return Ok(());
+        }
+        self.emit_at(self.lineno, sink, m)
+    }
+
+    /// Sends `m` as a motion of source line `line`.
+    #[inline]
+    pub(super) fn emit_at<S: MotionSink>(
+        &mut self,
+        line: u64,
+        sink: &mut S,
+        m: &Motion<'_>,
+    ) -> Res<(), S::Error> {
+        if self.reported_line != line {
+            self.reported_line = line;
+            sink.source_line(line).map_err(Fail::Sink)?;
         }
         self.summary.motions += 1;
         sink.motion(m).map_err(Fail::Sink)

@@ -135,6 +135,12 @@ impl Interp<'_> {
             ..
         } = *m;
         if let Some((code, col)) = m_tool {
+            if code == 6 && self.comp.side.is_some() {
+                return Err(super::comp::comp_refused(
+                    col,
+                    "cannot change tools with cutter radius compensation on",
+                ));
+            }
             let tool = if code == 61 {
                 match self.block.get(b'q') {
                     Some(q) if q >= 0.0 && q.fract() == 0.0 && q <= u32::MAX as f64 => Some(q as u32),

@@ -2,6 +2,7 @@
 
 use nalgebra::Point3;
 
+use super::comp::comp_refused;
 use super::interp::{AXES, Fail, Interp, Mode, OFFS, RADIUS_TOLERANCE_MM, Res, bit, hyp};
 use crate::error::GcodeErrorKind;
 use crate::motion::{ArcDirection, Motion, MotionSink, Plane};
@@ -61,7 +62,7 @@ impl Interp<'_> {
             }
             return self.work_of(m);
         }
-        let mut t = [self.work(0), self.work(1), self.work(2)];
+        let mut t = self.move_start();
         for i in 0..3 {
             if let Some(v) = self.block.get(AXES[i]) {
                 let v = v * s;
@@ -69,6 +70,17 @@ impl Interp<'_> {
             }
         }
         t
+    }
+
+    /// Where a move starts, for its incremental words and arc centre: the current point,
+    /// or under cutter compensation (after the entry move) the programmed one.
+    #[inline]
+    pub(super) fn move_start(&self) -> [f64; 3] {
+        if self.comp.active() && !self.comp.first {
+            self.comp.program
+        } else {
+            [self.work(0), self.work(1), self.work(2)]
+        }
     }
 
     /// Extrusion of this block's E word (mm of filament), updating the E position.
@@ -98,6 +110,12 @@ impl Interp<'_> {
         sink: &mut S,
     ) -> Res<(), S::Error> {
         let t = self.target(g53);
+        if self.comp.side.is_some() || self.comp.arc_not_allowed {
+            self.comp.arc_not_allowed = false;
+            if self.comp.active() {
+                return self.straight_compensated(rapid, g53, t, sink);
+            }
+        }
         let extrude = self.extrusion();
         let to = Point3::new(t[0], t[1], t[2]);
         // Marlin treats G0 like G1: a G0 that extrudes is reported as a feed move.
@@ -115,6 +133,32 @@ impl Interp<'_> {
         };
         self.set_work(t);
         self.emit(sink, &Motion::Linear { to, feed, extrude })
+    }
+
+    /// A straight move to `t` under cutter radius compensation.
+    #[cold]
+    fn straight_compensated<S: MotionSink>(
+        &mut self,
+        rapid: bool,
+        g53: bool,
+        t: [f64; 3],
+        sink: &mut S,
+    ) -> Res<(), S::Error> {
+        if g53 {
+            let col =
+                AXES.iter().filter(|&&l| self.block.has(l)).map(|&l| self.block.col(l)).min().unwrap_or(0);
+            return Err(comp_refused(col, "cannot use G53 with cutter radius comp"));
+        }
+        let feed = if rapid {
+            self.feed
+        } else if self.inverse_time {
+            let s = self.move_start();
+            self.move_feed(hyp(hyp(t[0] - s[0], t[1] - s[1]), t[2] - s[2]), "G1")?
+        } else {
+            self.need_feed("G1")?;
+            self.feed
+        };
+        self.comp_straight(rapid, feed, t, sink)
     }
 
     /// With [`ParseOptions::rotary`](crate::ParseOptions::rotary): emits the setup of the block's rotary words, if
@@ -155,9 +199,16 @@ impl Interp<'_> {
         explicit_col: Option<usize>,
         sink: &mut S,
     ) -> Res<(), S::Error> {
+        if self.comp.arc_not_allowed {
+            let col = explicit_col.unwrap_or(0);
+            return Err(comp_refused(
+                col,
+                "the move just after exiting cutter compensation mode must be straight, not an arc",
+            ));
+        }
         let (u, v, w) = self.plane_axes();
         let s = self.scale();
-        let start = [self.work(0), self.work(1), self.work(2)];
+        let start = self.move_start();
         let end = self.target(false);
         let has_r = self.block.has(b'r');
         let has_ij = self.block.has(OFFS[u]) || self.block.has(OFFS[v]);
@@ -196,38 +247,8 @@ impl Interp<'_> {
         let (su, sv, eu, ev) = (start[u], start[v], end[u], end[v]);
         let (cu, cv);
         if has_r {
-            let r_raw = self.block.get(b'r').unwrap_or(0.0) * s;
-            let col = self.block.col(b'r');
-            if su == eu && sv == ev {
-                // Lenient fallback: the centre is unknown, so no move is reported.
-                self.lenient(col, GcodeErrorKind::ArcDegenerate("R-format arc ends at its start".into()))?;
-                return Ok(());
-            }
-            let mut ar = r_raw.abs();
-            let (mu, mv) = ((eu + su) / 2.0, (ev + sv) / 2.0);
-            let mut half = hyp(mu - eu, mv - ev);
-            if half - ar > RADIUS_TOLERANCE_MM {
-                // Lenient fallback: a half circle through both points.
-                self.lenient(col, GcodeErrorKind::ArcRadiusTooSmall { radius: ar, half_chord: half })?;
-                ar = half;
-            }
-            if ar == 0.0 {
-                return Err(Fail::Line(col, GcodeErrorKind::ArcDegenerate("zero radius".into())));
-            }
-            if half / ar > 1.0 - 1e-12 {
-                half = ar;
-            }
-            let cw = dir == ArcDirection::Clockwise;
-            let base = (ev - sv).atan2(eu - su);
-            let theta = if (cw && r_raw > 0.0) || (!cw && r_raw < 0.0) {
-                base - std::f64::consts::FRAC_PI_2
-            } else {
-                base + std::f64::consts::FRAC_PI_2
-            };
-            let turn2 = (half / ar).asin();
-            let off = ar * turn2.cos();
-            cu = mu + off * theta.cos();
-            cv = mv + off * theta.sin();
+            let Some(c) = self.r_center(dir, [su, sv, eu, ev])? else { return Ok(()) };
+            (cu, cv) = c;
         } else {
             let i = self.block.get(OFFS[u]).unwrap_or(0.0) * s;
             let j = self.block.get(OFFS[v]).unwrap_or(0.0) * s;
@@ -269,6 +290,11 @@ impl Interp<'_> {
             self.need_feed(what)?;
             self.feed
         };
+        if self.comp.active() {
+            let n = turns as i32 + 1;
+            let turn = if dir == ArcDirection::CounterClockwise { n } else { -n };
+            return self.comp_arc(feed, end, [cu, cv], turn, sink);
+        }
         let mut c = start;
         c[u] = cu;
         c[v] = cv;
@@ -288,6 +314,43 @@ impl Interp<'_> {
                 extrude,
             },
         )
+    }
+
+    /// The centre of an `R` arc from `(su, sv)` to `(eu, ev)` in the plane; `None` when
+    /// the lenient fallback makes no move.
+    fn r_center<E>(&mut self, dir: ArcDirection, [su, sv, eu, ev]: [f64; 4]) -> Res<Option<(f64, f64)>, E> {
+        let s = self.scale();
+        let r_raw = self.block.get(b'r').unwrap_or(0.0) * s;
+        let col = self.block.col(b'r');
+        if su == eu && sv == ev {
+            // Lenient fallback: the centre is unknown, so no move is reported.
+            self.lenient(col, GcodeErrorKind::ArcDegenerate("R-format arc ends at its start".into()))?;
+            return Ok(None);
+        }
+        let mut ar = r_raw.abs();
+        let (mu, mv) = ((eu + su) / 2.0, (ev + sv) / 2.0);
+        let mut half = hyp(mu - eu, mv - ev);
+        if half - ar > RADIUS_TOLERANCE_MM {
+            // Lenient fallback: a half circle through both points.
+            self.lenient(col, GcodeErrorKind::ArcRadiusTooSmall { radius: ar, half_chord: half })?;
+            ar = half;
+        }
+        if ar == 0.0 {
+            return Err(Fail::Line(col, GcodeErrorKind::ArcDegenerate("zero radius".into())));
+        }
+        if half / ar > 1.0 - 1e-12 {
+            half = ar;
+        }
+        let cw = dir == ArcDirection::Clockwise;
+        let base = (ev - sv).atan2(eu - su);
+        let theta = if (cw && r_raw > 0.0) || (!cw && r_raw < 0.0) {
+            base - std::f64::consts::FRAC_PI_2
+        } else {
+            base + std::f64::consts::FRAC_PI_2
+        };
+        let turn2 = (half / ar).asin();
+        let off = ar * turn2.cos();
+        Ok(Some((mu + off * theta.cos(), mv + off * theta.sin())))
     }
 
     pub(super) fn home<S: MotionSink>(&mut self, code: u16, col: usize, sink: &mut S) -> Res<(), S::Error> {

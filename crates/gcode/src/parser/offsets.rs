@@ -31,6 +31,12 @@ impl Interp<'_> {
                     ));
                 }
                 let idx = if p == 0.0 { self.coord } else { p as usize };
+                if idx == self.coord && self.comp.side.is_some() {
+                    return Err(super::comp::comp_refused(
+                        col,
+                        "cannot change the active coordinate system with cutter radius compensation on",
+                    ));
+                }
                 if l as i64 == 2 {
                     self.g10_l2(idx);
                 } else {

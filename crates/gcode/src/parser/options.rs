@@ -66,6 +66,12 @@ pub struct ParseOptions {
     /// Most distance (mm) between a `G5`/`G5.1` spline and the straight feeds it becomes.
     /// Default: 0.001.
     pub spline_tolerance_mm: f64,
+    /// Tool diameters (mm) by tool number, the tool table's that `G41`/`G42` `D` (or the
+    /// tool in the spindle) reads for cutter radius compensation. A tool not listed has
+    /// diameter 0: compensation then leaves the programmed path as it is (as `rs274`
+    /// does with a table of zero diameters). `G41.1`/`G42.1` give the diameter in the
+    /// block and need no table. Default: empty.
+    pub tool_diameters: std::collections::BTreeMap<u32, f64>,
 }
 
 impl Default for ParseOptions {
@@ -84,6 +90,7 @@ impl Default for ParseOptions {
             max_call_depth: 100,
             subroutine_path: Vec::new(),
             spline_tolerance_mm: 0.001,
+            tool_diameters: std::collections::BTreeMap::new(),
         }
     }
 }

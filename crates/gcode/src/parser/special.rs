@@ -23,6 +23,19 @@ impl Interp<'_> {
         col: usize,
         sink: &mut S,
     ) -> Res<(), S::Error> {
+        if self.comp.side.is_some() {
+            let refused = match code {
+                50 | 51 => Some("cannot convert spline with cutter radius compensation"),
+                382..=385 => Some("cannot probe with cutter radius comp on"),
+                // LinuxCNC runs these through its straight moves, whose compensation
+                // knows G0 and G1 only.
+                _ if self.comp.active() => Some("G33, G33.1 and G76 are not G0 or G1"),
+                _ => None,
+            };
+            if let Some(what) = refused {
+                return Err(super::comp::comp_refused(col, what));
+            }
+        }
         match code {
             50 | 51 => self.spline(code == 50, col, sink),
             330 | 331 => self.spindle_sync(code == 331, col, sink),
