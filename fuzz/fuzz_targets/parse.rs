@@ -2,7 +2,7 @@
 //!
 //! Seeds: `fuzz/seeds/parse` (O-word subroutines, loops, if/else, do/while, nested
 //! calls, polar coordinates, `G10 L2 R` rotation, tapping, probing, splines, inverse
-//! time). Run, from the repository root, one niced job:
+//! time, cutter radius compensation). Run, from the repository root, one niced job:
 //! `cargo +nightly fuzz run -O -s none parse fuzz/corpus/parse fuzz/seeds/parse --
 //! -runs=10000000 -max_len=256` (no sanitizer: the code is safe Rust, and without one
 //! the run is several times faster).
@@ -50,6 +50,8 @@ fuzz_target!(|data: &[u8]| {
         rotary,
         stop_at_program_end: false,
         max_steps: 500,
+        // `G41 D1`..`D9` compensate with a real radius, as `G41.1` does.
+        tool_diameters: (1..10).map(|t| (t, t as f64 * 0.5)).collect(),
         ..ParseOptions::default()
     };
     let mut a = Count(0);
