@@ -56,10 +56,38 @@ fn nums(s: &str) -> Vec<f64> {
 }
 
 fn run_rs274(dir: &Path, name: &str, text: &str) -> Rs274Run {
+    run_rs274_with(dir, name, text, &Tools::Zero)
+}
+
+/// The tool table T1-T99 that `rs274` reads, and its diameters for our parser.
+#[derive(Clone, Copy)]
+enum Tools {
+    /// Diameter 0 for every tool: compensation with `G41 D` leaves the path as it is.
+    Zero,
+    /// Tool `t` has diameter `t`/50 inch (`rs274` reads the table in inches).
+    Fiftieths,
+}
+
+impl Tools {
+    fn diameter_inch(self, t: u32) -> f64 {
+        match self {
+            Tools::Zero => 0.0,
+            Tools::Fiftieths => t as f64 / 50.0,
+        }
+    }
+
+    /// Our parser's options with these tools.
+    fn options(self, base: ParseOptions) -> ParseOptions {
+        let tool_diameters = (0..100).map(|t| (t, self.diameter_inch(t) * 25.4)).collect();
+        ParseOptions { tool_diameters, ..base }
+    }
+}
+
+fn run_rs274_with(dir: &Path, name: &str, text: &str, tools: &Tools) -> Rs274Run {
     let prog = dir.join(name);
     std::fs::write(&prog, text).expect("write program");
     let tbl = dir.join("tools.tbl");
-    let table: String = (0..100).map(|t| format!("T{t} P{t} Z0 D0\n")).collect();
+    let table: String = (0..100).map(|t| format!("T{t} P{t} Z0 D{}\n", tools.diameter_inch(t))).collect();
     std::fs::write(&tbl, table).expect("write tool table");
     let _one_at_a_time = RS274.lock().unwrap_or_else(|e| e.into_inner());
     let out = Command::new(rs274_path())
@@ -215,12 +243,20 @@ fn compare(name: &str, reference: &[Canon], got: &[Canon]) {
 
 /// Runs one program through both and checks agreement; returns the number of moves compared.
 fn check(dir: &Path, name: &str, text: &str) -> usize {
-    let reference = run_rs274(dir, name, text);
-    let strict =
-        ParseOptions { dialect: ParseDialect::Cnc, stop_at_first_error: false, ..ParseOptions::default() };
+    check_with(dir, name, text, Tools::Zero)
+}
+
+/// [`check`] with a tool table.
+fn check_with(dir: &Path, name: &str, text: &str, tools: Tools) -> usize {
+    let reference = run_rs274_with(dir, name, text, &tools);
+    let strict = tools.options(ParseOptions {
+        dialect: ParseDialect::Cnc,
+        stop_at_first_error: false,
+        ..ParseOptions::default()
+    });
     match &reference.error {
         None => {
-            let (got, err) = ours(text, &ParseOptions::default());
+            let (got, err) = ours(text, &tools.options(ParseOptions::default()));
             assert_eq!(err, None, "{name}: rs274 accepts it, we report an error");
             assert_eq!(got.len(), reference.moves.len(), "{name}: move count (rs274 {:?})", reference.moves);
             compare(name, &reference.moves, &got);
@@ -487,6 +523,42 @@ fn compensation_programs_agree_with_rs274() {
     assert!(s.errors.is_empty(), "{:?}", s.errors);
     let side = canon_of(programs[0].1, &rec);
     assert!(side.iter().any(|c| c.kind == "feed" && (c.to[1] - 2.0).abs() < 1e-9), "{side:?}");
+}
+
+/// The programs that use cutter radius compensation with the tool table's diameters
+/// (`G41`/`G42`, with or without `D`: LinuxCNC's samples, found at test time, and the
+/// shared corpus's program where it is there), run by both with tools of real diameters.
+#[test]
+fn compensation_with_tool_diameters_agrees_with_rs274() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/extra/cnc");
+    let mut files = ngc_files(Path::new("/usr/share/linuxcnc/ncfiles"));
+    if shared.is_dir() {
+        files.extend(ngc_files(&shared));
+    }
+    let uses_comp = |text: &str| {
+        let t = text.to_ascii_uppercase();
+        t.match_indices("G4").any(|(i, _)| {
+            let rest = &t[i + 2..];
+            (rest.starts_with('1') || rest.starts_with('2'))
+                && !rest[1..].starts_with(|c: char| c.is_ascii_digit() || c == '.')
+        })
+    };
+    let (mut programs, mut moves) = (0, 0);
+    for f in &files {
+        let text = String::from_utf8_lossy(&std::fs::read(f).expect("read")).replace("\r\n", "\n");
+        let name = f.file_name().and_then(|n| n.to_str()).expect("name").to_string();
+        if !uses_comp(&text) || KNOWN_GAPS.iter().any(|g| g.0 == name) {
+            continue;
+        }
+        programs += 1;
+        moves += check_with(dir.path(), &name, &text, Tools::Fiftieths);
+    }
+    eprintln!("{programs} programs with cutter compensation, {moves} moves agree");
+    // linuxcnc-uspace 2.9: comp, comp-g1, comp311, comp311_2, gmoccapy_2_tools..,
+    // lathecomp, mmount, useful-subroutines (and g76, lathe-g76 match the pattern).
+    assert!(programs >= 8, "only {programs} programs with G41/G42");
+    assert!(moves > 800, "only {moves} moves compared");
 }
 
 /// Programs that `rs274` runs and we do not yet interpret as it does, each with why and

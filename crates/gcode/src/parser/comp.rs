@@ -79,6 +79,12 @@ pub(super) struct Comp {
     pub(super) program: [f64; 3],
     /// The move after `G40` must be straight.
     pub(super) arc_not_allowed: bool,
+    /// Where `G40` left the tool (work coordinates, mm) while the interpreter's point is
+    /// the programmed one, until the next move: `M6` takes the machine's position back,
+    /// as LinuxCNC re-reads it after a tool change.
+    pub(super) tool_at: Option<[f64; 3]>,
+    /// A `G41`/`G42` tool without a diameter was reported.
+    warned_no_diameter: bool,
     queue: Vec<Queued>,
     endpoint: [f64; 2],
     endpoint_valid: bool,
@@ -93,6 +99,8 @@ impl Default for Comp {
             first: true,
             program: [0.0; 3],
             arc_not_allowed: false,
+            tool_at: None,
+            warned_no_diameter: false,
             queue: Vec::new(),
             endpoint: [0.0; 2],
             endpoint_valid: false,
@@ -213,7 +221,7 @@ impl Interp<'_> {
             (d * self.scale() / 2.0, orientation)
         } else {
             let tool = match self.block.get(b'd') {
-                None => self.tool.unwrap_or(0),
+                None => self.spindle_tool,
                 Some(d) => {
                     let t = (d + 0.5).floor();
                     if (t - d).abs() >= 0.0001 {
@@ -228,8 +236,16 @@ impl Interp<'_> {
                     t.min(u32::MAX as f64) as u32
                 }
             };
-            let diameter = self.opts.tool_diameters.get(&tool).copied().unwrap_or(0.0);
-            (diameter / 2.0, 0)
+            let diameter = self.opts.tool_diameters.get(&tool).copied();
+            if diameter.is_none() && !self.comp.warned_no_diameter {
+                self.comp.warned_no_diameter = true;
+                let what = format!(
+                    "{name}: tool {tool} has no diameter in the tool table (ParseOptions::tool_diameters): \
+                     compensation by 0, the programmed path (warned once)"
+                );
+                self.warn(col, GcodeErrorKind::CutterComp(what));
+            }
+            (diameter.unwrap_or(0.0) / 2.0, 0)
         };
         if !radius.is_finite() {
             return Err(comp_refused(col, "tool diameter is not finite"));
@@ -254,6 +270,7 @@ impl Interp<'_> {
             self.move_endpoint_and_flush(c[0], c[1], sink)?;
             self.dequeue(sink)?;
             let p = self.comp.program;
+            self.comp.tool_at = Some([self.work(0), self.work(1), self.work(2)]);
             self.set_work(p);
             self.comp.arc_not_allowed = true;
         }
@@ -605,7 +622,8 @@ impl Interp<'_> {
         let c_len = b_len / a_ang.cos();
         let nc = [end[0] + c_len * ab_ang.cos(), end[1] + c_len * ab_ang.sin()];
         let spiral = self.opts.arc_tolerance_mm * if self.inch { 2.54 } else { 1.0 };
-        if (hyp(nc[0] - end[0], nc[1] - end[1]) - hyp(nc[0] - c[0], nc[1] - c[1])).abs() > spiral {
+        let mismatch = (hyp(nc[0] - end[0], nc[1] - end[1]) - hyp(nc[0] - c[0], nc[1] - c[1])).abs();
+        if mismatch.is_nan() || mismatch > spiral {
             return Err(comp_refused(0, "bug in tool radius comp"));
         }
         if self.comp.orientation != 0 && self.comp.orientation != 9 {

@@ -643,6 +643,7 @@ impl Interp<'_> {
             }
             let run = explicit.is_some() || has_axes || (has_e && self.fdm);
             if run {
+                self.comp.tool_at = None;
                 match self.mode {
                     None => {
                         let col = (b'a'..=b'z')

@@ -153,6 +153,8 @@ pub(super) struct Interp<'o> {
     pub(super) rpm: f64,
     pub(super) spindle: SpindleDirection,
     pub(super) tool: Option<u32>,
+    /// The tool in the spindle (`M6`, `M61`): whose diameter `G41`/`G42` without `D` use.
+    pub(super) spindle_tool: u32,
     // FDM extrusion.
     pub(super) e_pos: f64,
     pub(super) e_relative: bool,
@@ -217,6 +219,7 @@ impl<'o> Interp<'o> {
             rpm: 0.0,
             spindle: SpindleDirection::Off,
             tool: None,
+            spindle_tool: 0,
             e_pos: 0.0,
             e_relative: false,
             e_axis: opts.dialect == ParseDialect::Fdm,

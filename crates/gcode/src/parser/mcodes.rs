@@ -155,7 +155,15 @@ impl Interp<'_> {
                 self.tool
             };
             if let Some(tool) = tool {
+                if code == 6
+                    && let Some(at) = self.comp.tool_at.take()
+                {
+                    // LinuxCNC re-reads the position after a tool change: where G40 left
+                    // the tool, not the programmed point.
+                    self.set_work(at);
+                }
                 self.tool = Some(tool);
+                self.spindle_tool = tool;
                 self.emit(sink, &Motion::ToolChange { tool })?;
             } else {
                 self.lenient(col, GcodeErrorKind::MissingWord { code: "M6".into(), letter: 'T' })?;

@@ -112,6 +112,7 @@ impl Interp<'_> {
         let t = self.target(g53);
         if self.comp.side.is_some() || self.comp.arc_not_allowed {
             self.comp.arc_not_allowed = false;
+            self.comp.tool_at = None;
             if self.comp.active() {
                 return self.straight_compensated(rapid, g53, t, sink);
             }
@@ -368,6 +369,7 @@ impl Interp<'_> {
             let to = self.work_pos();
             return self.emit(sink, &Motion::Rapid { to });
         }
+        self.comp.tool_at = None;
         let base = if code == 280 { 5161 } else { 5181 };
         // The intermediate point (the current one when no axis word is given), as rs274 does.
         let t = self.target(false);
