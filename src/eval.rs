@@ -7,6 +7,13 @@
 //! with other reward weights (`s2g train --reward-weights`). Learned policies can also be
 //! evaluated fine-tuned on each part (Appendix A.7), and policies trained with different
 //! seeds as one row with a 95 % confidence interval (Appendix A.8).
+//!
+//! Each part is evaluated on its own ([`evaluate_part`]) and the tables are means over the
+//! parts' results ([`tables_from_parts`]), so an evaluation splits over processes and
+//! machines: a [`Shard`] takes every N-th part, [`write_part_result`] writes one result file
+//! per part, and [`merge_results`] gives the tables of one process, byte for byte.
+
+mod results;
 
 use serde_json::{Value, json};
 
@@ -16,6 +23,8 @@ use crate::learn::{LearnedPolicy, TrainOptions};
 use crate::pipeline::{MillError, MillOptions, MillRun, Milled};
 use crate::policy::{Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, StrategyKind};
 use crate::voxsim::RewardWeights;
+
+pub use results::{EvalPlan, RESULT_SUFFIX, Shard, merge_results, part_result_path, write_part_result};
 
 /// The mean metrics of one row over the evaluated parts.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -79,7 +88,7 @@ pub struct EvalOptions {
 }
 
 /// Mean surface coverage of the orientation strategies (Table 2).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CoverageRow {
     /// Six principal axes.
     pub six_axes: f64,
@@ -197,18 +206,18 @@ fn finetuned(
     }
 }
 
-fn mean_row(name: &str, runs: &[Milled]) -> Row {
+fn mean_row(name: &str, runs: &[PartScores]) -> Row {
     let n = runs.len().max(1) as f64;
-    let avg = |f: &dyn Fn(&Milled) -> f64| runs.iter().map(f).sum::<f64>() / n;
+    let avg = |f: &dyn Fn(&PartScores) -> f64| runs.iter().map(f).sum::<f64>() / n;
     Row {
         name: name.to_owned(),
-        iou: avg(&|m| m.metrics.iou),
-        f1: avg(&|m| m.metrics.f1),
-        chamfer_x1000: avg(&|m| m.metrics.chamfer_x1000),
-        normal_consistency: avg(&|m| m.metrics.normal_consistency),
-        machining_time_s: avg(&|m| m.simulation.machining_time_s),
-        unsafe_parts: runs.iter().filter(|m| !m.is_safe()).count(),
-        reward: avg(&|m| m.total_reward(&RewardWeights::default())),
+        iou: avg(&|m| m.iou),
+        f1: avg(&|m| m.f1),
+        chamfer_x1000: avg(&|m| m.chamfer_x1000),
+        normal_consistency: avg(&|m| m.normal_consistency),
+        machining_time_s: avg(&|m| m.machining_time_s),
+        unsafe_parts: runs.iter().filter(|m| !m.safe).count(),
+        reward: avg(&|m| m.reward),
         ci95: None,
     }
 }
@@ -257,9 +266,125 @@ fn is_learned(name: &str) -> bool {
     name == "learned" || std::path::Path::new(name).is_file()
 }
 
+/// What one run of one part scored: the [`Row`] columns before the mean over parts.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PartScores {
+    /// IoU.
+    pub iou: f64,
+    /// F1.
+    pub f1: f64,
+    /// Chamfer distance x1000.
+    pub chamfer_x1000: f64,
+    /// Normal consistency.
+    pub normal_consistency: f64,
+    /// Machining time, seconds.
+    pub machining_time_s: f64,
+    /// No gouge and no rapid through material.
+    pub safe: bool,
+    /// Total reward (Eq. 13, the paper's weights).
+    pub reward: f64,
+}
+
+impl PartScores {
+    fn of(m: &Milled) -> Self {
+        Self {
+            iou: m.metrics.iou,
+            f1: m.metrics.f1,
+            chamfer_x1000: m.metrics.chamfer_x1000,
+            normal_consistency: m.metrics.normal_consistency,
+            machining_time_s: m.simulation.machining_time_s,
+            safe: m.is_safe(),
+            reward: m.total_reward(&RewardWeights::default()),
+        }
+    }
+}
+
+/// Which run of a part a [`PartScores`] is: a policy (fine-tuned for `finetune` episodes
+/// when positive), or, for Table 4, the heuristic `without` one clearing strategy (by its
+/// name) or the `contour` pass.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RunKey {
+    /// The policy, as [`policy_by_name`] takes it.
+    pub policy: String,
+    /// Fine-tuning episodes; 0 for none.
+    pub finetune: usize,
+    /// Table 4: the strategy (or `contour`) removed; `None` for a policy row.
+    pub without: Option<String>,
+}
+
+impl RunKey {
+    fn policy(name: &str, finetune: usize) -> Self {
+        Self { policy: name.to_owned(), finetune, without: None }
+    }
+
+    fn ablation(removed: &str) -> Self {
+        Self { policy: "heuristic".into(), finetune: 0, without: Some(removed.to_owned()) }
+    }
+
+    /// How progress reports and table rows name the run.
+    pub fn label(&self) -> String {
+        match (&self.without, self.finetune) {
+            (Some(removed), _) => format!("{} without {removed}", self.policy),
+            (None, 0) => self.policy.clone(),
+            (None, f) => format!("{} +ft{f}", self.policy),
+        }
+    }
+}
+
+/// Everything the tables need of one part ([`evaluate_part`]): the scores of each run, and
+/// the orientation strategies' coverage from the heuristic run when there was one. The
+/// tables are means of these over the parts ([`tables_from_parts`]), so parts can be
+/// evaluated apart (in other processes, on other machines) and merged.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PartResult {
+    /// The part's name.
+    pub part: String,
+    /// The runs, in the order they were milled.
+    pub runs: Vec<(RunKey, PartScores)>,
+    /// Table 2's coverages of this part (its heuristic run's), when it was milled with
+    /// the heuristic.
+    pub orientation: Option<CoverageRow>,
+}
+
+impl PartResult {
+    fn scores(&self, key: &RunKey) -> Option<&PartScores> {
+        self.runs.iter().find(|(k, _)| k == key).map(|(_, s)| s)
+    }
+}
+
+/// The runs [`evaluate`] makes of every part for `policies` and `eval`, each once, in the
+/// order they are made.
+fn run_keys(policies: &[String], eval: &EvalOptions) -> Vec<RunKey> {
+    let which = eval.tables;
+    let mut keys: Vec<RunKey> = Vec::new();
+    let mut add = |k: RunKey| {
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    };
+    let members = eval.seed_groups.iter().flat_map(|g| g.members.iter());
+    for name in policies.iter().chain(members).filter(|_| which.policies) {
+        add(RunKey::policy(name, 0));
+        if eval.finetune_episodes > 0 && is_learned(name) {
+            add(RunKey::policy(name, eval.finetune_episodes));
+        }
+    }
+    if which.orientation || which.strategies {
+        add(RunKey::policy("heuristic", 0));
+    }
+    if which.strategies {
+        for removed in StrategyKind::all() {
+            add(RunKey::ablation(removed.name()));
+        }
+        add(RunKey::ablation("contour"));
+    }
+    keys
+}
+
 /// Evaluates `policies` (see [`policy_by_name`]) on `parts`, for what `eval` asks;
 /// `on_run(part, row)` is told before each run. Table 4 is computed with the heuristic
-/// policy.
+/// policy. The same as [`evaluate_part`] on each part and [`tables_from_parts`] on the
+/// results.
 pub fn evaluate(
     parts: &[(String, Mesh)],
     policies: &[String],
@@ -267,100 +392,136 @@ pub fn evaluate(
     opts: &MillOptions,
     on_run: &mut dyn FnMut(&str, &str),
 ) -> Result<Tables, MillError> {
-    let which = eval.tables;
+    let results = parts
+        .iter()
+        .map(|(part, mesh)| evaluate_part(part, mesh, policies, eval, opts, on_run))
+        .collect::<Result<Vec<_>, _>>()?;
+    tables_from_parts(&results, policies, eval)
+}
+
+/// Mills one part for every run the tables of [`evaluate`] need; `on_run(part, row)` is
+/// told before each run. A part's result depends on the part, the policies, `eval` and
+/// `opts` alone, never on the other parts evaluated.
+pub fn evaluate_part(
+    part: &str,
+    mesh: &Mesh,
+    policies: &[String],
+    eval: &EvalOptions,
+    opts: &MillOptions,
+    on_run: &mut dyn FnMut(&str, &str),
+) -> Result<PartResult, MillError> {
     let space = opts.action_space();
-    let mut tables = Tables { parts: parts.iter().map(|(n, _)| n.clone()).collect(), ..Tables::default() };
-    let mut heuristic_runs = Vec::new();
-    let milled = |name: &str, finetune: usize, on_run: &mut dyn FnMut(&str, &str)| {
-        let label = if finetune > 0 { format!("{name} +ft{finetune}") } else { name.to_owned() };
-        let mut runs = Vec::with_capacity(parts.len());
-        for (part, mesh) in parts {
-            on_run(part, &label);
-            let mut policy = if finetune > 0 {
-                finetuned(name, part, mesh, finetune, opts)?
-            } else {
-                policy_by_name(name, &space, opts.seed)
-                    .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {name:?}")))?
-            };
-            runs.push(scored(mesh, policy.as_mut(), opts)?);
+    let mut result = PartResult { part: part.to_owned(), ..PartResult::default() };
+    for key in run_keys(policies, eval) {
+        on_run(part, &key.label());
+        let milled = match (&key.without, key.finetune) {
+            (Some(removed), _) => {
+                let o = match StrategyKind::from_name(removed) {
+                    Some(removed) => MillOptions {
+                        strategies: StrategyKind::all().into_iter().filter(|&s| s != removed).collect(),
+                        ..opts.clone()
+                    },
+                    None => MillOptions { contour: false, ..opts.clone() },
+                };
+                scored(mesh, &mut HeuristicPolicy::default(), &o)?
+            }
+            (None, 0) => {
+                let mut policy = policy_by_name(&key.policy, &space, opts.seed)
+                    .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {:?}", key.policy)))?;
+                scored(mesh, policy.as_mut(), opts)?
+            }
+            (None, f) => scored(mesh, finetuned(&key.policy, part, mesh, f, opts)?.as_mut(), opts)?,
+        };
+        if key == RunKey::policy("heuristic", 0) {
+            let m = &milled;
+            result.orientation = Some(CoverageRow {
+                six_axes: m.orientation.baselines.six_axes,
+                random5: m.orientation.baselines.random5,
+                random6: m.orientation.baselines.random6,
+                plain_greedy: m.orientation.baselines.plain_greedy,
+                ours: m.orientation.final_coverage(),
+                upper_bound: m.orientation.upper_bound,
+            });
         }
-        Ok::<_, MillError>((mean_row(&label, &runs), runs))
+        result.runs.push((key, PartScores::of(&milled)));
+    }
+    Ok(result)
+}
+
+/// The tables of [`evaluate`] from the parts' results ([`evaluate_part`] with the same
+/// `policies` and `eval`), in the order given: byte for byte what one [`evaluate`] of the
+/// same parts prints. An error names a part that lacks a run the tables need.
+pub fn tables_from_parts(
+    results: &[PartResult],
+    policies: &[String],
+    eval: &EvalOptions,
+) -> Result<Tables, MillError> {
+    let which = eval.tables;
+    let runs = |key: &RunKey| -> Result<Vec<PartScores>, MillError> {
+        results
+            .iter()
+            .map(|r| {
+                r.scores(key).copied().ok_or_else(|| {
+                    MillError::InvalidOption(format!("part {} has no run of {}", r.part, key.label()))
+                })
+            })
+            .collect()
     };
-    // Rows already milled, by policy and fine-tuning episodes: a policy that is both a
-    // row of its own and a member of a seed group is milled once.
-    let mut done: Vec<(String, usize, Row)> = Vec::new();
-    let mut row_of = |name: &str, finetune: usize, on_run: &mut dyn FnMut(&str, &str)| {
-        if let Some((_, _, row)) = done.iter().find(|(n, f, _)| n == name && *f == finetune) {
-            return Ok::<_, MillError>(row.clone());
-        }
-        let (row, runs) = milled(name, finetune, on_run)?;
-        if name == "heuristic" && finetune == 0 {
-            heuristic_runs = runs;
-        }
-        done.push((name.to_owned(), finetune, row.clone()));
-        Ok(row)
-    };
+    let row = |key: &RunKey| Ok::<_, MillError>(mean_row(&key.label(), &runs(key)?));
+    let mut tables = Tables { parts: results.iter().map(|r| r.part.clone()).collect(), ..Tables::default() };
+    let tuned = |name: &str| eval.finetune_episodes > 0 && is_learned(name);
     for name in policies.iter().filter(|_| which.policies) {
-        tables.policies.push(row_of(name, 0, on_run)?);
-        if eval.finetune_episodes > 0 && is_learned(name) {
-            tables.policies.push(row_of(name, eval.finetune_episodes, on_run)?);
+        tables.policies.push(row(&RunKey::policy(name, 0))?);
+        if tuned(name) {
+            tables.policies.push(row(&RunKey::policy(name, eval.finetune_episodes))?);
         }
     }
     for group in eval.seed_groups.iter().filter(|_| which.policies) {
         let mut rows = Vec::with_capacity(group.members.len());
-        let mut tuned = Vec::new();
+        let mut tuned_rows = Vec::new();
         for member in &group.members {
-            rows.push(row_of(member, 0, on_run)?);
-            if eval.finetune_episodes > 0 && is_learned(member) {
-                tuned.push(row_of(member, eval.finetune_episodes, on_run)?);
+            rows.push(row(&RunKey::policy(member, 0))?);
+            if tuned(member) {
+                tuned_rows.push(row(&RunKey::policy(member, eval.finetune_episodes))?);
             }
         }
         tables.policies.push(group_row(&group.name, &rows));
-        if !tuned.is_empty() {
-            tables.policies.push(group_row(&format!("{} +ft{}", group.name, eval.finetune_episodes), &tuned));
+        if !tuned_rows.is_empty() {
+            tables
+                .policies
+                .push(group_row(&format!("{} +ft{}", group.name, eval.finetune_episodes), &tuned_rows));
         }
     }
-    if !(which.orientation || which.strategies) {
-        return Ok(tables);
+    // Table 2 comes with Table 4 too, as it always has.
+    if which.orientation || which.strategies {
+        let coverage = results
+            .iter()
+            .map(|r| {
+                r.orientation.ok_or_else(|| {
+                    MillError::InvalidOption(format!("part {} has no orientation coverage", r.part))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let n = coverage.len().max(1) as f64;
+        let cov = |f: &dyn Fn(&CoverageRow) -> f64| coverage.iter().map(f).sum::<f64>() / n;
+        tables.orientation = Some(CoverageRow {
+            six_axes: cov(&|c| c.six_axes),
+            random5: cov(&|c| c.random5),
+            random6: cov(&|c| c.random6),
+            plain_greedy: cov(&|c| c.plain_greedy),
+            ours: cov(&|c| c.ours),
+            upper_bound: cov(&|c| c.upper_bound),
+        });
     }
-    if heuristic_runs.is_empty() {
-        for (part, mesh) in parts {
-            on_run(part, "heuristic");
-            heuristic_runs.push(scored(mesh, &mut HeuristicPolicy::default(), opts)?);
+    if which.strategies {
+        tables.ablation.push(mean_row("none removed", &runs(&RunKey::policy("heuristic", 0))?));
+        let removed = StrategyKind::all().into_iter().map(|s| s.name().to_owned());
+        for removed in removed.chain(["contour".to_owned()]) {
+            tables
+                .ablation
+                .push(mean_row(&format!("without {removed}"), &runs(&RunKey::ablation(&removed))?));
         }
     }
-    let n = heuristic_runs.len().max(1) as f64;
-    let cov = |f: &dyn Fn(&Milled) -> f64| heuristic_runs.iter().map(f).sum::<f64>() / n;
-    tables.orientation = Some(CoverageRow {
-        six_axes: cov(&|m| m.orientation.baselines.six_axes),
-        random5: cov(&|m| m.orientation.baselines.random5),
-        random6: cov(&|m| m.orientation.baselines.random6),
-        plain_greedy: cov(&|m| m.orientation.baselines.plain_greedy),
-        ours: cov(&|m| m.orientation.final_coverage()),
-        upper_bound: cov(&|m| m.orientation.upper_bound),
-    });
-    if !which.strategies {
-        return Ok(tables);
-    }
-    tables.ablation.push(mean_row("none removed", &heuristic_runs));
-    for removed in StrategyKind::all() {
-        let strategies: Vec<StrategyKind> =
-            StrategyKind::all().into_iter().filter(|&s| s != removed).collect();
-        let o = MillOptions { strategies, ..opts.clone() };
-        let mut runs = Vec::with_capacity(parts.len());
-        for (part, mesh) in parts {
-            on_run(part, &format!("heuristic without {}", removed.name()));
-            runs.push(scored(mesh, &mut HeuristicPolicy::default(), &o)?);
-        }
-        tables.ablation.push(mean_row(&format!("without {}", removed.name()), &runs));
-    }
-    let o = MillOptions { contour: false, ..opts.clone() };
-    let mut runs = Vec::with_capacity(parts.len());
-    for (part, mesh) in parts {
-        on_run(part, "heuristic without contour");
-        runs.push(scored(mesh, &mut HeuristicPolicy::default(), &o)?);
-    }
-    tables.ablation.push(mean_row("without contour", &runs));
     Ok(tables)
 }
 

@@ -7,6 +7,7 @@ mod e2e {
     #[cfg(feature = "learn")]
     mod learn;
     mod mill;
+    mod shard;
     mod shop;
     mod stock;
 }

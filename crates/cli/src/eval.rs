@@ -5,7 +5,10 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use shape2gcode::geom::{Mesh, load_mesh};
-use shape2gcode::{EvalOptions, MillOptions, SeedGroup, TableSet, evaluate};
+use shape2gcode::{
+    EvalOptions, EvalPlan, MillOptions, SeedGroup, Shard, TableSet, Tables, evaluate_part, merge_results,
+    tables_from_parts, write_part_result,
+};
 
 use crate::mill::{DEFAULT_MESH, parse_setups};
 
@@ -49,6 +52,23 @@ pub struct Args {
     /// the shipped policy was trained in.
     #[arg(long)]
     front_facing: bool,
+    /// Evaluate only shard K of N (0 <= K < N): the parts at places K, K+N, K+2N, ... of
+    /// the sorted part list (as Slurm's `SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT` or
+    /// Kubernetes' `JOB_COMPLETION_INDEX` give them). Needs --results; prints no table.
+    #[arg(long, requires = "results", value_parser = parse_shard)]
+    shard: Option<Shard>,
+    /// Also write one result file per part, `PART.eval.json`, into this folder (created if
+    /// missing), for --merge.
+    #[arg(long)]
+    results: Option<PathBuf>,
+    /// Evaluate nothing: print the tables of the result files in this folder (written by
+    /// runs with --results, one per --shard), byte for byte what one run over all the parts
+    /// prints. The policies, tables and options are the files'.
+    #[arg(long, value_name = "DIR", conflicts_with_all = [
+        "meshes", "corpus", "shard", "results", "policies", "tables", "res", "points", "finetune",
+        "seed_groups", "setups", "seed", "front_facing",
+    ])]
+    merge: Option<PathBuf>,
     /// Print JSON.
     #[arg(long, conflicts_with = "markdown")]
     json: bool,
@@ -62,10 +82,23 @@ fn stem(p: &Path) -> String {
     p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
 }
 
+fn parse_shard(s: &str) -> Result<Shard, String> {
+    s.parse().map_err(|e| format!("{e}"))
+}
+
 /// The meshes of a command line: the `files` named, or every STL, OBJ, PLY, glTF or GLB
 /// file in `dir`; loaded, named by stem, in file-name order (so that a corpus trains alike
 /// however it is given).
 pub fn parts(files: &[PathBuf], dir: Option<&Path>) -> anyhow::Result<Vec<(String, Mesh)>> {
+    mesh_files(files, dir)?.iter().map(|p| Ok((stem(p), load(p)?))).collect()
+}
+
+fn load(p: &Path) -> anyhow::Result<Mesh> {
+    load_mesh(p).with_context(|| format!("loading {}", p.display()))
+}
+
+/// The mesh files of [`parts`], in its order, not loaded.
+fn mesh_files(files: &[PathBuf], dir: Option<&Path>) -> anyhow::Result<Vec<PathBuf>> {
     let mut files = match (dir, files) {
         (Some(_), [_, ..]) => bail!("give meshes or --corpus, not both"),
         (None, []) => bail!("no meshes (give mesh files or --corpus DIR)"),
@@ -87,18 +120,27 @@ pub fn parts(files: &[PathBuf], dir: Option<&Path>) -> anyhow::Result<Vec<(Strin
         }
     };
     files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
-    files
-        .iter()
-        .map(|p| Ok((stem(p), load_mesh(p).with_context(|| format!("loading {}", p.display()))?)))
-        .collect()
+    Ok(files)
 }
 
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
-    let parts = if args.corpus.is_none() && args.meshes.is_empty() {
-        parts(&[PathBuf::from(DEFAULT_MESH)], None)?
+    if let Some(dir) = &args.merge {
+        let (tables, plan) = merge_results(dir).with_context(|| format!("merging {}", dir.display()))?;
+        eprintln!("s2g eval: merged the results of {} parts from {}", plan.count, dir.display());
+        return print_tables(&tables, args.json);
+    }
+    let files = if args.corpus.is_none() && args.meshes.is_empty() {
+        vec![PathBuf::from(DEFAULT_MESH)]
     } else {
-        parts(&args.meshes, args.corpus.as_deref())?
+        mesh_files(&args.meshes, args.corpus.as_deref())?
     };
+    let names: Vec<String> = files.iter().map(|p| stem(p)).collect();
+    let mut seen = std::collections::BTreeSet::new();
+    if args.results.is_some()
+        && let Some(twice) = names.iter().find(|n| !seen.insert(n.as_str()))
+    {
+        bail!("two parts are named {twice:?}: their result files would be one");
+    }
     let policies: Vec<String> = args.policies.split(',').map(|s| s.trim().to_owned()).collect();
     let mut which = TableSet { policies: false, orientation: false, strategies: false };
     for t in args.tables.split(',').map(str::trim) {
@@ -130,10 +172,33 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         ..MillOptions::default()
     };
     let eval = EvalOptions { tables: which, finetune_episodes: args.finetune, seed_groups };
-    let tables = evaluate(&parts, &policies, &eval, &opts, &mut |part, policy| {
-        eprintln!("s2g eval: {part} with {policy}")
-    })?;
-    if args.json {
+    let plan = EvalPlan::new(&names, &policies, &eval, &opts);
+    let shard = args.shard.unwrap_or(Shard::ALL);
+    if let Some(dir) = &args.results {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let mut results = Vec::new();
+    for (index, path) in files.iter().enumerate().filter(|(i, _)| shard.takes(*i)) {
+        let mesh = load(path)?;
+        let result = evaluate_part(&names[index], &mesh, &policies, &eval, &opts, &mut |part, policy| {
+            eprintln!("s2g eval: {part} with {policy}")
+        })
+        .with_context(|| format!("evaluating {}", path.display()))?;
+        if let Some(dir) = &args.results {
+            let written = write_part_result(dir, &result, index, &plan)?;
+            eprintln!("s2g eval: wrote {}", written.display());
+        }
+        results.push(result);
+    }
+    if args.shard.is_some() {
+        eprintln!("s2g eval: shard {shard}: {} of {} parts evaluated", results.len(), names.len());
+        return Ok(ExitCode::SUCCESS);
+    }
+    print_tables(&tables_from_parts(&results, &policies, &eval)?, args.json)
+}
+
+fn print_tables(tables: &Tables, json: bool) -> anyhow::Result<ExitCode> {
+    if json {
         println!("{}", serde_json::to_string_pretty(&tables.to_json())?);
     } else {
         print!("{}", tables.to_markdown());
