@@ -43,12 +43,12 @@ pub use crate::learn::{
     TrainOptions, observation, train_policy,
 };
 pub use crate::pipeline::{
-    Datum, MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
-    StageSeconds, Stock, default_tool_library, mill,
+    Datum, MillError, MillOptions, MillRun, Milled, Preset, ProgramLayout, SetupCount, SetupFinish,
+    SetupProgram, Stage, StageSeconds, Stock, default_tool_library, mill,
 };
 pub use crate::policy::{
-    Action, ActionSpace, FixedPolicy, HeuristicPolicy, Policy, RandomPolicy, SetupContext, SetupFeatures,
-    StrategyKind,
+    Action, ActionSpace, FinishChoice, FinishStrategyKind, FixedPolicy, HeuristicPolicy, Policy,
+    RandomPolicy, SetupContext, SetupFeatures, StrategyKind,
 };
 pub use crate::render::{Image, render_machining};
 pub use crate::trace::PathTrace;

@@ -135,6 +135,73 @@ pub struct SetupContext<'a> {
     pub space: &'a ActionSpace,
     /// Geometric features of the setup (see [`SetupFeatures`]).
     pub features: &'a SetupFeatures,
+    /// The run's finishing choice when the setup is finished after roughing
+    /// ([`MillOptions::finish`](crate::MillOptions::finish)); `None` when it is roughed
+    /// only. A roughing that a finisher follows need not leave a fine staircase.
+    pub finishing: Option<FinishChoice>,
+}
+
+/// The finishing strategies a policy chooses among (the toolpath crate's
+/// [`FinishingStrategy`](s2g_toolpath::finish::FinishingStrategy) implementations).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FinishStrategyKind {
+    /// Parallel (raster) passes over the drop-cutter surface.
+    Parallel,
+    /// Constant-Z contours of the cutter-location surface.
+    Waterline,
+    /// Waterline on steep regions, parallel on shallow ones.
+    SteepShallow,
+}
+
+impl FinishStrategyKind {
+    /// Every kind, in order.
+    pub const ALL: [FinishStrategyKind; 3] = [Self::Parallel, Self::Waterline, Self::SteepShallow];
+
+    /// The name the CLI takes (`parallel`, `waterline`, `steep-shallow`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Parallel => "parallel",
+            Self::Waterline => "waterline",
+            Self::SteepShallow => "steep-shallow",
+        }
+    }
+
+    /// The kind named `name` (any case).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name().eq_ignore_ascii_case(name))
+    }
+
+    /// The toolpath crate's strategy of this kind, with its default options.
+    pub fn strategy(self) -> Box<dyn s2g_toolpath::finish::FinishingStrategy> {
+        use s2g_toolpath::finish::{Parallel, SteepShallow, Waterline};
+        match self {
+            Self::Parallel => Box::new(Parallel::default()),
+            Self::Waterline => Box::new(Waterline::default()),
+            Self::SteepShallow => Box::new(SteepShallow::default()),
+        }
+    }
+}
+
+/// How a setup is finished after roughing: the choices a policy may make (the learning
+/// work can choose them later; today the run's options give them).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FinishChoice {
+    /// Tool number of the finishing tool in the library; `None` (default): the pipeline's
+    /// rule (the largest ball end mill no wider than the roughing tool that reaches the
+    /// setup's depth; where none reaches, the one that reaches deepest).
+    pub tool: Option<u32>,
+    /// Scallop height allowed between passes, in part units (mm). Default 0.01.
+    pub scallop: f64,
+    /// Finishing strategy. Default [`FinishStrategyKind::Parallel`] (on the bunny it
+    /// finishes in a fraction of the time of the others, whose waterline loops retract
+    /// between levels).
+    pub strategy: FinishStrategyKind,
+}
+
+impl Default for FinishChoice {
+    fn default() -> Self {
+        Self { tool: None, scallop: 0.01, strategy: FinishStrategyKind::Parallel }
+    }
 }
 
 /// Cheap geometric facts about one setup's manufacturable shape, for the heuristic
@@ -186,6 +253,13 @@ pub trait Policy {
 
     /// A short name for reports (`fixed`, `random`, `heuristic`, ...).
     fn name(&self) -> String;
+
+    /// The finishing choice for the setup described by `ctx`, given the run's
+    /// `default` (provided: `default` unchanged).
+    fn finish(&mut self, ctx: &SetupContext<'_>, default: FinishChoice) -> FinishChoice {
+        let _ = ctx;
+        default
+    }
 }
 
 /// Always the same action.
@@ -258,11 +332,13 @@ impl Policy for HeuristicPolicy {
             .rev()
             .find(|&i| reach.get(i).is_some_and(|&r| r >= self.reach_ratio * best))
             .unwrap_or(0);
+        // A finisher follows: the roughing's staircase is its to remove, so the roughing
+        // takes the deepest layers of the space; else the finest the grid can see.
         let layer_height = space
             .layer_heights
             .iter()
             .copied()
-            .find(|&h| h >= ctx.features.voxel * (1.0 - 1e-9))
+            .find(|&h| ctx.finishing.is_none() && h >= ctx.features.voxel * (1.0 - 1e-9))
             .or_else(|| space.layer_heights.last().copied())
             .unwrap_or(ctx.features.voxel);
         Action {
@@ -318,7 +394,7 @@ mod tests {
             voxel: 1.0 / 256.0,
             ..Default::default()
         };
-        let ctx = SetupContext { index: 0, setups: 1, space: &space, features: &features };
+        let ctx = SetupContext { index: 0, setups: 1, space: &space, features: &features, finishing: None };
         let a = HeuristicPolicy::default().choose(&ctx);
         assert_eq!(a.tool_radius, 0.0025, "0.95 / 0.99 is below the 0.985 ratio");
         assert_eq!(a.layer_height, 1.0 / 256.0);
@@ -327,7 +403,7 @@ mod tests {
         let radius = |reach_at_resolution: Vec<f64>| {
             let f = SetupFeatures { reach_at_resolution, ..features.clone() };
             HeuristicPolicy::default()
-                .choose(&SetupContext { index: 0, setups: 1, space: &space, features: &f })
+                .choose(&SetupContext { index: 0, setups: 1, space: &space, features: &f, finishing: None })
                 .tool_radius
         };
         assert_eq!(radius(vec![0.995, 0.995, 0.99, 0.985]), 0.01, "0.985 / 0.995 keeps the ratio");
@@ -338,7 +414,7 @@ mod tests {
     fn random_policy_is_reproducible() {
         let space = ActionSpace::paper();
         let f = SetupFeatures::default();
-        let ctx = SetupContext { index: 0, setups: 1, space: &space, features: &f };
+        let ctx = SetupContext { index: 0, setups: 1, space: &space, features: &f, finishing: None };
         let mut a = RandomPolicy::new(7);
         let mut b = RandomPolicy::new(7);
         for _ in 0..20 {

@@ -56,6 +56,9 @@ impl Milled {
                     });
                     setup["machine_time_s"] = json!(s.machine_time_s.map(|t| round(t, 3)));
                 }
+                if let Some(f) = &s.finish {
+                    self.finish_json(&mut setup, s, f);
+                }
                 setup
             })
             .collect();
@@ -108,12 +111,55 @@ impl Milled {
                 "simulation": round(t.simulation, 4),
                 "scoring": round(t.scoring, 4),
             });
+            if self.setups.iter().any(|s| s.finish.is_some()) {
+                report["stage_seconds"]["surface_deviation"] = json!(round(t.surface, 4));
+            }
         }
         report
     }
 }
 
 impl Milled {
+    /// A finished setup's fields: its roughing and finishing times, tools, scallop,
+    /// finishing strategy and passes, and the finished surface's deviation.
+    fn finish_json(
+        &self,
+        setup: &mut Value,
+        s: &crate::pipeline::SetupProgram,
+        f: &crate::pipeline::SetupFinish,
+    ) {
+        let d = &f.deviation;
+        setup["roughing_time_s"] = json!(round(f.roughing_time_s, 3));
+        setup["finishing_time_s"] = json!(round(f.finishing_time_s, 3));
+        setup["tools"] = json!([s.tool.number, f.tool.number]);
+        setup["scallop_mm"] = json!(round(f.choice.scallop, 6));
+        setup["finish"] = json!({
+            "strategy": f.choice.strategy.name(),
+            "tool": {
+                "number": f.tool.number,
+                "shape": match f.tool.cutter.shape {
+                    crate::geom::CutterShape::Ball(_) => "ball",
+                    crate::geom::CutterShape::BullNose(_) => "bull",
+                    crate::geom::CutterShape::Flat(_) => "flat",
+                },
+                "diameter": round(f.tool.diameter(), 6),
+                "spindle_rpm": round(f.tool.spindle_rpm, 3),
+                "feed": round(f.tool.feed, 3),
+            },
+            "passes": f.summary.passes,
+            "links": f.summary.links,
+            "retracts": f.summary.retracts,
+            "cutting_length": round(f.summary.cutting_length, 6),
+        });
+        setup["surface_deviation"] = json!({
+            "max_mm": round(d.max, 6),
+            "mean_mm": round(d.mean, 6),
+            "gouge_depth_mm": round(d.gouge_depth, 6),
+            "columns": d.columns,
+            "gouged": f.gouged(),
+        });
+    }
+
     /// The stock, the datum and the stock-removal term in `report`, where the run names a
     /// stock or a datum or the term changed the setups (the paper's runs report none).
     fn stock_json(&self, report: &mut Value) {

@@ -4,6 +4,7 @@ mod e2e {
     pub mod common;
     mod fdm;
     mod feature;
+    mod finish;
     #[cfg(feature = "learn")]
     mod learn;
     mod mill;

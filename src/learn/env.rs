@@ -18,7 +18,13 @@ impl View {
     }
 
     fn state(&self, encoder: &SetupEncoder, space: &ActionSpace) -> Vec<f32> {
-        let ctx = SetupContext { index: self.index, setups: self.setups, space, features: &self.features };
+        let ctx = SetupContext {
+            index: self.index,
+            setups: self.setups,
+            space,
+            features: &self.features,
+            finishing: None,
+        };
         observation(encoder, &ctx)
     }
 }

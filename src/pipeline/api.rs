@@ -3,11 +3,12 @@
 use crate::gcode::{Dialect, MachineProfile, RotaryAxes};
 use crate::geom::{Aabb, Mesh, Setup, ShapeMetrics, Vector3};
 use crate::orient::OrientationResult;
-use crate::policy::{Action, ActionSpace, StrategyKind};
+use crate::policy::{Action, ActionSpace, FinishChoice, StrategyKind};
+use crate::toolpath::finish::FinishSummary;
 use crate::toolpath::library::ToolLibrary;
 use crate::toolpath::{PlanSummary, Tool};
 use crate::trace::PathTrace;
-use crate::voxsim::{Carver, RewardWeights, Rewards, SimReport};
+use crate::voxsim::{Carver, RewardWeights, Rewards, SimReport, SurfaceDeviation};
 
 /// Units and action space of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -192,6 +193,22 @@ pub struct MillOptions {
     /// programs (with acceleration). `None`: the library's `[machine]`, else
     /// [`MachineProfile::default`]. Default `None`.
     pub machine: Option<MachineProfile>,
+    /// Finish each setup after its roughing, in the same program (a tool change to a ball
+    /// or bull-nose end mill, its passes over the part's drop-cutter surface), with this
+    /// choice as the default the policy may change ([`Policy::finish`](crate::Policy::finish)).
+    /// Per-setup layout and a dialect with a tool changer only. `None` (default, the
+    /// paper's programs): rough only.
+    pub finish: Option<FinishChoice>,
+    /// Stock the roughing leaves for the finisher, `[radial, axial]`, where
+    /// [`finish`](Self::finish) is on ([`PlanOptions::finishing_allowance`] and
+    /// [`PlanOptions::axial_allowance`](crate::toolpath::PlanOptions::axial_allowance));
+    /// without finishing the roughing leaves none. Default `[0.3, 0.3]` (mm).
+    ///
+    /// [`PlanOptions::finishing_allowance`]: crate::toolpath::PlanOptions::finishing_allowance
+    pub finish_allowance: [f64; 2],
+    /// Column spacing of the height field on which each finished setup's surface
+    /// deviation is measured ([`SetupFinish::deviation`]), in part units. Default 0.1.
+    pub surface_spacing: f64,
 }
 
 impl MillOptions {
@@ -251,6 +268,9 @@ impl Default for MillOptions {
             tools: None,
             material: "aluminium-6061".into(),
             machine: None,
+            finish: None,
+            finish_allowance: [0.3, 0.3],
+            surface_spacing: 0.1,
         }
     }
 }
@@ -447,6 +467,9 @@ pub struct StageSeconds {
     pub simulation: f64,
     /// Marching cubes and metrics.
     pub scoring: f64,
+    /// The finished surfaces' deviation from the part (height fields against the mesh),
+    /// where the run finishes.
+    pub surface: f64,
 }
 
 /// One setup's program and what went into it.
@@ -487,6 +510,42 @@ pub struct SetupProgram {
     /// The paper's preservation `R_s` (Eq. 10) after this setup: the fraction of the part's
     /// voxels still there.
     pub preservation: f64,
+    /// The finishing after the roughing, where the run finishes ([`MillOptions::finish`]).
+    pub finish: Option<SetupFinish>,
+}
+
+/// A setup's finishing: what it was done with, its time, and the surface it left.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SetupFinish {
+    /// The choice it was made with (the policy's).
+    pub choice: FinishChoice,
+    /// The finishing tool.
+    pub tool: Tool,
+    /// The finisher's summary (passes, links, retracts, lengths, its own time estimate).
+    pub summary: FinishSummary,
+    /// Seconds of the setup's program before the finishing tool change (the roughing) and
+    /// from it on (the finishing): on the run's machine where it has one
+    /// ([`SetupProgram::machine_time_s`] is their sum), else the planners' length / feed
+    /// estimates.
+    pub roughing_time_s: f64,
+    /// See [`roughing_time_s`](Self::roughing_time_s).
+    pub finishing_time_s: f64,
+    /// Deviation of the surface the finishing moves cut, as a height field of columns
+    /// [`MillOptions::surface_spacing`] apart in the setup's frame, from the part: max and
+    /// mean over the columns the finisher reached, gouge depth over all.
+    pub deviation: SurfaceDeviation,
+}
+
+impl SetupFinish {
+    /// Cuts into the part deeper than this (mm) by the finishing height field count as
+    /// a gouge ([`Milled::is_safe`]): the finisher's links are checked by the drop-cutter
+    /// at samples 0.05 mm apart, so a chord between two may dip by a few micrometres.
+    pub const GOUGE_TOLERANCE: f64 = 0.005;
+
+    /// Whether the finishing gouged the part (beyond [`GOUGE_TOLERANCE`](Self::GOUGE_TOLERANCE)).
+    pub fn gouged(&self) -> bool {
+        self.deviation.gouge_depth > Self::GOUGE_TOLERANCE
+    }
 }
 
 /// The outcome of [`mill`].
@@ -544,6 +603,8 @@ impl Milled {
 
     /// Whether the programs are safe: no gouge into the part and no rapid through material.
     pub fn is_safe(&self) -> bool {
-        self.simulation.gouge_voxels == 0 && self.rapid_collisions() == 0
+        self.simulation.gouge_voxels == 0
+            && self.rapid_collisions() == 0
+            && !self.setups.iter().any(|s| s.finish.as_ref().is_some_and(SetupFinish::gouged))
     }
 }

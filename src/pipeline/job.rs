@@ -2,9 +2,11 @@
 //! options, and the features the policy sees.
 
 use super::api::{MillError, MillOptions};
+use crate::gcode::Coolant;
 use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
-use crate::policy::{Action, ActionSpace, SetupFeatures};
+use crate::policy::{Action, ActionSpace, FinishChoice, SetupFeatures};
+use crate::toolpath::finish::FinishOptions;
 use crate::toolpath::library::Cutting;
 use crate::toolpath::{PlanOptions, Tool, strategies};
 
@@ -17,6 +19,41 @@ pub(super) struct Job {
     pub(super) popts: PlanOptions,
     /// A comment written at the top of the setup's program (the datum), if any.
     pub(super) note: Option<String>,
+    /// The finishing after the roughing, if the run finishes.
+    pub(super) finish: Option<FinishJob>,
+}
+
+/// What a setup is finished with.
+#[derive(Clone)]
+pub(super) struct FinishJob {
+    pub(super) choice: FinishChoice,
+    pub(super) tool: Tool,
+}
+
+impl Job {
+    /// The finisher's options over a part whose tip heights in the setup frame span
+    /// `[lo, hi]`: the choice's scallop; the roughing's clearance plane; down to the
+    /// lowest point the finishing tool reaches below the stock's top; rapids down to
+    /// above a pass by more than the roughing can have left there (the tool radius, a
+    /// layer, both allowances and 0.5 more).
+    pub(super) fn finish_options(&self, f: &FinishJob, [lo, hi]: [f64; 2]) -> FinishOptions {
+        let top = self.popts.stock.map_or(hi, |s| s.max.z);
+        let reach = f.tool.envelope().length;
+        let floor = if reach.is_finite() { lo.max(top - reach) } else { lo };
+        FinishOptions {
+            scallop: f.choice.scallop,
+            floor: Some(floor),
+            clearance: (top - hi).max(0.0) + self.popts.clearance_height.max(1e-3),
+            approach: f.tool.radius()
+                + self.popts.layer_height
+                + self.popts.finishing_allowance
+                + self.popts.axial_allowance
+                + 0.5,
+            rapid_feed: self.popts.rapid_feed,
+            coolant: f.tool.coolant != Coolant::Off,
+            ..FinishOptions::default()
+        }
+    }
 }
 
 impl Job {
@@ -40,7 +77,10 @@ impl Job {
             // A fitted arc may pass up to its tolerance from the planned points, on either
             // side: the walls keep that much more, so no arc comes nearer the part than
             // planned.
-            finishing_allowance: opts.arc_tolerance.unwrap_or(0.0),
+            // With finishing the roughing also leaves the finisher's stock.
+            finishing_allowance: opts.arc_tolerance.unwrap_or(0.0)
+                + opts.finish.map_or(0.0, |_| opts.finish_allowance[0]),
+            axial_allowance: opts.finish.map_or(0.0, |_| opts.finish_allowance[1]),
             // A library tool roughs as deep as its axial limit in the material allows.
             roughing_depth: match cutting {
                 Some(c) => Some(c.max_axial_depth),
@@ -59,7 +99,7 @@ impl Job {
             }
             None => popts,
         };
-        Ok(Self { setup: *setup, action: *action, tool, popts, note: None })
+        Ok(Self { setup: *setup, action: *action, tool, popts, note: None, finish: None })
     }
 
     /// An upper estimate of the setup's toolpath length and machining time (hours): every

@@ -33,8 +33,8 @@ mod stock;
 mod tooling;
 
 pub use self::api::{
-    Datum, MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
-    StageSeconds, Stock,
+    Datum, MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupFinish, SetupProgram,
+    Stage, StageSeconds, Stock,
 };
 pub use self::run::MillRun;
 pub use self::tooling::default_tool_library;

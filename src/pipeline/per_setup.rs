@@ -5,17 +5,20 @@ use std::cell::RefCell;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::api::{MillError, SetupProgram, Stage, StageSeconds};
+use super::api::{MillError, SetupFinish, SetupProgram, Stage, StageSeconds};
 use super::job::Job;
 use super::pipe::chunk_channel;
 use crate::gcode::{
     Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, Tee, ToolChange,
     WriterOptions, parse_reader,
 };
-use crate::geom::{Mesh, Point3, Setup, VoxelGrid};
-use crate::toolpath::{PlanProgress, VoxelMaterial, plan_setup_watched};
+use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
+use crate::toolpath::finish::{FinishOptions, FinishSummary, finish_setup_opt, part_in_setup_frame};
+use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
-use crate::voxsim::Simulator;
+use crate::voxsim::{
+    DeviationOptions, HeightField, HeightFieldOptions, Simulator, ToolTable, surface_deviation_opt,
+};
 
 /// What both layouts share.
 pub(super) struct Ctx<'a> {
@@ -36,6 +39,8 @@ pub(super) struct Ctx<'a> {
     pub(super) deadline: Option<(Instant, f64)>,
     /// The machine that times each program, where the run has one (a library's).
     pub(super) machine: Option<&'a MachineProfile>,
+    /// Column spacing of the finished surface's height field.
+    pub(super) surface_spacing: f64,
 }
 
 /// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
@@ -80,6 +85,7 @@ pub(super) fn machine_setup(
     };
     let mut tee = simulating(ctx.sim, trace);
     tee.first.clock = ctx.machine.map(|m| MachineTime::new(m.clone()));
+    let finishing = prepare_finishing(ctx, job, &mut tee.first)?;
     // A 3-axis program per setup: the fixture rotation is in its header comment,
     // so the simulator is told the frame here.
     tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
@@ -105,7 +111,7 @@ pub(super) fn machine_setup(
         let (mut out, mut reader) = chunk_channel(keep);
         out.copy = copy;
         reader.deadline = ctx.deadline.map(|(at, _)| at);
-        let watch = &watch;
+        let (watch, finishing) = (&watch, &finishing);
         let planner = scope.spawn(move || {
             let t = Instant::now();
             let rest = VoxelMaterial::new(remaining, job.setup);
@@ -119,12 +125,14 @@ pub(super) fn machine_setup(
                 plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
                     .map_err(|source| MillError::Plan { setup: i + 1, source });
             plan.and_then(|plan| {
+                // The finishing follows the roughing in the same program.
+                let finished = emit_finishing(job, finishing.as_ref(), &mut writer, i)?;
                 writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
                 let (text, blocked) = writer
                     .into_inner()
                     .finish()
                     .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
-                Ok((plan, text, t.elapsed().saturating_sub(blocked)))
+                Ok(((plan, finished), text, t.elapsed().saturating_sub(blocked)))
             })
         });
         let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
@@ -141,6 +149,7 @@ pub(super) fn machine_setup(
         (planned, parsed, waited)
     });
     let mut clock = tee.first.clock.take();
+    let (surface, split_s) = (tee.first.surface.take(), tee.first.split_s);
     if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
         && Instant::now() >= at
     {
@@ -149,7 +158,7 @@ pub(super) fn machine_setup(
             limit_s,
         });
     }
-    let (plan, text, planning) = match planned {
+    let ((plan, finished), text, planning) = match planned {
         Ok(done) => done,
         // A parser that stopped hung up on the planner: its error is the cause.
         Err(e) => {
@@ -182,6 +191,7 @@ pub(super) fn machine_setup(
         let Ok(()) = c.finish();
         c.seconds()
     });
+    let finish = finish_result(job, (finished, surface, finishing), split_s, machine_time_s, &plan, times);
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
@@ -194,8 +204,99 @@ pub(super) fn machine_setup(
         gouge_voxels,
         rapid_collision_lines,
         preservation: 1.0,
+        finish,
     };
     Ok((program, remaining))
+}
+
+/// The part in the program's frame, for the finisher's drop-cutter and the finished
+/// surface's height field (which the watcher feeds the finishing moves, after the
+/// finishing tool change), and the finisher's options; `None` for a setup roughed only.
+fn prepare_finishing(
+    ctx: &Ctx<'_>,
+    job: &Job,
+    watcher: &mut Watcher<'_>,
+) -> Result<Option<(FinishOptions, MeshIndex)>, MillError> {
+    Ok(match &job.finish {
+        Some(f) => {
+            let mesh = part_in_setup_frame(ctx.part, &job.setup);
+            let b = mesh.bbox().ok_or(crate::geom::GeomError::EmptyMesh)?;
+            let index = MeshIndex::new(&mesh)?;
+            let (lo, hi) = (b.min, b.max);
+            let m = f.tool.radius() + ctx.surface_spacing;
+            let tools = ToolTable::single(f.tool.cutter).with(f.tool.number, f.tool.cutter);
+            let hopts = HeightFieldOptions { spacing: ctx.surface_spacing, ..HeightFieldOptions::default() };
+            watcher.surface = Some(
+                HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
+                    .map_err(sim_error)?,
+            );
+            Some((job.finish_options(f, [lo.z, hi.z]), index))
+        }
+        None => None,
+    })
+}
+
+/// The finishing of setup `i` (0-based) into `writer`, after its roughing.
+fn emit_finishing<W: std::io::Write>(
+    job: &Job,
+    finishing: Option<&(FinishOptions, MeshIndex)>,
+    writer: &mut GcodeWriter<W>,
+    i: usize,
+) -> Result<Option<FinishSummary>, MillError> {
+    let (Some(f), Some((fopts, index))) = (&job.finish, finishing) else {
+        return Ok(None);
+    };
+    let strategy = f.choice.strategy.strategy();
+    finish_setup_opt(index, &job.setup, &f.tool, &*strategy, fopts, writer)
+        .map(Some)
+        .map_err(|source| MillError::Plan { setup: i + 1, source })
+}
+
+/// A finished setup's report: its times split at the finishing tool change (the machine's,
+/// else the planners' estimates) and the deviation of the surface its finishing cut.
+fn finish_result(
+    job: &Job,
+    (finished, surface, finishing): (
+        Option<FinishSummary>,
+        Option<HeightField>,
+        Option<(FinishOptions, MeshIndex)>,
+    ),
+    split_s: Option<f64>,
+    machine_time_s: Option<f64>,
+    plan: &PlanSummary,
+    times: &mut StageSeconds,
+) -> Option<SetupFinish> {
+    match (&job.finish, finished, surface, finishing) {
+        (Some(f), Some(summary), Some(field), Some((fopts, index))) => {
+            let t = Instant::now();
+            // Over the surface the finishing tool can touch (a concave corner tighter than
+            // it is not a region it reaches) and not below the finisher's floor (what its
+            // tool reaches).
+            let dopts = DeviationOptions {
+                ball_radius: Some(f.tool.radius()),
+                floor: fopts.floor,
+                ..DeviationOptions::default()
+            };
+            let deviation = surface_deviation_opt(&field, &index, &dopts);
+            times.surface += t.elapsed().as_secs_f64();
+            let (roughing_time_s, finishing_time_s) = match machine_time_s {
+                Some(total) => {
+                    let split = split_s.unwrap_or(total);
+                    (split, total - split)
+                }
+                None => (plan.estimated_time_s, summary.time_s),
+            };
+            Some(SetupFinish {
+                choice: f.choice,
+                tool: f.tool,
+                summary,
+                roughing_time_s,
+                finishing_time_s,
+                deviation,
+            })
+        }
+        _ => None,
+    }
 }
 
 /// The run's simulator as a sink (in a `RefCell`: the run reads its report between setups).
@@ -224,7 +325,17 @@ pub(super) fn simulating<'a>(
     trace: Option<&'a mut PathTrace>,
 ) -> Simulating<'a> {
     Tee::new(
-        Watcher { trace, frame: Setup::top(), setups: 0, last: None, watch: None, clock: None },
+        Watcher {
+            trace,
+            frame: Setup::top(),
+            setups: 0,
+            last: None,
+            watch: None,
+            clock: None,
+            tool_changes: 0,
+            split_s: None,
+            surface: None,
+        },
         SimSink(sim),
     )
 }
@@ -242,6 +353,12 @@ pub(super) struct Watcher<'a> {
     pub(super) watch: Option<Watch<'a>>,
     /// Times the program on a machine, where the run has one.
     pub(super) clock: Option<MachineTime>,
+    /// Tool changes seen: the second is the finishing tool's.
+    pub(super) tool_changes: usize,
+    /// The clock's seconds at the finishing tool change (0 without a clock).
+    pub(super) split_s: Option<f64>,
+    /// The height field the finishing moves cut, where the setup is finished.
+    pub(super) surface: Option<HeightField>,
 }
 
 /// What a [`Watcher`] reports progress with.
@@ -273,6 +390,9 @@ impl<'a> Watcher<'a> {
             last: self.last,
             watch: Some(Watch { progress, planner, setup, setups, moves: 0 }),
             clock: self.clock,
+            tool_changes: self.tool_changes,
+            split_s: self.split_s,
+            surface: self.surface,
         }
     }
 }
@@ -291,6 +411,18 @@ impl MotionSink for Watcher<'_> {
                 trace.push(from, to, !matches!(m, Motion::Rapid { .. }), [was.z, at.z], 1e-9);
             }
             self.last = Some((to, at));
+        }
+        if let Motion::ToolChange { .. } = m {
+            self.tool_changes += 1;
+            if self.tool_changes == 2 {
+                self.split_s = Some(self.clock.as_ref().map_or(0.0, MachineTime::seconds));
+            }
+        }
+        if self.tool_changes >= 2
+            && let Some(field) = &mut self.surface
+            && !matches!(m, Motion::Setup { .. })
+        {
+            field.motion(m)?;
         }
         if let Some(clock) = &mut self.clock {
             let Ok(()) = clock.motion(m);

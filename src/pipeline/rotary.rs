@@ -269,6 +269,7 @@ pub(super) fn mill_rotary(
                 .filter(|l| lines.contains(l))
                 .collect(),
             preservation: 1.0,
+            finish: None,
         });
     }
     times.gcode_translation += source.plan_seconds;

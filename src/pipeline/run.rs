@@ -8,7 +8,7 @@ use super::api::{
     MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
     Stock,
 };
-use super::job::{Job, feeds, setup_features, stock_in_setup};
+use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
@@ -20,7 +20,7 @@ use crate::geom::{
     voxelize,
 };
 use crate::orient::{OrientOptions, OrientationResult, select_orientations, select_orientations_in_stock};
-use crate::policy::{Action, ActionSpace, Policy, SetupContext, SetupFeatures};
+use crate::policy::{Action, ActionSpace, FinishChoice, Policy, SetupContext, SetupFeatures};
 use crate::toolpath::Tool;
 use crate::toolpath::library::Cutting;
 use crate::trace::PathTrace;
@@ -252,6 +252,7 @@ impl MillRun {
             outputs: self.outputs.as_ref(),
             deadline: self.deadline,
             machine: self.tooling.machine(),
+            surface_spacing: self.opts.surface_spacing,
         }
     }
 
@@ -350,7 +351,13 @@ impl MillRun {
 
     /// The policy's view of the next setup, given its `features`.
     pub fn context<'a>(&'a self, features: &'a SetupFeatures) -> SetupContext<'a> {
-        SetupContext { index: self.jobs.len(), setups: self.setup_count(), space: &self.space, features }
+        SetupContext {
+            index: self.jobs.len(),
+            setups: self.setup_count(),
+            space: &self.space,
+            features,
+            finishing: self.opts.finish,
+        }
     }
 
     /// The paper's rewards (Eq. 10-12 and the one-step total of Eq. 13, default weights)
@@ -399,6 +406,19 @@ impl MillRun {
     /// action for [`finish`](Self::finish) (rotary layout). Errors when every setup already
     /// has its action.
     pub fn machine(&mut self, action: Action, progress: &mut dyn FnMut(Stage)) -> Result<(), MillError> {
+        self.machine_finished(action, self.opts.finish, progress)
+    }
+
+    /// [`machine`](Self::machine), finishing the setup after its roughing with `finish`
+    /// (a policy's choice) where the run finishes ([`MillOptions::finish`]; ignored where
+    /// it does not).
+    pub fn machine_finished(
+        &mut self,
+        action: Action,
+        finish: Option<FinishChoice>,
+        progress: &mut dyn FnMut(Stage),
+    ) -> Result<(), MillError> {
+        let finish = finish.filter(|_| self.opts.finish.is_some());
         let Some(i) = self.next_setup() else {
             return Err(MillError::InvalidOption(format!("all {} setups are machined", self.setup_count())));
         };
@@ -418,6 +438,14 @@ impl MillRun {
         };
         let mut job = Job::new(&setup, &action, tool, &self.stock, self.rapid, self.clearance, o)?;
         job.note = note;
+        if let Some(choice) = finish {
+            check_finish_choice(&choice)?;
+            let tool = self.tooling.finishing_tool(&job.tool, depth, choice.tool)?;
+            if let Tooling::Planned { .. } = self.tooling {
+                self.sim.get_mut().add_tool(tool.number, tool.cutter).map_err(sim_error)?;
+            }
+            job.finish = Some(FinishJob { choice, tool });
+        }
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
             return Err(MillError::ActionTooLarge {
@@ -459,9 +487,11 @@ impl MillRun {
         while self.next_setup().is_some() {
             let t = Instant::now();
             let features = self.features();
-            let action = policy.choose(&self.context(&features));
+            let ctx = self.context(&features);
+            let action = policy.choose(&ctx);
+            let finish = self.opts.finish.map(|d| policy.finish(&ctx, d));
             self.times.action_selection += t.elapsed().as_secs_f64();
-            self.machine(action, progress)?;
+            self.machine_finished(action, finish, progress)?;
         }
         self.finish(&policy.name(), progress)
     }
@@ -635,6 +665,44 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
         && !(t.is_finite() && t > 0.0)
     {
         return Err(MillError::InvalidOption(format!("arc tolerance must be finite and > 0, got {t}")));
+    }
+    if let Some(f) = &opts.finish {
+        check_finish_options(opts, f)?;
+    }
+    Ok(())
+}
+
+/// Finishing runs per setup after a tool change, so it needs the per-setup layout and a
+/// tool changer; its allowance, spacing and choice must make sense.
+fn check_finish_options(opts: &MillOptions, f: &FinishChoice) -> Result<(), MillError> {
+    let bad = |m: String| Err(MillError::InvalidOption(m));
+    if opts.layout != ProgramLayout::PerSetup {
+        return bad("finishing is for per-setup programs (the rotary layout roughs only)".into());
+    }
+    if opts.dialect.spec().tool_change == crate::gcode::ToolChange::Pause {
+        return bad(format!(
+            "finishing changes tools in the program: the {} dialect has no tool changer",
+            opts.dialect
+        ));
+    }
+    if !opts.finish_allowance.iter().all(|a| a.is_finite() && *a >= 0.0) {
+        return bad(format!(
+            "the finishing allowance must be finite and >= 0, got {:?}",
+            opts.finish_allowance
+        ));
+    }
+    if !(opts.surface_spacing.is_finite() && opts.surface_spacing > 0.0) {
+        return bad(format!("the surface spacing must be finite and > 0, got {}", opts.surface_spacing));
+    }
+    check_finish_choice(f)
+}
+
+fn check_finish_choice(f: &FinishChoice) -> Result<(), MillError> {
+    if !(f.scallop.is_finite() && f.scallop > 0.0) {
+        return Err(MillError::InvalidOption(format!(
+            "the scallop height must be finite and > 0, got {}",
+            f.scallop
+        )));
     }
     Ok(())
 }

@@ -155,6 +155,58 @@ impl Tooling {
     }
 }
 
+impl Tooling {
+    /// The finishing tool of a setup roughed with `rough` whose stock is `depth` deep along
+    /// its axis. With `number`, that library tool (a ball or bull-nose end mill). Else the
+    /// rule: the largest ball end mill of the library no wider than the roughing tool that
+    /// reaches `depth` below the stock's top ([`Tool::envelope`]); where none reaches, the
+    /// ball end mill that reaches deepest (the larger of equals), whose finishing stops at
+    /// its reach. The paper preset finishes with a planned ball end mill of the roughing
+    /// tool's radius, numbered 100 above it.
+    pub(super) fn finishing_tool(
+        &self,
+        rough: &Tool,
+        depth: f64,
+        number: Option<u32>,
+    ) -> Result<Tool, MillError> {
+        let shop = match self {
+            Self::Planned { diag, feed } => {
+                let mut t = planned_tool(rough.radius(), rough.number + 100, *diag, *feed);
+                t.cutter = Cutter::ball(rough.radius(), *diag);
+                return Ok(t);
+            }
+            Self::Library(shop) => shop,
+        };
+        let rounded = |t: &&LibraryTool| !matches!(t.cutter.shape, CutterShape::Flat(_));
+        let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
+        let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
+        let chosen = match number {
+            Some(n) => shop.all.iter().filter(rounded).find(|t| t.number == n).ok_or_else(|| {
+                MillError::InvalidOption(format!(
+                    "the tool library has no ball or bull-nose end mill T{n} to finish with"
+                ))
+            })?,
+            None => {
+                let mut balls: Vec<&LibraryTool> =
+                    shop.all.iter().filter(|t| matches!(t.cutter.shape, CutterShape::Ball(_))).collect();
+                balls.sort_by(|a, b| {
+                    b.cutter.radius.total_cmp(&a.cutter.radius).then(a.number.cmp(&b.number))
+                });
+                let fits = balls.iter().find(|t| t.cutter.radius <= rough.radius() && reach(t) >= depth);
+                let deepest = || {
+                    balls.iter().copied().max_by(|a, b| {
+                        reach(a).total_cmp(&reach(b)).then(a.cutter.radius.total_cmp(&b.cutter.radius))
+                    })
+                };
+                fits.copied().or_else(deepest).ok_or_else(|| {
+                    MillError::InvalidOption("the tool library has no ball end mill to finish with".into())
+                })?
+            }
+        };
+        chosen.tool(&shop.material, &shop.machine).map_err(bad)
+    }
+}
+
 /// The flat end mills of `lib`, by ascending radius (the first of a radius kept).
 pub(super) fn flat_end_mills(lib: &ToolLibrary) -> Vec<LibraryTool> {
     let mut flats: Vec<LibraryTool> =

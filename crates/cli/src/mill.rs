@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::gcode::{Dialect, RotaryAxes};
 use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
 use shape2gcode::{
-    Datum, LearnedPolicy, MillOptions, MillRun, Milled, Policy, Preset, ProgramLayout, SetupCount, Stage,
-    Stock, TrainOptions, policy_by_name, render_machining,
+    Datum, FinishChoice, FinishStrategyKind, LearnedPolicy, MillOptions, MillRun, Milled, Policy, Preset,
+    ProgramLayout, SetupCount, Stage, Stock, TrainOptions, policy_by_name, render_machining,
 };
 
 /// The bundled sample mesh.
@@ -150,6 +150,59 @@ pub struct Args {
     /// run in `rs274 -t FILE` and on a machine with the same tool numbers
     #[arg(long, value_name = "FILE")]
     tool_table: Option<PathBuf>,
+    /// Finish each setup after roughing (default in the shop preset with the per-setup
+    /// layout and a tool changer): the roughing leaves --allowance, then a ball end mill
+    /// of the library (the largest no wider than the roughing tool that reaches the
+    /// setup; the paper preset: a ball of the roughing radius) follows the part's surface
+    #[arg(long, conflicts_with = "no_finish")]
+    finish: bool,
+    /// Rough only (the default of the paper preset)
+    #[arg(long)]
+    no_finish: bool,
+    /// Scallop height allowed between finishing passes, mm
+    #[arg(long, value_name = "MM", default_value_t = 0.01)]
+    scallop: f64,
+    /// Finishing strategy: parallel, waterline or steep-shallow
+    #[arg(long, value_name = "STRATEGY", default_value = "parallel")]
+    finish_strategy: String,
+    /// Finishing tool number in the library (a ball or bull-nose end mill). Default: the rule above
+    #[arg(long, value_name = "T")]
+    finish_tool: Option<u32>,
+    /// Stock the roughing leaves for the finisher, `RADIAL[,AXIAL]` mm
+    #[arg(long, value_name = "MM", default_value = "0.3")]
+    allowance: String,
+    /// Column spacing of the height field that measures the finished surface, mm
+    #[arg(long, value_name = "MM", default_value_t = 0.1)]
+    surface_spacing: f64,
+}
+
+/// `--finish`, `--no-finish` and the finishing options as the run's choice: on by default
+/// in the shop preset where the layout and dialect allow it.
+fn finish_choice(args: &Args, preset: Preset, layout: ProgramLayout) -> anyhow::Result<Option<FinishChoice>> {
+    let default_on = preset == Preset::Shop
+        && layout == ProgramLayout::PerSetup
+        && args.dialect.spec().tool_change != shape2gcode::gcode::ToolChange::Pause;
+    if args.no_finish || !(args.finish || default_on) {
+        return Ok(None);
+    }
+    let Some(strategy) = FinishStrategyKind::from_name(&args.finish_strategy) else {
+        bail!("unknown finishing strategy {:?} (parallel, waterline or steep-shallow)", args.finish_strategy);
+    };
+    Ok(Some(FinishChoice { tool: args.finish_tool, scallop: args.scallop, strategy }))
+}
+
+/// `--allowance RADIAL[,AXIAL]` (one value for both).
+fn parse_allowance(s: &str) -> anyhow::Result<[f64; 2]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .context("--allowance RADIAL[,AXIAL]")?;
+    match v[..] {
+        [a] => Ok([a, a]),
+        [r, a] => Ok([r, a]),
+        _ => bail!("--allowance takes RADIAL[,AXIAL], got {s:?}"),
+    }
 }
 
 /// `--stock-box` and `--stock-cylinder` as a [`Stock`].
@@ -380,6 +433,9 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         stock: parse_stock(args)?,
         datum: parse_datum(args.datum.as_deref())?,
         stock_removal: !args.visibility_only_setups,
+        finish: finish_choice(args, preset, layout)?,
+        finish_allowance: parse_allowance(&args.allowance)?,
+        surface_spacing: args.surface_spacing,
         ..MillOptions::default()
     })
 }
@@ -586,6 +642,22 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
                 tool.spindle_rpm,
                 tool.feed,
                 human_duration(t)
+            );
+        }
+        if let Some(f) = &sp.finish {
+            let d = &f.deviation;
+            println!(
+                "    finish T{} ({} mm {}) {} passes, scallop {} mm: roughing {}, finishing {}; surface max {:.4} mean {:.4} gouge {:.4} mm",
+                f.tool.number,
+                f.tool.diameter(),
+                f.choice.strategy.name(),
+                f.summary.passes,
+                f.choice.scallop,
+                human_duration(f.roughing_time_s),
+                human_duration(f.finishing_time_s),
+                d.max,
+                d.mean,
+                d.gouge_depth
             );
         }
     }

@@ -44,8 +44,13 @@ pub struct PlanOptions {
     /// always does). `false` leaves it out, for ablations; the clearing passes still stay
     /// in the free region, so the program stays safe. Default true.
     pub contour: bool,
-    /// Material left on the part's walls for a finishing pass. Default 0.
+    /// Radial stock to leave: material left on the part's walls (horizontally) for a
+    /// finishing pass. Default 0.
     pub finishing_allowance: f64,
+    /// Axial stock to leave: the tool tip stays this far above every face of the part
+    /// below it (levels snap to each horizontal face this far above it), so a finishing
+    /// pass finds an even skin on floors as on walls. Default 0.
+    pub axial_allowance: f64,
     /// Climb milling (with a clockwise spindle) rather than conventional. Default true.
     pub climb: bool,
     /// Height of the clearance plane above the stock top (Appendix A.1: 0.1 in normalised
@@ -124,6 +129,7 @@ impl Default for PlanOptions {
             strategy: Arc::new(Zigzag::default()),
             contour: true,
             finishing_allowance: 0.0,
+            axial_allowance: 0.0,
             climb: true,
             clearance_height: 0.1,
             retract_gap: None,
@@ -174,6 +180,7 @@ impl PlanOptions {
             ));
         }
         nonneg("finishing_allowance", self.finishing_allowance)?;
+        nonneg("axial_allowance", self.axial_allowance)?;
         nonneg("clearance_height", self.clearance_height)?;
         nonneg("stock_margin", self.stock_margin)?;
         pos("arc_step", self.arc_step)?;

@@ -128,8 +128,11 @@ fn slice_levels<E>(
     if envelope.length.is_finite() {
         bottom = bottom.max(top - envelope.length);
     }
+    // With an axial allowance the tool tip rests that far above each flat face.
     let flats = if opts.snap_to_flats {
-        flat_levels(&tris, opts.flat_tolerance, opts.level_tolerance)
+        let mut f = flat_levels(&tris, opts.flat_tolerance, opts.level_tolerance);
+        f.iter_mut().for_each(|z| *z += opts.axial_allowance);
+        f
     } else {
         Vec::new()
     };
@@ -137,7 +140,13 @@ fn slice_levels<E>(
     let grow = envelope.radius + opts.finishing_allowance;
     let min_hole_area = std::f64::consts::PI * grow * grow;
     let sliver_width = opts.sliver_width.unwrap_or(1e-6 * stock.extent().x.max(stock.extent().y));
-    let slabs = slab_regions(&tris, &levels, opts.level_tolerance, min_hole_area, sliver_width);
+    let slabs = slab_regions(
+        &tris,
+        &levels,
+        opts.level_tolerance - opts.axial_allowance,
+        min_hole_area,
+        sliver_width,
+    );
     Ok(Sliced { stock, part_bbox, levels, slabs, min_hole_area, sliver_width })
 }
 

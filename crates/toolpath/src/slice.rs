@@ -129,7 +129,9 @@ pub(crate) fn is_sliver(tri: &[Point3; 3], width: f64) -> bool {
 
 /// The XY projection of the part's material in each level's slab (from the level + `tol`
 /// up to the level above + `tol`, the first one unbounded above), one per level, with its
-/// holes of area below `min_hole_area` filled.
+/// holes of area below `min_hole_area` filled. A negative `tol` (the level tolerance less
+/// an axial allowance) reaches below the level: the tool tip then stays `-tol` above
+/// every face under it.
 ///
 /// Faces that project to slivers narrower than `sliver_width` ([`is_sliver`]) are left
 /// out, so the regions are exact to within that width. Such faces are the walls of a mesh

@@ -381,3 +381,90 @@ fn roughing_groups_leave_the_same_part_with_less_cutting() {
         assert_eq!(same, whole, "{name}: a roughing depth below the layer height changes the plan");
     }
 }
+
+/// The highest part face within horizontal distance `rad` of `(x, y)` on `hf`'s cells, if
+/// any cell is that near.
+fn highest_within(hf: &HeightField, x: f64, y: f64, rad: f64) -> Option<f64> {
+    let c = hf.cell;
+    let mut best: Option<f64> = None;
+    for j in 0..hf.ny {
+        for i in 0..hf.nx {
+            let dx = (i as f64 * c - x).max(x - (i + 1) as f64 * c).max(0.0);
+            let dy = (j as f64 * c - y).max(y - (j + 1) as f64 * c).max(0.0);
+            if dx.hypot(dy) <= rad {
+                let h = hf.height(i as isize, j as isize);
+                best = Some(best.map_or(h, |b: f64| b.max(h)));
+            }
+        }
+    }
+    best
+}
+
+/// Roughing with a radial and an axial allowance keeps a skin of that thickness on walls
+/// and floors (to within a voxel) and removes the material beyond it; without the
+/// allowance the same skin is cut away.
+#[test]
+fn roughing_with_allowance_keeps_the_skin_and_removes_the_rest() {
+    let hf = stepped_pocket();
+    let part = hf.mesh();
+    let b = part.bbox().expect("bbox");
+    let stock = Aabb::new(
+        Point3::new(b.min.x - 0.05, b.min.y - 0.05, 0.0),
+        Point3::new(b.max.x + 0.05, b.max.y + 0.05, 0.6),
+    );
+    let v = 1.0 / 160.0;
+    let spec = grid_over(&stock, v);
+    let target = voxelize(&part, &spec).expect("voxelize");
+    let tool = Tool::flat(0.02);
+    let (radial, axial) = (0.03, 0.03);
+    // Per run: (skin voxels kept, skin voxels, voxels beyond the skin left, voxels beyond).
+    let run = |allow: bool| {
+        let opts = PlanOptions {
+            layer_height: 0.05,
+            stock: Some(stock),
+            finishing_allowance: if allow { radial } else { 0.0 },
+            axial_allowance: if allow { axial } else { 0.0 },
+            ..Default::default()
+        };
+        let (_, report, residual) = simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
+            plan_setup(&part, &Setup::top(), &tool, &opts, sim).expect("plan")
+        });
+        assert_eq!(report.gouge_voxels, 0, "allowance {allow}: gouges");
+        assert_eq!(report.rapid_collision_voxels, 0, "allowance {allow}: rapids through material");
+        let [nx, ny, nz] = residual.dims();
+        let (mut skin_kept, mut skin, mut beyond_left, mut beyond) = (0u64, 0u64, 0u64, 0u64);
+        for j in 0..ny {
+            for i in 0..nx {
+                let c0 = spec.center(i, j, 0);
+                let keep_below = highest_within(&hf, c0.x, c0.y, radial - v).map(|h| h + axial - v);
+                let cut_above = highest_within(&hf, c0.x, c0.y, radial + v).map_or(v, |h| h + axial + v);
+                for k in 0..nz {
+                    if target.get(i, j, k) {
+                        continue;
+                    }
+                    let z = spec.center(i, j, k).z;
+                    if keep_below.is_some_and(|top| z < top) {
+                        skin += 1;
+                        skin_kept += u64::from(residual.get(i, j, k));
+                    } else if z > cut_above {
+                        beyond += 1;
+                        beyond_left += u64::from(residual.get(i, j, k));
+                    }
+                }
+            }
+        }
+        (skin_kept, skin, beyond_left, beyond)
+    };
+    let (kept, skin, left, beyond) = run(true);
+    assert!(skin > 1000, "the skin has {skin} voxels: the test would not see it");
+    assert_eq!(kept, skin, "with the allowance: {} of {skin} skin voxels cut away", skin - kept);
+    assert!(
+        (left as f64) <= 0.005 * beyond as f64,
+        "with the allowance: {left} of {beyond} voxels beyond the skin left standing"
+    );
+    let (kept0, skin0, _, _) = run(false);
+    assert!(
+        (kept0 as f64) < 0.5 * skin0 as f64,
+        "without the allowance {kept0} of {skin0} skin voxels stand: the check cannot tell"
+    );
+}

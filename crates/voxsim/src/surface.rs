@@ -53,6 +53,9 @@ pub struct HeightField {
     top: Vec<f64>,
     tools: ToolTable,
     prims: ToolPrims,
+    /// The current cutter's radius and corner radius: its tip profile bounds from below
+    /// how low a move can cut a column, so columns already lower are skipped.
+    profile: (f64, f64),
     frame: Isometry3,
     pos: Option<Point3>,
     arc_tolerance: f64,
@@ -87,6 +90,7 @@ impl HeightField {
         }
         let (nx, ny) = (n(0) as usize, n(1) as usize);
         let prims = ToolPrims::cutter(&tools.default);
+        let profile = (tools.default.radius, tools.default.corner_radius());
         Ok(Self {
             min,
             spacing: o.spacing,
@@ -95,6 +99,7 @@ impl HeightField {
             top: vec![f64::INFINITY; nx * ny],
             tools,
             prims,
+            profile,
             frame: Isometry3::identity(),
             pos: None,
             arc_tolerance: o.arc_tolerance,
@@ -135,10 +140,26 @@ impl HeightField {
             return;
         };
         let rows = &mut self.top[j0 * nx..(j1 + 1) * nx];
+        // Every cutter point at horizontal distance rho from the axis lies at least
+        // `floor(rho)` above the tip (its end's profile, the corner radius beyond the
+        // radius, where only the shank and holder are): a column farther than rho from the
+        // segment's XY path is cut no lower than the segment's lowest tip plus that.
+        let (radius, rc) = self.profile;
+        let floor = |rho: f64| {
+            let d = rho.min(radius) - (radius - rc);
+            if d <= 0.0 { 0.0 } else { rc - (rc * rc - d * d).max(0.0).sqrt() }
+        };
+        let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
+        let ab2 = ab.norm_squared();
         let row = |(dj, row): (usize, &mut [f64])| {
             let y = min[1] + (j0 + dj) as f64 * s;
             for (i, t) in row.iter_mut().enumerate().take(i1 + 1).skip(i0) {
                 let base = Point3::new(min[0] + i as f64 * s, y, 0.0);
+                let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
+                let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
+                if *t <= zmin + floor((ap - ab * u).norm()) {
+                    continue;
+                }
                 for p in prims {
                     if let Some((lo, _)) = p.column(&seg, &base) {
                         *t = t.min(lo);
@@ -215,6 +236,7 @@ impl MotionSink for HeightField {
                 let c = self.tools.get(*tool);
                 c.validate().map_err(|e| tool_error(Some(*tool), e))?;
                 self.prims = ToolPrims::cutter(c);
+                self.profile = (c.radius, c.corner_radius());
                 Ok(())
             }
             Motion::Setup { frame, .. } => {
@@ -245,11 +267,20 @@ pub struct DeviationOptions {
     /// A cut point this close to the part's surface is on it (neither a gouge nor, for the
     /// ray that finds the part below, inside). Default `1e-6`.
     pub on_surface: f64,
+    /// Count a column only where a ball of this radius can touch the part's surface
+    /// straight below it: the ball resting on that point along its normal is clear of the
+    /// part to within 0.1 % of its radius. A concave corner tighter than the finishing
+    /// ball is not a region it reaches. `None` (default): every column within `reach`.
+    pub ball_radius: Option<f64>,
+    /// Count a column only where the part's surface straight below it is at or above
+    /// this height: the lowest point a finisher went to (a tool that reaches only so deep
+    /// below the stock's top finishes nothing lower). `None` (default): any height.
+    pub floor: Option<f64>,
 }
 
 impl Default for DeviationOptions {
     fn default() -> Self {
-        Self { reach: 1.0, on_surface: 1e-6 }
+        Self { reach: 1.0, on_surface: 1e-6, ball_radius: None, floor: None }
     }
 }
 
@@ -306,7 +337,10 @@ pub fn surface_deviation_opt(
                 let Some(hit) = part.cast_ray(&Point3::new(x, y, t + lift), &down, f64::INFINITY) else {
                     continue;
                 };
-                if hit.distance - lift <= o.reach {
+                let touches =
+                    |r: f64| part.signed_distance(&(hit.point + hit.normal * r)) >= r * (1.0 - 1e-3);
+                let above_floor = o.floor.is_none_or(|z| hit.point.z >= z);
+                if hit.distance - lift <= o.reach && above_floor && o.ball_radius.is_none_or(touches) {
                     max = max.max(d);
                     sum += d;
                     n += 1;

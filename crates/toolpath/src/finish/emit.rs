@@ -280,7 +280,9 @@ impl<S: MotionSink> Emitter<'_, S> {
     /// [`FinishOptions::link_check_step`] apart along `a`-`b`.
     fn clear(&self, a: &Point3, b: &Point3) -> bool {
         let d = b - a;
-        let n = (d.xy().norm() / self.opts.link_check_step).ceil();
+        // Samples by the 3-D length: a chord that drops steeply (across a jump of the
+        // cutter-location surface at a wall) is short in XY but passes the wall's corner.
+        let n = (d.norm() / self.opts.link_check_step).ceil();
         if !(n <= 1e7) {
             return false;
         }
@@ -303,7 +305,7 @@ impl<S: MotionSink> Emitter<'_, S> {
         // Lift to the highest drop-cutter height along the chord (a small lift across a
         // waterline corner, the wall's top where the surface jumps), if within the approach.
         let d = b - a;
-        let n = ((d.xy().norm() / self.opts.link_check_step).ceil().clamp(1.0, 1e6)) as usize;
+        let n = ((d.norm() / self.opts.link_check_step).ceil().clamp(1.0, 1e6)) as usize;
         let top = (0..=n)
             .filter_map(|k| {
                 let p = a + d * (k as f64 / n as f64);

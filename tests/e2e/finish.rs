@@ -1,0 +1,86 @@
+//! Roughing with allowance, then finishing with a ball end mill (issue 36): on a small
+//! shop part, finishing brings the residual nearer the part (Chamfer down, normal
+//! consistency up) than the same roughing alone, gouges nothing, and reports its tools,
+//! scallop, times (roughing + finishing = the setup's machine time) and surface deviation.
+
+use shape2gcode::geom::load_mesh;
+use shape2gcode::{
+    Action, FinishChoice, FixedPolicy, MillOptions, Milled, Preset, SetupFinish, StrategyKind, mill,
+};
+
+use super::common::data;
+
+fn boss(finish: Option<FinishChoice>) -> Milled {
+    let mesh = load_mesh(data("meshes/shop/stepped_boss.stl")).unwrap();
+    let opts = MillOptions {
+        preset: Preset::Shop,
+        // 80 x 80 x 45 mm. (At half the size, with a 6 mm rougher and ball, the parallel
+        // finisher's raster leaves the allowance on the walls along it, and the residual's
+        // Chamfer distance rises: 0.706 against 0.687 at 96^3.)
+        resolution: 96,
+        orient_points: 2048,
+        metric_samples: 4000,
+        finish,
+        surface_spacing: 0.25,
+        ..MillOptions::default()
+    };
+    let action = Action { tool_radius: 5.0, layer_height: 2.0, strategy: StrategyKind::ZIGZAG };
+    mill(&mesh, &mut FixedPolicy(action), &opts, &mut |_| {}).unwrap()
+}
+
+#[test]
+fn finishing_brings_the_part_nearer_than_roughing_alone_and_reports_itself() {
+    let choice = FinishChoice { scallop: 0.02, ..FinishChoice::default() };
+    let rough = boss(None);
+    let fine = boss(Some(choice));
+    let (r, f) = (&rough.metrics, &fine.metrics);
+    assert!(
+        rough.is_safe() && fine.is_safe(),
+        "gouges or rapids: rough {:?}, finish {:?}",
+        rough.simulation.gouge_voxels,
+        fine.simulation.gouge_voxels
+    );
+    assert_eq!(fine.simulation.gouge_voxels, 0);
+    assert!(
+        f.chamfer_x1000 < r.chamfer_x1000,
+        "Chamfer x1000: finished {} >= rough {}",
+        f.chamfer_x1000,
+        r.chamfer_x1000
+    );
+    assert!(
+        f.normal_consistency > r.normal_consistency,
+        "NC: finished {} <= rough {}",
+        f.normal_consistency,
+        r.normal_consistency
+    );
+    assert!(rough.setups.iter().all(|s| s.finish.is_none()));
+    let report = fine.report_json(false);
+    for (i, s) in fine.setups.iter().enumerate() {
+        let fin = s.finish.as_ref().unwrap_or_else(|| panic!("setup {} not finished", i + 1));
+        // The rule: the largest ball no wider than the 10 mm roughing tool that reaches.
+        assert!(matches!(fin.tool.cutter.shape, shape2gcode::geom::CutterShape::Ball(_)));
+        assert!(fin.tool.radius() <= s.tool.radius(), "setup {}: finisher wider than the rougher", i + 1);
+        assert!(!fin.gouged(), "setup {}: gouge {} mm", i + 1, fin.deviation.gouge_depth);
+        assert!(fin.deviation.gouge_depth <= SetupFinish::GOUGE_TOLERANCE);
+        assert!(fin.summary.passes > 0 && fin.deviation.columns > 0, "setup {}: {:?}", i + 1, fin.summary);
+        let total = s.machine_time_s.expect("the shop's machine times the program");
+        assert!(fin.roughing_time_s > 0.0 && fin.finishing_time_s > 0.0, "setup {}: {fin:?}", i + 1);
+        assert!(
+            (fin.roughing_time_s + fin.finishing_time_s - total).abs() <= 1e-6 * total,
+            "setup {}: {} + {} != {total}",
+            i + 1,
+            fin.roughing_time_s,
+            fin.finishing_time_s
+        );
+        // The program changes to the finishing tool after the roughing.
+        let (rt, ft) = (format!("T{} M6", s.tool.number), format!("T{} M6", fin.tool.number));
+        let (a, b) = (s.text.find(&rt), s.text.find(&ft));
+        assert!(a.is_some() && b.is_some() && a < b, "setup {}: no {rt} then {ft}", i + 1);
+        let js = &report["setups"][i];
+        for key in ["roughing_time_s", "finishing_time_s", "tools", "scallop_mm", "surface_deviation"] {
+            assert!(!js[key].is_null(), "setup {}: no {key} in the report", i + 1);
+        }
+        assert_eq!(js["scallop_mm"], 0.02);
+        assert_eq!(js["tools"], serde_json::json!([s.tool.number, fin.tool.number]));
+    }
+}
