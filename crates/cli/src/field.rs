@@ -30,6 +30,10 @@ enum FieldCommand {
     /// Optimise collision-free milling layers for a part in a block and write the
     /// five-axis program (table-table A/C, LinuxCNC).
     Mill(MillArgs),
+    /// Print a part on curved layers: optimise the layer field, extract layers and
+    /// toolpaths, write the A/C printing program, check it for collisions, read it back,
+    /// rebuild the print and score it against the part and against planar slicing.
+    Print(crate::field_print::PrintArgs),
 }
 
 /// Arguments of `s2g field mill`.
@@ -101,6 +105,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.command {
         FieldCommand::Sdf(a) => sdf(a),
         FieldCommand::Mill(a) => mill(a),
+        FieldCommand::Print(a) => crate::field_print::print(a),
     }
 }
 

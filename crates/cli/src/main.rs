@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 mod eval;
 mod feature;
 mod field;
+mod field_print;
 mod gcode;
 mod r#gen;
 mod inspect;

@@ -77,6 +77,7 @@ mod layer;
 mod mesh_sdf;
 mod milling;
 mod path;
+mod print;
 mod program;
 mod sdf;
 mod siren;
@@ -110,6 +111,12 @@ pub use path::{
     DirectionLosses, PathGeometry, PathOptions, PathReport, PathStats, PathWeights, contour_directions,
     direction_losses, fit_contour_paths, geodesic_curvature, optimize_path, path_curvature_loss,
     path_spacing, path_spacing_loss, path_stats, path_tangent, projected_path_gradient,
+};
+pub use print::{
+    Bead, LayerField, NeuralLayers, PathKind, PlanarLayers, PrintLayer, PrintMeshOptions, PrintObjective,
+    PrintPath, PrintPathOptions, PrintPlan, PrintProgram, PrintProgramOptions, PrintRun, PrintScore,
+    PrintStage, ScoreOptions, SpacingStats, StageSeconds, arch_mesh, bead_spacing, bracket_mesh, deposit,
+    extract_print, overhang_fraction, print_mesh, print_program, read_beads, score_print,
 };
 pub use program::{
     ContourPaths, MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh,

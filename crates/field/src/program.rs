@@ -199,7 +199,7 @@ impl Clearance<'_> {
 
 /// The tilt (A or B) and C angles, degrees, that put the tool axis along the unit vector
 /// `n`: `s2g-gcode`'s table-table conventions ([`s2g_gcode::rotary_angles`]).
-fn tool_axis_angles(axes: RotaryAxes, n: &Vector3) -> (f64, f64) {
+pub(crate) fn tool_axis_angles(axes: RotaryAxes, n: &Vector3) -> (f64, f64) {
     let h = n.x.hypot(n.y);
     let tilt = h.atan2(n.z).to_degrees();
     let c = match axes {
@@ -440,7 +440,7 @@ impl Emitter {
 /// Joins each `G0 A.. C..` (or `G0 B.. C..`) block the writer emits for a setup with the
 /// motion block that follows it, so both happen in one simultaneous block. A following
 /// block without a motion word inherits the setup block's `G0`.
-fn merge_rotary_blocks(text: &str, axes: RotaryAxes) -> String {
+pub(crate) fn merge_rotary_blocks(text: &str, axes: RotaryAxes) -> String {
     let prefix = match axes {
         RotaryAxes::AC => "G0 A",
         RotaryAxes::BC => "G0 B",

@@ -7,4 +7,5 @@ mod errors;
 mod layer;
 mod milling;
 mod path;
+mod print;
 mod sdf;
