@@ -208,11 +208,14 @@ pub fn sweep_angle(start: &Point3<f64>, motion: &Motion<'_>) -> Option<f64> {
     ArcSpec::from_motion(*start, motion).map(|s| s.sweep())
 }
 
+/// Points past a failed fit that [`ArcFitter`] still tries before it closes a run.
+const FIT_LOOKAHEAD: usize = 3;
+
 /// Options of [`ArcFitter`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArcFitOptions {
-    /// Largest distance from the fitted arc to any input point and any input
-    /// segment midpoint, in mm. Default 0.01.
+    /// Largest distance from the fitted arc's circle to any point of the input run
+    /// (its vertices and its segments), in mm. Default 0.01.
     pub tolerance: f64,
     /// Fewest input segments one arc replaces. Default 3.
     pub min_segments: usize,
@@ -252,9 +255,10 @@ impl Default for ArcFitOptions {
 /// monotonically about one centre, and either all carry no extrusion or all
 /// extrude at the same rate per mm (within
 /// [`ArcFitOptions::extrusion_rate_tolerance`]). A fitted arc passes exactly
-/// through the run's first and last points and stays within
-/// [`ArcFitOptions::tolerance`] of every input point and every input segment
-/// midpoint; otherwise the moves are forwarded as they came.
+/// through the run's first and last points, with its centre on their bisector where its
+/// circle deviates least from the run, and every point of the run (vertices and segments)
+/// lies within [`ArcFitOptions::tolerance`] of its circle; otherwise the moves are
+/// forwarded as they came.
 #[derive(Debug)]
 pub struct ArcFitter<S: MotionSink> {
     inner: S,
@@ -352,10 +356,16 @@ impl<S: MotionSink> ArcFitter<S> {
         while i + 1 < pts.len() {
             let mut best: Option<(usize, Point3<f64>, Plane, ArcDirection)> = None;
             let mut k = i + self.opts.min_segments.max(2);
-            while k < pts.len() {
+            // A run that fails may fit again a point later (its end landed on a vertex
+            // off the circle the run follows): look a few points past a failure.
+            let mut misses = 0;
+            while k < pts.len() && misses <= FIT_LOOKAHEAD {
                 match fit_arc(&pts[i..=k], &self.opts) {
-                    Some((c, plane, dir)) => best = Some((k, c, plane, dir)),
-                    None => break,
+                    Some((c, plane, dir)) => {
+                        best = Some((k, c, plane, dir));
+                        misses = 0;
+                    }
+                    None => misses += 1,
                 }
                 k += 1;
             }
@@ -400,8 +410,81 @@ fn circle_through(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<[f64; 2]> {
     Some([a[0] + ux, a[1] + uy])
 }
 
-/// Fits one arc through `pts` (first and last exactly); checks every point and
-/// segment midpoint against the tolerance and the monotonic turn.
+/// Largest distance between the circle of centre `c` and radius `r` and the polyline `uv`:
+/// over its vertices and, for each segment, its point nearest the centre (the distance to
+/// the centre is convex along a segment, so its extremes are there and at the ends).
+fn circle_deviation(uv: &[[f64; 2]], c: [f64; 2], r: f64) -> f64 {
+    let dist = |p: [f64; 2]| (p[0] - c[0]).hypot(p[1] - c[1]);
+    let mut worst = uv.iter().map(|&p| (dist(p) - r).abs()).fold(0.0, f64::max);
+    for w in uv.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let ab = [b[0] - a[0], b[1] - a[1]];
+        let l2 = ab[0] * ab[0] + ab[1] * ab[1];
+        let t = if l2 > 0.0 {
+            (((c[0] - a[0]) * ab[0] + (c[1] - a[1]) * ab[1]) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        worst = worst.max((dist([a[0] + t * ab[0], a[1] + t * ab[1]]) - r).abs());
+    }
+    worst
+}
+
+/// The centre on the perpendicular bisector of the run's ends (so that both ends lie on
+/// the arc exactly, as G2/G3 need) whose circle deviates least from the polyline, starting
+/// from the circle through the first, middle and last points: a golden-section search
+/// along the bisector. Polylines of offsets and thinned rings have their vertices off the
+/// circle they follow (an offset's round joins put the vertices outside the arc and the
+/// chords' midpoints on it), where the circle through three vertices deviates by twice
+/// the best one's deviation. Returns the centre and its deviation.
+fn best_centre(uv: &[[f64; 2]], c0: [f64; 2], tol: f64) -> ([f64; 2], f64) {
+    let (a, b) = (uv[0], uv[uv.len() - 1]);
+    let radius = |c: [f64; 2]| (a[0] - c[0]).hypot(a[1] - c[1]);
+    let d0 = circle_deviation(uv, c0, radius(c0));
+    // Within tolerance already, or too far off for any centre near it to help (the search
+    // moves the circle by little more than its deviation): the answer as it is.
+    if d0 <= tol || d0 > 4.0 * tol {
+        return (c0, d0);
+    }
+    let m = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+    let chord = (b[0] - a[0]).hypot(b[1] - a[1]);
+    if chord <= 0.0 {
+        return (c0, d0);
+    }
+    let n = [-(b[1] - a[1]) / chord, (b[0] - a[0]) / chord];
+    let at = |s: f64| [m[0] + s * n[0], m[1] + s * n[1]];
+    let f = |s: f64| {
+        let c = at(s);
+        circle_deviation(uv, c, radius(c))
+    };
+    let s0 = (c0[0] - m[0]) * n[0] + (c0[1] - m[1]) * n[1];
+    // Moving the centre by ds along the bisector moves the arc's middle by about
+    // ds * (1 - cos(half sweep)) and its sides by less; a bracket of a few deviations
+    // over that factor, and a fraction of the distance, holds the best centre.
+    let half = (0.5 * chord / radius(c0)).clamp(0.0, 1.0).asin();
+    let span = (8.0 * d0 / (1.0 - half.cos()).max(1e-9)).min(0.5 * s0.abs() + chord);
+    let (mut lo, mut hi) = (s0 - span, s0 + span);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    for _ in 0..48 {
+        if f1 < f2 {
+            (hi, x2, f2) = (x2, x1, f1);
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1);
+        } else {
+            (lo, x1, f1) = (x1, x2, f2);
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2);
+        }
+    }
+    let s = 0.5 * (lo + hi);
+    let d = f(s);
+    if d < d0 { (at(s), d) } else { (c0, d0) }
+}
+
+/// Fits one arc through `pts` (first and last exactly, the centre chosen by
+/// [`best_centre`]); checks the whole polyline against the tolerance and the monotonic turn.
 fn fit_arc(pts: &[Point3<f64>], opts: &ArcFitOptions) -> Option<(Point3<f64>, Plane, ArcDirection)> {
     let first = pts[0];
     let planes: &[Plane] = if opts.xy_only { &[Plane::XY] } else { &[Plane::XY, Plane::ZX, Plane::YZ] };
@@ -410,26 +493,18 @@ fn fit_arc(pts: &[Point3<f64>], opts: &ArcFitOptions) -> Option<(Point3<f64>, Pl
         pts.iter().all(|p| (p[w] - first[w]).abs() <= 1e-9)
     })?;
     let (u, v, _) = plane_axes(plane);
-    let uv = |p: &Point3<f64>| [p[u], p[v]];
-    let last = pts[pts.len() - 1];
-    let mid = pts[pts.len() / 2];
-    let c = circle_through(uv(&first), uv(&mid), uv(&last))?;
-    let r = (first[u] - c[0]).hypot(first[v] - c[1]);
-    if !(r.is_finite() && r <= opts.max_radius && r > opts.tolerance) {
+    let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p[u], p[v]]).collect();
+    let c0 = circle_through(uv[0], uv[uv.len() / 2], uv[uv.len() - 1])?;
+    let (c, dev) = best_centre(&uv, c0, opts.tolerance);
+    let r = (uv[0][0] - c[0]).hypot(uv[0][1] - c[1]);
+    if !(r.is_finite() && r <= opts.max_radius && r > opts.tolerance && dev <= opts.tolerance) {
         return None;
     }
     let ang = |q: [f64; 2]| (q[1] - c[1]).atan2(q[0] - c[0]);
     let mut total = 0.0;
     let mut sign = 0.0;
-    for w in pts.windows(2) {
-        let (a, b) = (uv(&w[0]), uv(&w[1]));
-        let rb = (b[0] - c[0]).hypot(b[1] - c[1]);
-        let m = [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5];
-        let rm = (m[0] - c[0]).hypot(m[1] - c[1]);
-        if (rb - r).abs() > opts.tolerance || (rm - r).abs() > opts.tolerance {
-            return None;
-        }
-        let mut d = ang(b) - ang(a);
+    for w in uv.windows(2) {
+        let mut d = ang(w[1]) - ang(w[0]);
         if d > PI {
             d -= TAU;
         } else if d < -PI {

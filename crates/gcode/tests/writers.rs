@@ -240,6 +240,32 @@ fn arc_fitter_keeps_proportional_extrusion() {
     assert!(ratio > 20.0, "ratio {ratio}");
 }
 
+/// A circle whose odd vertices lie 0.6 tolerance outside and inside it in turn (the even
+/// ones on it), as thinned offset rings come: the circle through the first, middle (odd)
+/// and last vertices deviates by 1.2 tolerances, the best centre on the ends' bisector by
+/// 0.6, so the run is one arc.
+#[test]
+fn arc_fitter_finds_the_circle_of_vertices_off_it() {
+    let opts = ArcFitOptions { tolerance: 0.005, xy_only: true, ..ArcFitOptions::default() };
+    for (r, n) in [(6.0, 42), (25.0, 102), (2.0, 26)] {
+        let mut pts = circle_points(Plane::XY, [1.0, -3.0, 4.0], r, 0.2, 0.5 * PI, n);
+        for (i, p) in pts.iter_mut().enumerate() {
+            let off = match i % 4 {
+                1 => 0.6,
+                3 => -0.6,
+                _ => 0.0,
+            };
+            let k = 1.0 + off * opts.tolerance / r;
+            let (dx, dy) = (p.x - 1.0, p.y + 3.0);
+            (p.x, p.y) = (1.0 + k * dx, -3.0 + k * dy);
+        }
+        let name = format!("perturbed circle r {r} n {n}");
+        let (ratio, arcs) = fit_and_check(&name, &pts, None, opts);
+        assert_eq!(arcs, 1, "{name}: {arcs} arcs");
+        assert!(ratio >= (n + 1) as f64 / 2.0, "{name}: ratio {ratio}");
+    }
+}
+
 #[test]
 fn arc_fitter_no_false_arcs_on_zigzag() {
     let pts: Vec<_> =
