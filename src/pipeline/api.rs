@@ -542,8 +542,11 @@ impl Milled {
             + weights.lambda_mrr * self.simulation.mrr_mm3_per_min / 1000.0
     }
 
-    /// Whether the programs are safe: no gouge into the part and no rapid through material.
+    /// Whether the programs are safe: no gouge into the part, no rapid through material and
+    /// no shank or holder touching the stock (`s2g mill` exits with status 2 otherwise).
     pub fn is_safe(&self) -> bool {
-        self.simulation.gouge_voxels == 0 && self.rapid_collisions() == 0
+        self.simulation.gouge_voxels == 0
+            && self.rapid_collisions() == 0
+            && self.simulation.holder_collisions.is_empty()
     }
 }
