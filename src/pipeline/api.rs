@@ -601,10 +601,13 @@ impl Milled {
             + weights.lambda_mrr * self.simulation.mrr_mm3_per_min / 1000.0
     }
 
-    /// Whether the programs are safe: no gouge into the part and no rapid through material.
+    /// Whether the programs are safe: no gouge into the part (in the voxels or, deeper than
+    /// the finishing check's tolerance, in a finished surface), no rapid through material and
+    /// no shank or holder touching the stock (`s2g mill` exits with status 2 otherwise).
     pub fn is_safe(&self) -> bool {
         self.simulation.gouge_voxels == 0
             && self.rapid_collisions() == 0
             && !self.setups.iter().any(|s| s.finish.as_ref().is_some_and(SetupFinish::gouged))
+            && self.simulation.holder_collisions.is_empty()
     }
 }

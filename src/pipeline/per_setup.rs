@@ -98,7 +98,12 @@ pub(super) fn machine_setup(
     // The planner writes the program on its own thread while this one parses it back
     // and simulates it, chunk by chunk: planning and simulation overlap, and the text is
     // held whole only when it is kept.
-    let (part, dialect, wopts, keep) = (ctx.part, ctx.dialect, ctx.wopts.clone(), ctx.keep_programs);
+    let (part, dialect, mut wopts, keep) = (ctx.part, ctx.dialect, ctx.wopts.clone(), ctx.keep_programs);
+    // A shop's programs (those that select a work offset) are numbered per setup, so that
+    // a Fanuc control holds them side by side (O0001, O0002, ...).
+    if wopts.work_offset.is_some() {
+        wopts.program_number = u32::try_from(i + 1).unwrap_or(u32::MAX).min(9999);
+    }
     let copy = match ctx.outputs {
         Some(open) => {
             Some(open(i).map_err(|e| MillError::program(i + 1, "opening the program's output", e))?)

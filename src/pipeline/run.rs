@@ -221,8 +221,10 @@ impl MillRun {
                     xy_only: true,
                     ..ArcFitOptions::default()
                 }),
-                // A shop's programs set each tool's length offset after its change.
+                // A shop's programs set each tool's length offset after its change, and
+                // select G54, the work coordinate system their datum is stated in.
                 tool_length_offset: tooling.machine().is_some(),
+                work_offset: tooling.machine().map(|_| 1),
                 ..WriterOptions::default()
             },
             keep_programs: true,

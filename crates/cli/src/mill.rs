@@ -671,7 +671,12 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
         m.normal_consistency,
         machine.unwrap_or(s.machining_time_s)
     );
-    println!("gouges {} voxels, rapid collisions {}", s.gouge_voxels, milled.rapid_collisions());
+    println!(
+        "gouges {} voxels, rapid collisions {}, holder collisions {}",
+        s.gouge_voxels,
+        milled.rapid_collisions(),
+        s.holder_collisions.len()
+    );
     let t = &milled.stage_seconds;
     println!(
         "stages: orientation {:.2} s, actions {:.3} s, G-code {:.2} s, simulation {:.2} s, scoring {:.2} s",

@@ -308,6 +308,40 @@ fn arc_fitter_deviation_bound_on_noisy_paths() {
         .unwrap_or_else(|e| panic!("{e}"));
 }
 
+/// A shop program's safe start selects its work offset after the header, and the tool
+/// length offset names its register as an integer in every dialect that has one (Fanuc
+/// writes whole numbers with a point elsewhere: `X1.`, but `H9.` is no register).
+#[test]
+fn work_offset_and_length_offset_register() {
+    let program = [
+        Motion::ToolChange { tool: 9 },
+        Motion::Rapid { to: Point3::new(1.0, 2.0, 5.0) },
+        Motion::Linear { to: Point3::new(1.0, 2.0, -1.0), feed: 300.0, extrude: None },
+    ];
+    for dialect in [Dialect::LinuxCnc, Dialect::Fanuc, Dialect::Grbl] {
+        let opts = WriterOptions { tool_length_offset: true, work_offset: Some(1), ..Default::default() };
+        let mut w = GcodeWriter::new(Vec::new(), dialect, opts);
+        for m in &program {
+            w.motion(m).expect("writes");
+        }
+        w.finish().expect("writes");
+        let text = String::from_utf8(w.into_inner()).expect("utf-8");
+        let lines: Vec<&str> = text.lines().collect();
+        let header = lines.iter().position(|l| l.starts_with("G17 G21")).expect("safe start");
+        assert_eq!(lines.get(header + 1), Some(&"G54"), "{dialect}: {text}");
+        let g43 = lines.iter().find(|l| l.starts_with("G43")).copied();
+        let want = (dialect != Dialect::Grbl).then_some("G43 H9");
+        assert_eq!(g43, want, "{dialect}: {text}");
+        assert!(text.contains(if dialect == Dialect::Fanuc { "X1. Y2." } else { "X1 Y2" }), "{dialect}");
+    }
+    // G59 is the last; a seventh is refused, as is a work offset for a printer.
+    for (dialect, k) in [(Dialect::LinuxCnc, 7), (Dialect::Marlin, 1)] {
+        let opts = WriterOptions { work_offset: Some(k), ..Default::default() };
+        let mut w = GcodeWriter::new(Vec::new(), dialect, opts);
+        assert!(w.motion(&program[1]).is_err(), "{dialect} G{}", 53 + k);
+    }
+}
+
 #[test]
 fn writer_reports_compression_ratio() {
     let pts = circle_points(Plane::XY, [0.0, 0.0, 0.0], 20.0, 0.0, PI, 90);
