@@ -469,6 +469,7 @@ fn roughing_with_allowance_keeps_the_skin_and_removes_the_rest() {
         (kept0 as f64) < 0.5 * skin0 as f64,
         "without the allowance {kept0} of {skin0} skin voxels stand: the check cannot tell"
     );
+}
 
 /// Arc fitting changes what is cut by less than 0.1 % of the removed voxels. A turned part
 /// in mm (the shop corpus's stepped boss) is planned with the fitter's tolerance as wall
