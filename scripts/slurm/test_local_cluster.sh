@@ -10,8 +10,9 @@
 #   sudo scripts/slurm/test_local_cluster.sh
 #
 # Needs root (the daemons run as root, and apt-get installs slurm-wlm and munge on
-# Debian or Ubuntu when they are missing). The evaluation is small (16^3, 256 points, two
-# policies) so the run takes a few minutes. Environment: S2G (default
+# Debian or Ubuntu when they are missing). The evaluation is small (16^3, 256 points, the
+# fixed-fine and fixed-coarse policies, whose rows differ there) so the run takes a few
+# minutes. Environment: S2G (default
 # target/release/s2g), S2G_SLURM_PORT (slurmctld's port, default 6817; slurmd gets the
 # next), S2G_SLURM_TIMEOUT (seconds to wait for the array, default 1800), S2G_SLURM_KEEP=1
 # (keep the temporary folder, which a FAIL always keeps).
@@ -24,7 +25,7 @@ slurmd_port=$((ctld_port + 1))
 timeout_s=${S2G_SLURM_TIMEOUT:-1800}
 shards=4
 parts=8
-eval_args=(--res 16 --points 256 --policies "heuristic,coarse" --tables "policies,orientation")
+eval_args=(--res 16 --points 256 --policies "fine,coarse" --tables "policies,orientation")
 
 say() { printf 'test_local_cluster: %s\n' "$*" >&2; }
 
