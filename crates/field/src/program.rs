@@ -158,10 +158,30 @@ pub struct MillProgram {
 
 /// A machine state: tool tip in the part frame, rotary angles (degrees, C unwrapped).
 #[derive(Debug, Clone, Copy)]
-struct State {
-    tip: Point3,
-    tilt: f64,
-    c: f64,
+pub(crate) struct State {
+    pub(crate) tip: Point3,
+    pub(crate) tilt: f64,
+    pub(crate) c: f64,
+}
+
+impl State {
+    /// The sub-states of a move from `self` to `b`: the tip on the straight line, the angles
+    /// linear, no angle changing by more than `max_angle` degrees per piece.
+    pub(crate) fn pieces(&self, b: &State, max_angle: f64) -> Vec<State> {
+        let a = self;
+        let turn = (b.tilt - a.tilt).abs().max((b.c - a.c).abs());
+        let n = ((turn / max_angle).ceil() as usize).clamp(1, 100_000);
+        (1..=n)
+            .map(|k| {
+                let t = k as f64 / n as f64;
+                State {
+                    tip: a.tip + (b.tip - a.tip) * t,
+                    tilt: a.tilt + (b.tilt - a.tilt) * t,
+                    c: a.c + (b.c - a.c) * t,
+                }
+            })
+            .collect()
+    }
 }
 
 /// The clearance proof of the module docs.
@@ -370,23 +390,6 @@ impl Emitter {
         self.push(Motion::Rapid { to })
     }
 
-    /// The sub-blocks of a move from `a` to `b`: the tip on the straight line, the angles
-    /// linear, no angle changing by more than the largest step per block.
-    fn pieces(&self, a: &State, b: &State) -> Vec<State> {
-        let turn = (b.tilt - a.tilt).abs().max((b.c - a.c).abs());
-        let n = ((turn / self.max_angle).ceil() as usize).clamp(1, 100_000);
-        (1..=n)
-            .map(|k| {
-                let t = k as f64 / n as f64;
-                State {
-                    tip: a.tip + (b.tip - a.tip) * t,
-                    tilt: a.tilt + (b.tilt - a.tilt) * t,
-                    c: a.c + (b.c - a.c) * t,
-                }
-            })
-            .collect()
-    }
-
     /// Whether one block from `a` to `b`, as the simulator interpolates it (rotation slerp,
     /// program point lerp), keeps the tool clear.
     fn check_move(&self, clearance: &Clearance<'_>, a: &State, b: &State) -> bool {
@@ -407,7 +410,7 @@ impl Emitter {
     /// Whether the sub-blocks of the move from `a` to `b` keep the tool clear.
     fn check_path(&self, clearance: &Clearance<'_>, a: &State, b: &State) -> bool {
         let mut prev = *a;
-        for s in self.pieces(a, b) {
+        for s in a.pieces(b, self.max_angle) {
             if !self.check_move(clearance, &prev, &s) {
                 return false;
             }
@@ -418,7 +421,7 @@ impl Emitter {
 
     /// Feed moves from `a` to `b` (checked by the caller), one block per piece.
     fn feed_to(&mut self, a: &State, b: &State, split: bool) -> Result<()> {
-        let pieces = if split { self.pieces(a, b) } else { vec![*b] };
+        let pieces = if split { a.pieces(b, self.max_angle) } else { vec![*b] };
         for s in pieces {
             self.setup(&s)?;
             let to = self.program_point(&s);

@@ -27,7 +27,7 @@ use s2g_geom::{Isometry3, Point3, Vector3};
 use super::extract::{PrintLayer, PrintPath};
 use super::lattice::Lattice;
 use crate::error::{FieldError, Result};
-use crate::program::{merge_rotary_blocks, tool_axis_angles};
+use crate::program::{State, merge_rotary_blocks, tool_axis_angles};
 use crate::tool::{Tool, place_tool};
 
 /// How [`print_program`](super::print_program) writes the program. Lengths in mm.
@@ -118,14 +118,6 @@ pub struct PrintProgram {
     pub raised_hops: usize,
     /// Motion blocks written.
     pub blocks: usize,
-}
-
-/// Machine state: tip in the part frame, tilt and C (degrees, C unwrapped).
-#[derive(Debug, Clone, Copy)]
-struct State {
-    tip: Point3,
-    tilt: f64,
-    c: f64,
 }
 
 pub(crate) struct Emitter<'a> {
@@ -230,28 +222,12 @@ impl<'a> Emitter<'a> {
             .collect()
     }
 
-    /// The sub-states of a move, no angle changing by more than the largest step.
-    fn pieces(&self, a: &State, b: &State) -> Vec<State> {
-        let turn = (b.tilt - a.tilt).abs().max((b.c - a.c).abs());
-        let n = ((turn / self.opts.max_angle_step_deg).ceil() as usize).clamp(1, 100_000);
-        (1..=n)
-            .map(|k| {
-                let t = k as f64 / n as f64;
-                State {
-                    tip: a.tip + (b.tip - a.tip) * t,
-                    tilt: a.tilt + (b.tilt - a.tilt) * t,
-                    c: a.c + (b.c - a.c) * t,
-                }
-            })
-            .collect()
-    }
-
     /// Colliding poses along the moves through `states` (from the current state).
     fn count_way(&self, from: &State, states: &[State], with_tip: bool) -> (usize, usize) {
         let (mut checked, mut hits) = (0, 0);
         let mut prev = *from;
         for s in states {
-            for piece in self.pieces(&prev, s) {
+            for piece in prev.pieces(s, self.opts.max_angle_step_deg) {
                 for (tip, axis) in self.block_poses(&prev, &piece) {
                     checked += 1;
                     hits += self.collides(&tip, &axis, with_tip) as usize;
@@ -289,7 +265,7 @@ impl<'a> Emitter<'a> {
             return self.go(&states[1..], thickness);
         };
         for s in states {
-            let pieces = self.pieces(&prev, s);
+            let pieces = prev.pieces(s, self.opts.max_angle_step_deg);
             let n = pieces.len() as f64;
             for (k, piece) in pieces.iter().enumerate() {
                 self.setup(piece)?;
