@@ -8,9 +8,12 @@ use super::lathe_geom::{C, GeomResult, Moves, Out, Seg, TOL, c, intersect};
 /// Most moves one cycle may make (a profile that the roughing never finishes).
 const MAX_MOVES: usize = 1_000_000;
 /// The error of a cycle that would not end (LinuxCNC's loops for ever).
-pub(super) const NEVER_ENDS: &str = "the roughing passes never end";
-/// Most offset steps of one distance (each at most half the shortest segment).
-const MAX_OFFSET_STEPS: usize = 100_000;
+const NEVER_ENDS: &str = "the roughing passes never end";
+/// The error of a cycle of more than [`MAX_MOVES`] moves.
+const TOO_MANY: &str = "more than 1000000 moves";
+/// Most work (segments offset, summed over the steps) of the offsets of one cycle: each
+/// step is at most half the shortest segment.
+const MAX_OFFSET_WORK: usize = 50_000_000;
 
 /// The profile: its first segment runs from the cycle's start point to the profile's.
 #[derive(Debug, Clone)]
@@ -160,16 +163,15 @@ impl Path {
 
     /// Offsets the profile (all but its first segment, the approach) by `distance`
     /// towards the stock, in steps of at most half the shortest segment.
-    fn add_distance(&mut self, distance: f64) -> GeomResult<()> {
+    fn add_distance(&mut self, distance: f64, work: &mut usize) -> GeomResult<()> {
         let v1 = self.front().e - self.front().s;
         let v2 = self.back().s - self.front().s;
         let distance = if (v1 / v2).im < 0.0 { -distance } else { distance };
         let mut first = self.segs.remove(0);
         let mut current = 0.0;
-        let mut steps = 0;
         while current != distance {
-            steps += 1;
-            if steps > MAX_OFFSET_STEPS || self.segs.is_empty() {
+            *work += self.segs.len() + 1;
+            if *work > MAX_OFFSET_WORK || self.segs.is_empty() {
                 return Err("the profile cannot be offset".into());
             }
             let mut step = self.segs.iter().map(|s| s.radius() / 2.0).fold(1e9, f64::min);
@@ -270,10 +272,17 @@ impl Path {
         let mut raw = Moves::new();
         let passes = p as i64;
         let mut r = Ok(());
+        let mut work = 0;
+        if passes > (MAX_MOVES / 2) as i64 {
+            return Err(TOO_MANY.into());
+        }
         for pass in (1..=passes).rev() {
             let distance = (pass - 1) as f64 * (d - e) / p + e;
             let mut path = self.copy();
-            r = path.add_distance(distance);
+            r = path.add_distance(distance, &mut work);
+            if r.is_ok() && raw.len() > MAX_MOVES {
+                r = Err(TOO_MANY.into());
+            }
             if r.is_err() {
                 break;
             }
@@ -282,6 +291,10 @@ impl Path {
             for s in &path.segs[1..] {
                 s.draw(&mut raw);
             }
+        }
+        if r.as_ref().is_err_and(|e| e == TOO_MANY) {
+            // None of its moves: the cycle is refused whole.
+            raw.clear();
         }
         out.extend(raw.into_iter().map(|m| self.unflip(m)));
         r
@@ -296,7 +309,7 @@ impl Path {
         self.swap();
         self.do_finish()?;
         self.monotonic()?;
-        self.add_distance(w.d)?;
+        self.add_distance(w.d, &mut 0)?;
         let shift = c(w.w, w.u);
         self.segs.iter_mut().for_each(|s| s.shift(shift));
         self.delta = w.i.max(2.0 * TOL);
@@ -310,7 +323,7 @@ impl Path {
         }
         self.pocket_starts.push(start);
         let r = self.pocket(w.cycle, start, &mut raw);
-        if r.as_ref().is_err_and(|e| e == NEVER_ENDS) {
+        if r.as_ref().is_err_and(|e| e == NEVER_ENDS || e == TOO_MANY) {
             // None of its moves: the cycle is refused whole.
             raw.clear();
         }
@@ -341,7 +354,10 @@ impl Path {
                 }
                 last = Some((p, loc, x));
                 rounds += 1;
-                if out.len() > MAX_MOVES || rounds > 10 * MAX_MOVES {
+                if out.len() > MAX_MOVES {
+                    return Err(TOO_MANY.into());
+                }
+                if rounds > 10 * MAX_MOVES {
                     return Err(NEVER_ENDS.into());
                 }
                 while x - TOL > loc.im {
