@@ -830,3 +830,43 @@ fn o_word_subroutines_from_the_search_path() {
     assert_eq!(m.iter().map(|x| x.1).collect::<Vec<_>>(), [[9.0, 1.5, 0.0], [9.0, 1.5, 1.0]]);
     assert_eq!(s.lines, 4);
 }
+
+#[test]
+fn lathe_cycles() {
+    // A roughing cycle whose passes never end (`rs274` loops for ever on it): refused with
+    // an error, at the line that ends its profile as `rs274` reports the cycle's errors,
+    // none of its passes made; the program goes on.
+    let endless = "G18 G21 F100\nG0 X9.797 Z2.344\nO100 SUB\nG0 X1.219 Z1.006\nG1 X5.031 Z1.006\n\
+                   G1 X6.600 Z0.103\nG1 X7.600 Z0.103\nO100 ENDSUB\nG71 Q100 X8.797 Z1.344 D0.480 I1.104 R0.464\n\
+                   G0 X10.797\nM2\n";
+    let (s, m) = run(endless, &ParseOptions::default());
+    let e = s.errors.first().expect("an error");
+    assert_eq!(e.line, 8, "{e}");
+    assert!(matches!(&e.kind, GcodeErrorKind::CannedCycle(w) if w.contains("never end")), "{e}");
+    let lines: Vec<u64> =
+        m.iter().filter(|(_, m)| matches!(m, Motion::Rapid { .. })).map(|(l, _)| *l).collect();
+    // The rapid before, the cycle's rapid to its start, the rapid after.
+    assert_eq!(lines, [2, 9, 10]);
+
+    // A finishing pass: its moves are the cycle line's, and it ends at the profile's end.
+    let g70 = "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\n\
+               G70 Q100 X15 Z4\nM2\n";
+    let (s, m) = run(g70, &strict());
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    let cycle: Vec<&Motion<'_>> = m.iter().filter(|(l, _)| *l == 9).map(|(_, m)| m).collect();
+    assert_eq!(cycle.len(), 6, "{cycle:?}");
+    match cycle.last() {
+        Some(Motion::Linear { to, .. }) => close(*to, [12.0, 0.0, -10.0], "last G70 feed"),
+        other => panic!("{other:?}"),
+    }
+
+    // Without Q: strict LinuxCNC wants it; lenient reads old Fanuc G70 (inch).
+    let (_, _, kind) = first_error("G18 G21\nG70 X1 Z1\nM2\n", &strict());
+    assert!(matches!(kind, GcodeErrorKind::MissingWord { letter: 'Q', .. }), "{kind:?}");
+    let (s, m) = run("G70\nG0 X1\nM2\n", &ParseOptions::default());
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    match m.iter().find(|(_, m)| matches!(m, Motion::Rapid { .. })) {
+        Some((_, Motion::Rapid { to })) => close(*to, [25.4, 0.0, 0.0], "G70 as inch"),
+        other => panic!("{other:?}"),
+    }
+}
