@@ -27,6 +27,7 @@ use s2g_geom::{Mesh, Point3, SignedDistance, Vector3, marching_cubes_samples};
 
 use super::LayerField;
 use super::lattice::Lattice;
+use super::offsets::{fitted_infill, in_layer_distance, ring_scalar, trim_close};
 use crate::error::{FieldError, Result};
 
 /// How layers and toolpaths are extracted. Lengths in the part's units (mm).
@@ -49,6 +50,10 @@ pub struct PrintPathOptions {
     /// How far the infill lines reach into the innermost contour's bead, in bead widths
     /// (the lines' rounded ends leave gaps beside them otherwise). Default `0.3`.
     pub infill_overlap: f64,
+    /// Paths are cut where they come closer than this many bead widths to a path printed
+    /// before them on the layer (an earlier ring, or the same ring across a thin wall);
+    /// `0` keeps them whole. Default `0.8`.
+    pub min_spacing: f64,
 }
 
 impl Default for PrintPathOptions {
@@ -61,6 +66,7 @@ impl Default for PrintPathOptions {
             flat_deg: 5.0,
             min_path_widths: 1.0,
             infill_overlap: 0.3,
+            min_spacing: 0.8,
         }
     }
 }
@@ -74,6 +80,9 @@ impl PrintPathOptions {
             ("paths.lattice", self.lattice),
         ])?;
         FieldError::check_non_negative(&[("paths.min_path_widths", self.min_path_widths)])?;
+        if !(self.min_spacing.is_finite() && (0.0..1.0).contains(&self.min_spacing)) {
+            return Err(FieldError::config("paths.min_spacing", "must be in [0, 1)"));
+        }
         if !(self.infill_overlap.is_finite() && (0.0..=0.5).contains(&self.infill_overlap)) {
             return Err(FieldError::config("paths.infill_overlap", "must be in [0, 0.5]"));
         }
@@ -135,16 +144,16 @@ pub struct PrintLayer {
 
 /// Per-vertex data of a layer mesh.
 #[derive(Debug, Clone, Copy)]
-struct Sample {
-    p: Point3,
+pub(super) struct Sample {
+    pub(super) p: Point3,
     n: Vector3,
     t: f64,
     /// In-layer distance to the boundary (negative inside).
-    phi: f64,
+    pub(super) phi: f64,
 }
 
 impl Sample {
-    fn lerp(&self, o: &Sample, u: f64) -> Sample {
+    pub(super) fn lerp(&self, o: &Sample, u: f64) -> Sample {
         Sample {
             p: self.p + (o.p - self.p) * u,
             n: (self.n + (o.n - self.n) * u).try_normalize(1e-12).unwrap_or(self.n),
@@ -304,6 +313,7 @@ fn layer_mesh(
     step: f64,
     h: f64,
     flat_deg: f64,
+    reach: f64,
 ) -> Result<Option<LayerMesh>> {
     let spacing = Vector3::repeat(lattice.spacing);
     let mesh = marching_cubes_samples(lattice.dims, lattice.origin, spacing, level, &lattice.g)
@@ -312,6 +322,7 @@ fn layer_mesh(
         return Ok(None);
     }
     let mut samples = Vec::with_capacity(mesh.vertices().len());
+    let mut estimate = Vec::with_capacity(mesh.vertices().len());
     for p in mesh.vertices() {
         let (_, grad) = field.value_gradient(p);
         let norm = grad.norm();
@@ -320,8 +331,10 @@ fn layer_mesh(
         let gs = part.gradient(p);
         let tangential = (gs - n * gs.dot(&n)).norm().max(0.3);
         let t = if norm > 0.0 { (step / norm).clamp(0.25 * h, 3.0 * h) } else { h };
-        samples.push(Sample { p: *p, n, t, phi: s / tangential });
+        samples.push(Sample { p: *p, n, t, phi: s });
+        estimate.push(s / tangential);
     }
+    in_layer_distance(&mesh, &mut samples, &estimate, reach);
     let mut mean = Vector3::zeros();
     let mut tilt_max = 0.0f64;
     let mut kept = Vec::new();
@@ -366,18 +379,19 @@ pub(crate) fn extract(
     let min_len = opts.min_path_widths * w;
     let mut out = Vec::with_capacity(levels.len());
     for (k, &level) in levels.iter().enumerate() {
-        let Some(layer) = layer_mesh(lattice, field, part, level, step, opts.layer_height, opts.flat_deg)?
+        let reach = (opts.rings as f64 + 2.0) * w;
+        let Some(layer) =
+            layer_mesh(lattice, field, part, level, step, opts.layer_height, opts.flat_deg, reach)?
         else {
             continue;
         };
         let full = &layer.full;
         let mut polylines: Vec<(PathKind, Vec<Sample>, bool)> = Vec::new();
-        let phi: Vec<f64> = layer.samples.iter().map(|s| s.phi).collect();
         match path_field {
             None => {
                 for i in 0..opts.rings {
-                    let at = -(i as f64 + 0.5) * w;
-                    for (pl, closed) in iso_lines(full, &layer.samples, &phi, at, f64::INFINITY) {
+                    let ring = ring_scalar(full, &layer.samples, i, opts.rings, w);
+                    for (pl, closed) in iso_lines(full, &layer.samples, &ring, 0.0, f64::INFINITY) {
                         polylines.push((PathKind::Contour, pl, closed));
                     }
                 }
@@ -388,21 +402,12 @@ pub(crate) fn extract(
                     .or_else(|| (Vector3::z() - n * n.z).try_normalize(1e-6))
                     .unwrap_or_else(Vector3::x);
                 let psi: Vec<f64> = layer.samples.iter().map(|s| s.p.coords.dot(&u)).collect();
-                let inner = -(opts.rings as f64 + 0.5 - opts.infill_overlap) * w;
-                let (lo, hi) = layer
-                    .samples
-                    .iter()
-                    .zip(&psi)
-                    .filter(|(s, _)| s.phi < inner)
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, &v)| (lo.min(v), hi.max(v)));
-                if lo <= hi {
-                    let first = (lo / w).floor() as i64;
-                    let last = (hi / w).ceil() as i64;
-                    for j in first..=last {
-                        let at = (j as f64 + 0.5) * w;
-                        for (pl, closed) in iso_lines(full, &layer.samples, &psi, at, inner) {
-                            polylines.push((PathKind::Infill, pl, closed));
-                        }
+                let clip = -(opts.rings as f64 + 0.5 - opts.infill_overlap) * w;
+                let edge = -(opts.rings as f64 + 0.5) * w;
+                let (fitted, most) = fitted_infill(full, &layer.samples, &psi, clip, edge, w);
+                for j in 0..=most {
+                    for (pl, closed) in iso_lines(full, &layer.samples, &fitted, j as f64, clip) {
+                        polylines.push((PathKind::Infill, pl, closed));
                     }
                 }
             }
@@ -440,6 +445,7 @@ pub(crate) fn extract(
                 }
             }
         }
+        let polylines = trim_close(polylines, opts.min_spacing * w, 3.0 * w);
         let paths = polylines
             .into_iter()
             .map(|(kind, pl, _)| PrintPath {
