@@ -34,7 +34,7 @@ use crate::error::{FieldError, Result};
 #[derive(Debug, Clone, PartialEq)]
 pub struct PrintPathOptions {
     /// Nominal layer height: the levels are `h × median |∇G|` apart (inside the part), so
-    /// planar layers are `h` apart. Default `1.0`.
+    /// planar layers are `h` apart. Default `0.8`.
     pub layer_height: f64,
     /// Bead width and the spacing of neighbouring paths. Default `1.0`.
     pub bead_width: f64,
@@ -54,12 +54,18 @@ pub struct PrintPathOptions {
     /// before them on the layer (an earlier ring, or the same ring across a thin wall);
     /// `0` keeps them whole. Default `0.8`.
     pub min_spacing: f64,
+    /// Where across the bead the layer's boundary is taken, as a fraction of the layer's
+    /// thickness below the tip: `0` at the tip (the top of the bead), `0.5` at mid-bead,
+    /// so that where the part's wall meets the layer obliquely, the bead's edge crosses
+    /// it half-way down instead of leaving the whole wedge below empty (or overfilled).
+    /// Default `0.5`.
+    pub wall_depth: f64,
 }
 
 impl Default for PrintPathOptions {
     fn default() -> Self {
         Self {
-            layer_height: 1.0,
+            layer_height: 0.8,
             bead_width: 1.0,
             rings: 2,
             lattice: 0.5,
@@ -67,6 +73,7 @@ impl Default for PrintPathOptions {
             min_path_widths: 1.0,
             infill_overlap: 0.3,
             min_spacing: 0.8,
+            wall_depth: 0.5,
         }
     }
 }
@@ -80,6 +87,9 @@ impl PrintPathOptions {
             ("paths.lattice", self.lattice),
         ])?;
         FieldError::check_non_negative(&[("paths.min_path_widths", self.min_path_widths)])?;
+        if !(self.wall_depth.is_finite() && (0.0..=1.0).contains(&self.wall_depth)) {
+            return Err(FieldError::config("paths.wall_depth", "must be in [0, 1]"));
+        }
         if !(self.min_spacing.is_finite() && (0.0..1.0).contains(&self.min_spacing)) {
             return Err(FieldError::config("paths.min_spacing", "must be in [0, 1)"));
         }
@@ -263,15 +273,37 @@ fn chain(segs: &[(End, End)]) -> Vec<(Vec<Sample>, bool)> {
 pub(crate) fn levels(lattice: &Lattice, field: &dyn LayerField, h: f64) -> Result<(Vec<f64>, f64)> {
     let mut norms = Vec::new();
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let [nx, ny, nz] = lattice.dims;
+    let h0 = lattice.spacing;
+    // Central differences of the lattice's values at index i (one-sided at its faces).
+    let diff = |v: &[f64], i: usize| {
+        let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
+        let strides = [1, nx, nx * ny];
+        let at = [x, y, z];
+        let dims = [nx, ny, nz];
+        Vector3::from_fn(|a, _| {
+            let lo = if at[a] > 0 { i - strides[a] } else { i };
+            let hi = if at[a] + 1 < dims[a] { i + strides[a] } else { i };
+            let span = (hi - lo) / strides[a];
+            if span == 0 { 0.0 } else { (v[hi] - v[lo]) / (span as f64 * h0) }
+        })
+    };
     for (i, (&g, &s)) in lattice.g.iter().zip(&lattice.sdf).enumerate() {
         if s < 0.0 {
-            lo = lo.min(g);
-            hi = hi.max(g);
+            // Near the skin, G where a Newton step along the distance's gradient meets it:
+            // the part's extent in G, not its inside lattice points'.
+            let g_skin = if s > -1.5 * h0 {
+                let gs = diff(&lattice.sdf, i);
+                let n2 = gs.norm_squared();
+                if n2 > 0.25 { g - s * diff(&lattice.g, i).dot(&gs) / n2 } else { g }
+            } else {
+                g
+            };
+            lo = lo.min(g_skin);
+            hi = hi.max(g_skin);
             if i % 7 == 0 {
-                let [nx, ny, _] = lattice.dims;
                 let p = lattice.origin
-                    + Vector3::new((i % nx) as f64, ((i / nx) % ny) as f64, (i / (nx * ny)) as f64)
-                        * lattice.spacing;
+                    + Vector3::new((i % nx) as f64, ((i / nx) % ny) as f64, (i / (nx * ny)) as f64) * h0;
                 norms.push(field.value_gradient(&p).1.norm());
             }
         }
@@ -283,9 +315,6 @@ pub(crate) fn levels(lattice: &Lattice, field: &dyn LayerField, h: f64) -> Resul
     }
     norms.sort_by(f64::total_cmp);
     let step = h * norms[norms.len() / 2];
-    // The part reaches half a lattice spacing beyond its inside lattice points.
-    let half = 0.5 * lattice.spacing * norms[norms.len() / 2];
-    let (lo, hi) = (lo - half, hi + half);
     let n = ((hi - lo) / step).round().max(1.0);
     if n > 100_000.0 {
         return Err(FieldError::InvalidArgument(format!("{n} layers (> 100 000)")));
@@ -314,6 +343,7 @@ fn layer_mesh(
     h: f64,
     flat_deg: f64,
     reach: f64,
+    wall_depth: f64,
 ) -> Result<Option<LayerMesh>> {
     let spacing = Vector3::repeat(lattice.spacing);
     let mesh = marching_cubes_samples(lattice.dims, lattice.origin, spacing, level, &lattice.g)
@@ -327,10 +357,11 @@ fn layer_mesh(
         let (_, grad) = field.value_gradient(p);
         let norm = grad.norm();
         let n = grad.try_normalize(1e-12).unwrap_or_else(Vector3::z);
-        let s = part.distance(p);
-        let gs = part.gradient(p);
-        let tangential = (gs - n * gs.dot(&n)).norm().max(0.3);
         let t = if norm > 0.0 { (step / norm).clamp(0.25 * h, 3.0 * h) } else { h };
+        let q = p - n * (wall_depth * t);
+        let s = part.distance(&q);
+        let gs = part.gradient(&q);
+        let tangential = (gs - n * gs.dot(&n)).norm().max(0.3);
         samples.push(Sample { p: *p, n, t, phi: s });
         estimate.push(s / tangential);
     }
@@ -381,7 +412,7 @@ pub(crate) fn extract(
     for (k, &level) in levels.iter().enumerate() {
         let reach = (opts.rings as f64 + 2.0) * w;
         let Some(layer) =
-            layer_mesh(lattice, field, part, level, step, opts.layer_height, opts.flat_deg, reach)?
+            layer_mesh(lattice, field, part, level, step, opts.layer_height, opts.flat_deg, reach, opts.wall_depth)?
         else {
             continue;
         };
