@@ -117,6 +117,8 @@ pub struct PrintProgram {
     pub poses_checked: usize,
     /// Of them, poses in collision with printed material or the platform.
     pub collisions: usize,
+    /// Of them, poses on travel moves (lift, traverse, lower).
+    pub travel_collisions: usize,
     /// Travels that needed a higher hop than the first.
     pub raised_hops: usize,
     /// Motion blocks written.
@@ -173,6 +175,7 @@ impl<'a> Emitter<'a> {
                 filament: 0.0,
                 poses_checked: 0,
                 collisions: 0,
+                travel_collisions: 0,
                 raised_hops: 0,
                 blocks: 0,
             },
@@ -321,9 +324,13 @@ impl Emitter<'_> {
                 continue;
             }
             let axis = *a;
-            let toward = [0.25, 0.5, 0.75, 1.0]
-                .map(|f| (axis * (1.0 - f) + Vector3::z() * f).try_normalize(1e-9).unwrap_or_else(Vector3::z));
-            let e1 = a.cross(&Vector3::x()).try_normalize(1e-6).unwrap_or_else(|| a.cross(&Vector3::y()).normalize());
+            let toward = [0.25, 0.5, 0.75, 1.0].map(|f| {
+                (axis * (1.0 - f) + Vector3::z() * f).try_normalize(1e-9).unwrap_or_else(Vector3::z)
+            });
+            let e1 = a
+                .cross(&Vector3::x())
+                .try_normalize(1e-6)
+                .unwrap_or_else(|| a.cross(&Vector3::y()).normalize());
             let e2 = a.cross(&e1);
             let around = [15.0f64, 30.0, 45.0].into_iter().flat_map(|deg| {
                 let (s, c) = deg.to_radians().sin_cos();
@@ -332,7 +339,9 @@ impl Emitter<'_> {
                     (axis * c + (e1 * phi.cos() + e2 * phi.sin()) * s).normalize()
                 })
             });
-            if let Some(b) = toward.into_iter().chain(around).find(|b| b.z > 0.0 && !self.collides(p, b, false)) {
+            if let Some(b) =
+                toward.into_iter().chain(around).find(|b| b.z > 0.0 && !self.collides(p, b, false))
+            {
                 *a = b;
             }
         }
@@ -351,6 +360,7 @@ impl Emitter<'_> {
             let (checked, hits) = self.count_way(&above, &[start], true);
             self.report.poses_checked += checked;
             self.report.collisions += hits;
+            self.report.travel_collisions += hits;
             return self.go(&[above, start], None);
         };
         let here = self.frame(&cur).inverse() * cur.tip;
@@ -377,6 +387,7 @@ impl Emitter<'_> {
         if let Some((checked, hits, way)) = best {
             self.report.poses_checked += checked;
             self.report.collisions += hits;
+            self.report.travel_collisions += hits;
             self.go(&way, None)?;
         }
         if self.opts.retract > 0.0 {

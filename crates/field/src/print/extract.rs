@@ -3,16 +3,21 @@
 //! iso-lines of scalars on that triangle mesh (marching triangles), chained into
 //! polylines:
 //!
-//! - **Contours**: iso-lines of the in-layer distance to the part's boundary at
-//!   `(i + ½) w` for `i < rings` (`w` the bead width). The in-layer distance is the part's
-//!   signed distance `s` divided by the length of its gradient projected into the layer's
-//!   tangent plane, `s / |∇s - (∇s·n)n|`: exact where the boundary is a straight wall
-//!   crossing the layer, and a first-order correction where the layer meets it obliquely
-//!   (a 45° meeting would otherwise space the rings 41 % wide).
-//! - **Infill (zig-zag)**: iso-lines of `x·u` at spacing `w`, `u` a unit vector in the
-//!   layer's mean tangent plane (turned 90° from layer to layer), clipped to the region
-//!   whose in-layer distance is beyond `(rings + ½ - overlap) w`; consecutive lines whose ends lie
-//!   within `2w` are joined into one zig-zag path.
+//! - **Boundary**: the iso-line of the part's signed distance `s` on the layer, `s` taken
+//!   [`PrintPathOptions::wall_depth`] of the local thickness below the tip (mid-bead by
+//!   default); each vertex gets its distance within the layer to that curve (exact near
+//!   it, `offsets.rs`), beyond it the first-order `s / |∇s - (∇s·n)n|`.
+//! - **Contours**: ring `i < rings` `(i + ½) w` inside the boundary (`w` the bead width),
+//!   each ring but the innermost rounded at convex corners by half a width more than the
+//!   ring inside it, so that rings stay within `1.21 w` of each other across a corner.
+//! - **Infill (zig-zag)**: iso-lines of `x·u`, `u` a unit vector in the layer's mean
+//!   tangent plane (turned 90° from layer to layer), fitted to each connected region
+//!   deeper than `(rings + ½ - overlap) w`: the first and last lines one width inside the
+//!   inner ring, the lines between evenly spaced at the nearest whole number of widths;
+//!   consecutive lines whose ends lie within `2w` are joined into one zig-zag path.
+//! - **Trimming**: every path is cut where it comes within
+//!   [`PrintPathOptions::min_spacing`] of a path before it on the layer (rings, then
+//!   infill), or of its own other side across a thin wall.
 //! - **Path field**: iso-lines of `P` at levels `w × median |∇P|` apart (the median of
 //!   `P`'s gradient projected into the layer over the layer's vertices inside the part),
 //!   clipped to the part shrunk by `½ w`.
@@ -27,7 +32,7 @@ use s2g_geom::{Mesh, Point3, SignedDistance, Vector3, marching_cubes_samples};
 
 use super::LayerField;
 use super::lattice::Lattice;
-use super::offsets::{fitted_infill, in_layer_distance, ring_scalar, trim_close};
+use super::offsets::{Sample, fitted_infill, in_layer_distance, ring_scalar, trim_close};
 use crate::error::{FieldError, Result};
 
 /// How layers and toolpaths are extracted. Lengths in the part's units (mm).
@@ -150,27 +155,6 @@ pub struct PrintLayer {
     pub paths: Vec<PrintPath>,
     /// The iso-surface's triangles whose centroid lies inside the part.
     pub surface: Mesh,
-}
-
-/// Per-vertex data of a layer mesh.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Sample {
-    pub(super) p: Point3,
-    n: Vector3,
-    t: f64,
-    /// In-layer distance to the boundary (negative inside).
-    pub(super) phi: f64,
-}
-
-impl Sample {
-    pub(super) fn lerp(&self, o: &Sample, u: f64) -> Sample {
-        Sample {
-            p: self.p + (o.p - self.p) * u,
-            n: (self.n + (o.n - self.n) * u).try_normalize(1e-12).unwrap_or(self.n),
-            t: self.t + (o.t - self.t) * u,
-            phi: self.phi + (o.phi - self.phi) * u,
-        }
-    }
 }
 
 /// A point of an iso-line: on a mesh edge (`key`, shared by the two triangles of that
@@ -340,11 +324,12 @@ fn layer_mesh(
     part: &dyn SignedDistance,
     level: f64,
     step: f64,
-    h: f64,
-    flat_deg: f64,
-    reach: f64,
-    wall_depth: f64,
+    opts: &PrintPathOptions,
 ) -> Result<Option<LayerMesh>> {
+    let (h, flat_deg, wall_depth) = (opts.layer_height, opts.flat_deg, opts.wall_depth);
+    // The in-layer distance is exact this far from the boundary (the rings and the
+    // infill's edge lie within it).
+    let reach = (opts.rings as f64 + 2.0) * opts.bead_width;
     let spacing = Vector3::repeat(lattice.spacing);
     let mesh = marching_cubes_samples(lattice.dims, lattice.origin, spacing, level, &lattice.g)
         .map_err(FieldError::geom)?;
@@ -410,10 +395,7 @@ pub(crate) fn extract(
     let min_len = opts.min_path_widths * w;
     let mut out = Vec::with_capacity(levels.len());
     for (k, &level) in levels.iter().enumerate() {
-        let reach = (opts.rings as f64 + 2.0) * w;
-        let Some(layer) =
-            layer_mesh(lattice, field, part, level, step, opts.layer_height, opts.flat_deg, reach, opts.wall_depth)?
-        else {
+        let Some(layer) = layer_mesh(lattice, field, part, level, step, opts)? else {
             continue;
         };
         let full = &layer.full;

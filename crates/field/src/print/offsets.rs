@@ -19,9 +19,28 @@
 use std::collections::HashMap;
 
 use rayon::prelude::*;
-use s2g_geom::{Mesh, Point3};
+use s2g_geom::{Mesh, Point3, Vector3};
 
-use super::extract::{PathKind, Sample};
+/// Per-vertex data of a layer mesh.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Sample {
+    pub(super) p: Point3,
+    pub(super) n: Vector3,
+    pub(super) t: f64,
+    /// In-layer distance to the boundary (negative inside).
+    pub(super) phi: f64,
+}
+
+impl Sample {
+    pub(super) fn lerp(&self, o: &Sample, u: f64) -> Sample {
+        Sample {
+            p: self.p + (o.p - self.p) * u,
+            n: (self.n + (o.n - self.n) * u).try_normalize(1e-12).unwrap_or(self.n),
+            t: self.t + (o.t - self.t) * u,
+            phi: self.phi + (o.phi - self.phi) * u,
+        }
+    }
+}
 
 /// Segments hashed by the cells their boxes touch.
 struct SegmentGrid {
@@ -140,7 +159,7 @@ pub(super) fn ring_scalar(mesh: &Mesh, samples: &[Sample], i: usize, rings: usiz
 }
 
 /// A polyline of samples, closed or not, and what it fills.
-pub(super) type Polyline = (PathKind, Vec<Sample>, bool);
+pub(super) type Polyline<K> = (K, Vec<Sample>, bool);
 
 /// Cumulative arc length of `pts`.
 fn arcs(pts: &[Sample]) -> Vec<f64> {
@@ -156,7 +175,11 @@ fn arcs(pts: &[Sample]) -> Vec<f64> {
 }
 
 /// The trimming of the module docs, over polylines in priority order.
-pub(super) fn trim_close(polylines: Vec<Polyline>, min_gap: f64, own_arc: f64) -> Vec<Polyline> {
+pub(super) fn trim_close<K: Copy>(
+    polylines: Vec<Polyline<K>>,
+    min_gap: f64,
+    own_arc: f64,
+) -> Vec<Polyline<K>> {
     if min_gap <= 0.0 {
         return polylines;
     }
@@ -278,7 +301,8 @@ pub(super) fn fitted_infill(
         }
     }
     const NONE: u32 = u32::MAX;
-    let mut region: Vec<u32> = (0..nv as u32).map(|i| if inside(i) { find(&mut parent, i) } else { NONE }).collect();
+    let mut region: Vec<u32> =
+        (0..nv as u32).map(|i| if inside(i) { find(&mut parent, i) } else { NONE }).collect();
     for tri in mesh.triangles() {
         if let Some(&r) = tri.iter().find(|&&i| region[i as usize] != NONE && inside(i)) {
             let r = region[r as usize];
