@@ -38,13 +38,8 @@ impl Interp<'_> {
         if self.block.mask & bit(b'e') != 0 && !self.fdm {
             self.exponent_check(line)?;
         }
-        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A)) != 0 {
-            self.polar()?;
-        }
-        if self.block.mask & bit(b'q') != 0 && !self.in_flow && self.lathe_cycle_block() {
-            // A lathe cycle calls its profile subroutine: control flow from this line on.
-            self.flow_request = true;
-            self.done = true;
+        // One test on the common path for the rare words: polar ones, and Q (a lathe cycle).
+        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A) | bit(b'q')) != 0 && self.rare_words()? {
             return Ok(());
         }
         self.comments_and_markers(line, sink)?;
@@ -57,10 +52,22 @@ impl Interp<'_> {
         Ok(())
     }
 
-    /// The block has a lathe cycle's code (`G70`-`G72`, with its `Q` word).
+    /// Polar words become X and Y; a lathe cycle (`G70`-`G72` with its `Q` word) outside
+    /// control flow asks for it, as an O-word line does. Returns `true` for the latter
+    /// (the driver runs the line again under control flow).
     #[cold]
-    fn lathe_cycle_block(&self) -> bool {
-        self.block.g[..self.block.ng].iter().any(|&(g, _)| is_lathe_cycle(g))
+    fn rare_words<E>(&mut self) -> Res<bool, E> {
+        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A)) != 0 {
+            self.polar()?;
+        }
+        let blk = &self.block;
+        if blk.has(b'q') && !self.in_flow && blk.g[..blk.ng].iter().any(|&(g, _)| is_lathe_cycle(g)) {
+            // The cycle calls its profile subroutine: control flow from this line on.
+            self.flow_request = true;
+            self.done = true;
+            return Ok(true);
+        }
+        Ok(false)
     }
 
     /// Turns the block's polar words into X and Y words (LinuxCNC): the point at radius `@`

@@ -580,6 +580,8 @@ fn lathe_cycle<S: MotionSink>(
                 it.params.numbered[1..=30].copy_from_slice(&f.saved);
                 it.params.named = f.named.clone();
             }
+            // As in `execute`, a control-flow error or the step limit ends the program.
+            it.done = matches!(kind, GcodeErrorKind::ControlFlow(_) | GcodeErrorKind::StepLimit(_));
             return it.record(col, kind);
         }
     }

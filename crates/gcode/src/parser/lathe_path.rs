@@ -13,7 +13,7 @@ const NEVER_ENDS: &str = "the roughing passes never end";
 const TOO_MANY: &str = "more than 1000000 moves";
 /// Most work (segments offset, summed over the steps) of the offsets of one cycle: each
 /// step is at most half the shortest segment.
-const MAX_OFFSET_WORK: usize = 50_000_000;
+const MAX_OFFSET_WORK: usize = 5_000_000;
 
 /// The profile: its first segment runs from the cycle's start point to the profile's.
 #[derive(Debug, Clone)]
@@ -121,6 +121,9 @@ impl Path {
             }
         }
         self.segs.retain(|s| s.radius() >= 1e-3);
+        if self.segs.is_empty() {
+            return Err("Not monotonic".into());
+        }
         Ok(())
     }
 
@@ -164,6 +167,9 @@ impl Path {
     /// Offsets the profile (all but its first segment, the approach) by `distance`
     /// towards the stock, in steps of at most half the shortest segment.
     fn add_distance(&mut self, distance: f64, work: &mut usize) -> GeomResult<()> {
+        if self.segs.len() < 2 || !distance.is_finite() {
+            return Err("the profile cannot be offset".into());
+        }
         let v1 = self.front().e - self.front().s;
         let v2 = self.back().s - self.front().s;
         let distance = if (v1 / v2).im < 0.0 { -distance } else { distance };
@@ -176,6 +182,9 @@ impl Path {
             }
             let mut step = self.segs.iter().map(|s| s.radius() / 2.0).fold(1e9, f64::min);
             step = step.min((distance - current).abs());
+            if !(step > 0.0 && step.is_finite()) {
+                return Err("the profile cannot be offset".into());
+            }
             if distance < 0.0 {
                 step = -step;
             }
@@ -360,9 +369,7 @@ impl Path {
                 if rounds > 10 * MAX_MOVES {
                     return Err(NEVER_ENDS.into());
                 }
-                while x - TOL > loc.im {
-                    x -= self.delta;
-                }
+                x = self.level_below(x, loc.im)?;
                 if self.segs[p].dive(&mut loc, x, out, p == 0)? {
                     if cycle == 1 {
                         for s in &self.segs[p..] {
@@ -397,6 +404,20 @@ impl Path {
             }
             return Ok(());
         }
+    }
+
+    /// The first level `delta` apart below `x` that is not above `at` (LinuxCNC steps
+    /// down to it; so do we, within a bound).
+    fn level_below(&self, mut x: f64, at: f64) -> GeomResult<f64> {
+        let mut n = 0;
+        while x - TOL > at {
+            x -= self.delta;
+            n += 1;
+            if n > MAX_MOVES {
+                return Err(NEVER_ENDS.into());
+            }
+        }
+        Ok(x)
     }
 
     /// One roughing pass at the level of `loc` from the diving segment `p`: a feed to
