@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Point3;
 use s2g_gcode::{
     ArcDirection, GcodeErrorKind, Marker, Motion, MotionRecorder, ParseDialect, ParseError, ParseOptions,
-    ParseSummary, Plane, Stats, parse_file, parse_reader, parse_str,
+    ParseSummary, Plane, RotaryAxes, Stats, parse_file, parse_reader, parse_str,
 };
 
 fn data(rel: &str) -> PathBuf {
@@ -868,5 +868,31 @@ fn lathe_cycles() {
     match m.iter().find(|(_, m)| matches!(m, Motion::Rapid { .. })) {
         Some((_, Motion::Rapid { to })) => close(*to, [25.4, 0.0, 0.0], "G70 as inch"),
         other => panic!("{other:?}"),
+    }
+}
+
+/// An input the fuzzer found (fuzz/seeds/parse/lathe_fuzz_regression.ngc: control bytes, a
+/// roughing cycle calling a missing profile, a G70 with a D word), read with the fuzz
+/// target's options: an early version of the lathe cycles sent a move to a non-finite
+/// point. Every end point is finite, in both modes.
+#[test]
+fn lathe_cycle_fuzz_input_moves_to_finite_points() {
+    let bytes = include_bytes!("../../../fuzz/seeds/parse/lathe_fuzz_regression.ngc");
+    let text = String::from_utf8_lossy(bytes);
+    for dialect in [ParseDialect::Auto, ParseDialect::Cnc] {
+        let opts = ParseOptions {
+            dialect,
+            rotary: Some(RotaryAxes::BC),
+            stop_at_program_end: false,
+            max_steps: 500,
+            tool_diameters: (1..10).map(|t| (t, t as f64 * 0.5)).collect(),
+            ..ParseOptions::default()
+        };
+        let (s, m) = run(&text, &opts);
+        assert_eq!(s.lines, 18, "{dialect:?}");
+        for (line, motion) in &m {
+            let finite = motion.end_point().is_none_or(|p| p.iter().all(|v| v.is_finite()));
+            assert!(finite, "{dialect:?}: line {line}: {motion:?}");
+        }
     }
 }
