@@ -405,6 +405,15 @@ impl Ctx<'_> {
     /// rapid down to the lower level then met the skin of stock the upper level left on
     /// that wall.
     fn clearances(&self, keepouts: &[&Region2], above: Option<&Nest>) -> Vec<Clearance> {
+        let rect = self.centre_rect();
+        let clearance = |off: Region2| {
+            let free = rect.difference(&off);
+            Clearance { off, free }
+        };
+        if !self.opts.nest_levels {
+            // Each level's keep-out grown on its own ([`PlanOptions::nest_levels`]).
+            return keepouts.par_iter().map(|k| clearance(self.grown(k))).collect();
+        }
         // The growths, in parallel; their running union is sequential.
         let added: Vec<Option<Region2>> = keepouts
             .par_iter()
@@ -427,13 +436,7 @@ impl Ctx<'_> {
                 (None, a) => a.unwrap_or_else(Region2::empty),
             });
         }
-        let rect = self.centre_rect();
-        offs.into_par_iter()
-            .map(|off| {
-                let free = rect.difference(&off);
-                Clearance { off, free }
-            })
-            .collect()
+        offs.into_par_iter().map(clearance).collect()
     }
 
     /// Plans one layer, whose keep-out gives `clearance` ([`Ctx::clearance`]). `roughed` is

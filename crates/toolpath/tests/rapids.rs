@@ -38,6 +38,7 @@ fn oblique(part: &Mesh) -> (Setup, Tool, PlanOptions, Aabb) {
         roughing_depth: Some(12.0),
         stepover: 0.5,
         stock: Some(in_setup),
+        nest_levels: true,
         ..PlanOptions::default()
     };
     (setup, tool, opts, stock)
