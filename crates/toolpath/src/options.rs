@@ -119,6 +119,12 @@ pub struct PlanOptions {
     /// query per half tool radius of path, which for a small tool on fine layers costs more
     /// than planning. Default false.
     pub measure_air_cut: bool,
+    /// Grow each level's tool-centre keep-out from the level above's, so that the levels'
+    /// free regions nest as polygons and a rapid down to the level above meets no material
+    /// (issue 35). Off by default, which keeps the paper's programs as they were: there
+    /// the levels' own offsets differ from nesting by far less than a voxel, and the nested
+    /// keep-outs accumulate vertices over many fine levels. On in the shop preset.
+    pub nest_levels: bool,
 }
 
 impl Default for PlanOptions {
@@ -150,6 +156,7 @@ impl Default for PlanOptions {
             roughing_depth: None,
             sliver_width: None,
             measure_air_cut: false,
+            nest_levels: false,
         }
     }
 }
