@@ -871,28 +871,34 @@ fn lathe_cycles() {
     }
 }
 
-/// An input the fuzzer found (fuzz/seeds/parse/lathe_fuzz_regression.ngc: control bytes, a
-/// roughing cycle calling a missing profile, a G70 with a D word), read with the fuzz
-/// target's options: an early version of the lathe cycles sent a move to a non-finite
-/// point. Every end point is finite, in both modes.
+/// Inputs the fuzzer found in the lathe cycles (fuzz/seeds/parse/lathe_fuzz_regression*.ngc:
+/// control bytes, profiles with an arc whose centre cannot be, cycles calling missing
+/// profiles), read with the fuzz target's options: early versions sent moves to
+/// non-finite points. Every line is read and every end point is finite, in both modes.
 #[test]
-fn lathe_cycle_fuzz_input_moves_to_finite_points() {
-    let bytes = include_bytes!("../../../fuzz/seeds/parse/lathe_fuzz_regression.ngc");
-    let text = String::from_utf8_lossy(bytes);
-    for dialect in [ParseDialect::Auto, ParseDialect::Cnc] {
-        let opts = ParseOptions {
-            dialect,
-            rotary: Some(RotaryAxes::BC),
-            stop_at_program_end: false,
-            max_steps: 500,
-            tool_diameters: (1..10).map(|t| (t, t as f64 * 0.5)).collect(),
-            ..ParseOptions::default()
-        };
-        let (s, m) = run(&text, &opts);
-        assert_eq!(s.lines, 18, "{dialect:?}");
-        for (line, motion) in &m {
-            let finite = motion.end_point().is_none_or(|p| p.iter().all(|v| v.is_finite()));
-            assert!(finite, "{dialect:?}: line {line}: {motion:?}");
+fn lathe_cycle_fuzz_inputs_move_to_finite_points() {
+    let inputs: [&[u8]; 2] = [
+        include_bytes!("../../../fuzz/seeds/parse/lathe_fuzz_regression.ngc"),
+        include_bytes!("../../../fuzz/seeds/parse/lathe_fuzz_regression2.ngc"),
+    ];
+    for (k, bytes) in inputs.into_iter().enumerate() {
+        let text = String::from_utf8_lossy(bytes);
+        let lines = text.split_terminator('\n').count() as u64;
+        for dialect in [ParseDialect::Auto, ParseDialect::Cnc] {
+            let opts = ParseOptions {
+                dialect,
+                rotary: Some(RotaryAxes::BC),
+                stop_at_program_end: false,
+                max_steps: 500,
+                tool_diameters: (1..10).map(|t| (t, t as f64 * 0.5)).collect(),
+                ..ParseOptions::default()
+            };
+            let (s, m) = run(&text, &opts);
+            assert_eq!(s.lines, lines, "input {k}, {dialect:?}");
+            for (line, motion) in &m {
+                let finite = motion.end_point().is_none_or(|p| p.iter().all(|v| v.is_finite()));
+                assert!(finite, "input {k}, {dialect:?}: line {line}: {motion:?}");
+            }
         }
     }
 }

@@ -265,6 +265,12 @@ impl Interp<'_> {
             71 => path.rough(&rough, false, &mut moves),
             _ => path.rough(&rough, true, &mut moves),
         };
+        // A degenerate profile (an arc whose radius is shorter than half its chord, an
+        // offset of nothing) can give passes at NaN: refused whole, before any is made.
+        if !moves.iter().all(Out::is_finite) {
+            let what = "G7X error: the profile gives passes at no finite point".to_string();
+            return Err(Fail::Line(0, GcodeErrorKind::CannedCycle(what)));
+        }
         for m in moves {
             self.g7x_move(m, sink)?;
         }

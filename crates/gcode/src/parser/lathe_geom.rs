@@ -106,6 +106,17 @@ pub(super) enum Out {
     Arc { ccw: bool, center: C, end: C },
 }
 
+impl Out {
+    /// Whether every coordinate of the move is a finite number.
+    pub(super) fn is_finite(&self) -> bool {
+        let ok = |p: &C| p.re.is_finite() && p.im.is_finite();
+        match self {
+            Out::Rapid(p) | Out::Feed(p) => ok(p),
+            Out::Arc { center, end, .. } => ok(center) && ok(end),
+        }
+    }
+}
+
 /// Where the moves go: a list, and the geometry's errors.
 pub(super) type Moves = Vec<Out>;
 /// A geometry error: LinuxCNC's `G7X error: ...` text after the prefix.
