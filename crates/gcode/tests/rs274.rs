@@ -246,6 +246,19 @@ fn check(dir: &Path, name: &str, text: &str) -> usize {
     check_with(dir, name, text, Tools::Zero)
 }
 
+/// [`check`] on each of `programs` (name, text): how many `rs274` rejects, and how many
+/// moves agree in all.
+fn check_programs(dir: &Path, programs: &[(&str, &str)]) -> (usize, usize) {
+    let mut errors = 0;
+    let mut moves = 0;
+    for (name, text) in programs {
+        let file = format!("{name}.ngc");
+        errors += run_rs274(dir, &file, text).error.is_some() as usize;
+        moves += check(dir, &file, text);
+    }
+    (errors, moves)
+}
+
 /// [`check`] with a tool table.
 fn check_with(dir: &Path, name: &str, text: &str, tools: Tools) -> usize {
     let reference = run_rs274_with(dir, name, text, &tools);
@@ -442,12 +455,7 @@ fn feature_programs_agree_with_rs274() {
         ),
         ("g76_toward_plus_z", "G21 G18 S500 M3\nG0 X10 Z-20\nG76 P1 Z0 I-1 J0.3 K0.6 E1 L1\nM2\n"),
     ];
-    let mut errors = 0;
-    for (name, text) in programs {
-        let r = run_rs274(dir.path(), &format!("{name}.ngc"), text);
-        errors += r.error.is_some() as usize;
-        check(dir.path(), &format!("{name}.ngc"), text);
-    }
+    let (errors, _) = check_programs(dir.path(), programs);
     // bad_arc, bad_arc_inch, r_too_small, no_feed, no_center, g53_alone, axes_no_motion,
     // exponent, polar_with_x, undefined_call, l20_rotation, inverse_time_no_f,
     // probe_too_close, uvw_axes.
@@ -506,13 +514,7 @@ fn compensation_programs_agree_with_rs274() {
         ("comp_plane_change", "G21 F100\nG0 X0 Y0\nG41.1 D2\nG1 X10\nG18\nM2\n"),
         ("comp_arc_too_small", "G21 F100\nG0 X0 Y-20\nG41.1 D4\nG1 X0 Y0\nG1 X20\nG3 X21 Y1 R1\nG1 X0\nM2\n"),
     ];
-    let mut errors = 0;
-    let mut moves = 0;
-    for (name, text) in programs {
-        let r = run_rs274(dir.path(), &format!("{name}.ngc"), text);
-        errors += r.error.is_some() as usize;
-        moves += check(dir.path(), &format!("{name}.ngc"), text);
-    }
+    let (errors, moves) = check_programs(dir.path(), programs);
     // The nine from comp_entry_too_short on.
     assert_eq!(errors, 9, "rs274 should reject exactly the nine bad programs");
     assert!(moves > 80, "only {moves} moves compared");
@@ -696,13 +698,7 @@ const LATHE_PROGRAMS: &[(&str, &str)] = &[
 fn lathe_cycles_agree_with_rs274() {
     let dir = tempfile::tempdir().expect("tempdir");
     let programs = LATHE_PROGRAMS;
-    let mut errors = 0;
-    let mut moves = 0;
-    for (name, text) in programs {
-        let r = run_rs274(dir.path(), &format!("{name}.ngc"), text);
-        errors += r.error.is_some() as usize;
-        moves += check(dir.path(), &format!("{name}.ngc"), text);
-    }
+    let (errors, moves) = check_programs(dir.path(), programs);
     // The nineteen from no_q on.
     assert_eq!(errors, 19, "rs274 should reject exactly the nineteen bad programs");
     assert!(moves > 1500, "only {moves} moves compared");
