@@ -492,15 +492,21 @@ impl<'o> Interp<'o> {
         self.e_axis = true;
     }
 
+    #[inline]
     pub(super) fn need_feed<E>(&mut self, what: &str) -> Res<(), E> {
-        if self.feed <= 0.0 {
-            if self.strict {
-                return Err(Fail::Line(0, GcodeErrorKind::ZeroFeed(what.into())));
-            }
-            if !self.warned_feed {
-                self.warned_feed = true;
-                self.warn(0, GcodeErrorKind::ZeroFeed(format!("{what} (feed 0 reported; warned once)")));
-            }
+        if self.feed <= 0.0 { self.zero_feed(what) } else { Ok(()) }
+    }
+
+    /// [`Self::need_feed`] when the feed is not positive: an error in strict mode, else one
+    /// warning.
+    #[cold]
+    fn zero_feed<E>(&mut self, what: &str) -> Res<(), E> {
+        if self.strict {
+            return Err(Fail::Line(0, GcodeErrorKind::ZeroFeed(what.into())));
+        }
+        if !self.warned_feed {
+            self.warned_feed = true;
+            self.warn(0, GcodeErrorKind::ZeroFeed(format!("{what} (feed 0 reported; warned once)")));
         }
         Ok(())
     }

@@ -51,6 +51,7 @@ impl Interp<'_> {
     }
 
     /// Target of a straight move in work coordinates, from the axis words.
+    #[inline]
     pub(super) fn target(&self, g53: bool) -> [f64; 3] {
         let s = self.scale();
         if g53 {
