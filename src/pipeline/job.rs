@@ -1,7 +1,7 @@
 //! What a setup is planned with: a policy's action mapped to a tool, feeds and plan
 //! options, and the features the policy sees.
 
-use super::api::{MillError, MillOptions};
+use super::api::{MillError, MillOptions, Preset};
 use crate::gcode::Coolant;
 use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
@@ -94,6 +94,8 @@ impl Job {
             clearance_height: clearance,
             stock: Some(stock_in_setup(stock, setup)),
             rapid_feed: rapid,
+            // The shop preset's levels nest exactly (issue 35); the paper's keep their own offsets.
+            nest_levels: opts.preset == Preset::Shop,
             ..PlanOptions::default()
         };
         // A library tool steps over no more than its radial limit.

@@ -1,11 +1,19 @@
 //! Linking and emission: turns layer plans into motions with safe retracts and entries.
 //!
-//! Safety argument (why rapids never meet material): the keep-out grows downward, so the
-//! free region at a layer lies inside the free region of every layer above, where the
-//! contour and clearing passes (or the absence of material) have already removed the
-//! material down to that layer's level. So a rapid straight down at a path start is safe to
-//! `z_above + gap`; below that the tool feeds in (helix, ramp or plunge). Horizontal rapids
-//! run only on the clearance plane above the stock.
+//! Safety argument (why rapids never meet material): a path start `s` lies in its layer's
+//! free region, and the free regions nest: each level's tool-centre keep-out is the level
+//! above's joined with the growth of what its own keep-out adds, so the same polygons,
+//! not merely the same exact sets (see `Ctx::clearances` in the planner; growing each
+//! level's keep-out on its own gave each level its own chords, and an entry's tool reached
+//! micrometres past the cut above into the stock skin on an undercut's wall, issue 35). So
+//! `s` lies in the free region `F` of the level `z_above`, which was cut before. A point `p`
+//! within the radius of `s` is then either in `F`, within the radius of that level's
+//! passes (the clearing covers its region; what a roughing level below cut, or what the
+//! material reach left out, held no material), or beyond `F`'s boundary, crossed at `q`
+//! with `|p - q| <= |p - s|`: `q` lies on the contour (or where no material lies within the
+//! radius), which removed the material within the radius of `q`. So a rapid straight
+//! down at a path start is safe to `z_above + gap`; below that the tool feeds in (helix,
+//! ramp or plunge). Horizontal rapids run only on the clearance plane above the stock.
 
 use std::f64::consts::PI;
 

@@ -131,6 +131,12 @@ pub struct PlanOptions {
     /// With [`arc_tolerance`](Self::arc_tolerance): fit the pieces (default true); false
     /// writes the same plan with straight moves.
     pub fit_arcs: bool,
+    /// Grow each level's tool-centre keep-out from the level above's, so that the levels'
+    /// free regions nest as polygons and a rapid down to the level above meets no material
+    /// (issue 35). Off by default, which keeps the paper's programs as they were: there
+    /// the levels' own offsets differ from nesting by far less than a voxel, and the nested
+    /// keep-outs accumulate vertices over many fine levels. On in the shop preset.
+    pub nest_levels: bool,
 }
 
 impl Default for PlanOptions {
@@ -164,6 +170,7 @@ impl Default for PlanOptions {
             measure_air_cut: false,
             arc_tolerance: None,
             fit_arcs: true,
+            nest_levels: false,
         }
     }
 }
