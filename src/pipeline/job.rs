@@ -47,10 +47,14 @@ impl Job {
             approach: f.tool.radius()
                 + self.popts.layer_height
                 + self.popts.finishing_allowance
+                + self.popts.arc_tolerance.unwrap_or(0.0)
                 + self.popts.axial_allowance
                 + 0.5,
             rapid_feed: self.popts.rapid_feed,
             coolant: f.tool.coolant != Coolant::Off,
+            // Passes along X or Y as G18/G19 arcs above the cutter-location points (the
+            // milling dialects all select planes).
+            arc_tolerance: self.popts.arc_tolerance.filter(|_| self.popts.fit_arcs),
             ..FinishOptions::default()
         }
     }
@@ -74,12 +78,12 @@ impl Job {
             layer_height: action.layer_height,
             strategy,
             contour: opts.contour,
-            // A fitted arc may pass up to its tolerance from the planned points, on either
-            // side: the walls keep that much more, so no arc comes nearer the part than
-            // planned.
-            // With finishing the roughing also leaves the finisher's stock.
-            finishing_allowance: opts.arc_tolerance.unwrap_or(0.0)
-                + opts.finish.map_or(0.0, |_| opts.finish_allowance[0]),
+            // With finishing the roughing leaves the finisher's stock.
+            finishing_allowance: opts.finish.map_or(0.0, |_| opts.finish_allowance[0]),
+            // Arcs fitted on the part's side of the passes, within the tolerance, which
+            // the walls keep as well: none comes nearer the part than the allowance.
+            arc_tolerance: opts.arc_tolerance,
+            fit_arcs: opts.fit_arcs,
             axial_allowance: opts.finish.map_or(0.0, |_| opts.finish_allowance[1]),
             // A library tool roughs as deep as its axial limit in the material allows.
             roughing_depth: match cutting {

@@ -1,6 +1,8 @@
 //! [`LayerPlan`]: one layer's regions and paths, between planning and emission.
 
-use crate::region::{Polyline2, Region2};
+use std::sync::Arc;
+
+use crate::region::{Polyline2, Region2, RegionIndex};
 
 /// One layer's plan: its regions and paths (tool-centre XY at level `z`).
 #[derive(Debug, Clone)]
@@ -24,6 +26,10 @@ pub struct LayerPlan {
     pub clearing: Vec<Polyline2>,
     /// Cut and air length of contour + clearing (air only with rest information).
     pub cut_air: (f64, f64),
+    /// The level's keep-out (the part's projection), indexed, where arcs are fitted: a
+    /// fitted piece that leaves its path by more than the arc tolerance must keep the
+    /// tool's distance from it ([`PlanOptions::arc_tolerance`](crate::PlanOptions::arc_tolerance)).
+    pub(crate) keepout: Option<Arc<RegionIndex>>,
 }
 
 impl LayerPlan {
@@ -38,6 +44,7 @@ impl LayerPlan {
             contour: Vec::new(),
             clearing: Vec::new(),
             cut_air: (0.0, 0.0),
+            keepout: None,
         }
     }
 }

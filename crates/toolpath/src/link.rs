@@ -17,9 +17,13 @@
 
 use std::f64::consts::PI;
 
-use s2g_gcode::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use s2g_gcode::{
+    ArcDirection, ArcSpec, Coolant, FitSide, Marker, Motion, MotionSink, PlanarFitOptions, PlanarPiece,
+    Plane, SpindleDirection, fit_planar,
+};
 use s2g_geom::{Aabb, Point3, Setup};
 
+use crate::clear::piece_clear;
 use crate::error::ToolpathError;
 use crate::layer::LayerPlan;
 use crate::options::PlanOptions;
@@ -51,6 +55,11 @@ pub(crate) fn book_move(
 }
 
 pub(crate) struct LinkParams {
+    /// The least distance from a level's keep-out at which the tool centre cuts.
+    pub wall: f64,
+    /// How far beyond the arc tolerance a fitted piece may leave its path: it is then
+    /// checked against the keep-out ([`LayerPlan::keepout`]).
+    pub arc_slack: f64,
     pub clear_z: f64,
     pub gap: f64,
     pub max_link: f64,
@@ -78,6 +87,8 @@ pub(crate) struct Emitter<'s, S: MotionSink> {
     helix_radius: f64,
     min_ramp: f64,
     p: LinkParams,
+    /// Arc fitting of the passes ([`PlanOptions::arc_tolerance`]): pieces on the part's side.
+    fit: Option<PlanarFitOptions>,
     pos: Option<Point3>,
     stats: Stats,
 }
@@ -90,6 +101,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         p: LinkParams,
         rest: Option<&'s dyn RemainingMaterial>,
     ) -> Self {
+        let arc_slack = p.arc_slack;
         Self {
             sink,
             tool: *tool,
@@ -99,6 +111,15 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
             helix_radius: opts.ramp.helix_radius.unwrap_or(0.5 * tool.radius()),
             min_ramp: opts.ramp.min_ramp_length.unwrap_or(tool.radius()),
             p,
+            // Climb milling runs with the part on the right of travel (contours and rings
+            // alike), conventional milling with it on the left.
+            fit: opts.arc_fit().map(|tolerance| PlanarFitOptions {
+                tolerance: tolerance + arc_slack,
+                side: if opts.climb { FitSide::Right } else { FitSide::Left },
+                // Round joins, their vertices on the circle, fit from their chords' middles.
+                midpoints: true,
+                ..PlanarFitOptions::default()
+            }),
             pos: None,
             stats: Stats::default(),
         }
@@ -201,14 +222,61 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                 self.rapid(Point3::new(s.x, s.y, top))?;
                 self.enter(path, &index, plan, top)?;
             }
-            for q in path.points.iter().skip(1) {
-                self.feed(Point3::new(q.x, q.y, z), self.tool.feed)?;
+            self.along(path, z, plan)?;
+        }
+        Ok(())
+    }
+
+    /// Feeds along `path` at level `z` from its start (where the tool is): through every
+    /// point, or by the fitted arcs and lines where arcs are fitted.
+    fn along(&mut self, path: &Polyline2, z: f64, plan: &LayerPlan) -> Result<(), ToolpathError<S::Error>> {
+        let mut pts: Vec<[f64; 2]> = Vec::with_capacity(path.points.len() + 1);
+        let back = path.start().filter(|_| path.closed);
+        for q in path.points.iter().chain(back.as_ref()) {
+            if pts.last() != Some(&[q.x, q.y]) {
+                pts.push([q.x, q.y]);
             }
-            if path.closed {
-                self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
+        }
+        let feed = self.tool.feed;
+        let Some(opts) = self.fit else {
+            for q in pts.iter().skip(1) {
+                self.feed(Point3::new(q[0], q[1], z), feed)?;
+            }
+            return Ok(());
+        };
+        // Within the arc tolerance of its path (which keeps that much more from the part)
+        // a piece is safe; beyond it, it must keep the tool's distance from the keep-out.
+        let tolerance = opts.tolerance - self.p.arc_slack;
+        let safe = |from: &[f64; 2], piece: &PlanarPiece| {
+            piece.deviation <= tolerance
+                || plan.keepout.as_deref().is_some_and(|k| piece_clear(k, *from, piece, self.p.wall))
+        };
+        for piece in fit_planar(&pts, &opts, safe) {
+            let q = piece.to;
+            let to = Point3::new(q[0], q[1], z);
+            match piece.arc {
+                None => self.feed(to, feed)?,
+                Some((c, direction)) => self.arc(to, Point3::new(c[0], c[1], z), direction, feed)?,
             }
         }
         Ok(())
+    }
+
+    /// A feed along the XY arc about `center` to `to`, booked by its length.
+    fn arc(
+        &mut self,
+        to: Point3,
+        center: Point3,
+        direction: ArcDirection,
+        feed: f64,
+    ) -> Result<(), ToolpathError<S::Error>> {
+        let Some(from) = self.pos else { return self.feed(to, feed) };
+        let spec = ArcSpec { start: from, end: to, center, plane: Plane::XY, direction, turns: 0 };
+        let l = spec.length();
+        self.stats.cutting_length += l;
+        self.stats.time_s += l / feed * 60.0;
+        self.pos = Some(to);
+        self.send(Motion::Arc { to, center, plane: Plane::XY, direction, turns: 0, feed, extrude: None })
     }
 
     /// Feeds from `top` down to the layer at the path's start: straight in air, else by

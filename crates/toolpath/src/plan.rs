@@ -137,7 +137,7 @@ fn slice_levels<E>(
         Vec::new()
     };
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
-    let grow = envelope.radius + opts.finishing_allowance;
+    let grow = envelope.radius + opts.wall_allowance();
     let min_hole_area = std::f64::consts::PI * grow * grow;
     let sliver_width = opts.sliver_width.unwrap_or(1e-6 * stock.extent().x.max(stock.extent().y));
     let slabs = slab_regions(
@@ -149,6 +149,11 @@ fn slice_levels<E>(
     );
     Ok(Sliced { stock, part_bbox, levels, slabs, min_hole_area, sliver_width })
 }
+
+/// The contour keep-out is grown by this fraction of the tool radius more and thinned
+/// (Douglas-Peucker) by as much: its vertices keep the full distance, its chords cut up to
+/// this much inside.
+const CONTOUR_THINNING: f64 = 0.005;
 
 pub(crate) struct Ctx<'a> {
     pub tool: &'a Tool,
@@ -173,6 +178,8 @@ pub(crate) struct Clearance {
     off: Region2,
     /// The stock outline grown by the tool radius, less `off`.
     free: Region2,
+    /// The keep-out itself, indexed, where arcs are fitted.
+    keepout: Option<Arc<RegionIndex>>,
 }
 
 /// A level's keep-out and tool-centre keep-out, from which the next levels' grow
@@ -384,10 +391,10 @@ impl Ctx<'_> {
     /// finishing allowance.
     fn grown(&self, keepout: &Region2) -> Region2 {
         let r = self.envelope.radius;
-        let thin = 0.005 * r;
+        let thin = CONTOUR_THINNING * r;
         keepout
             .grown_safe(
-                r + self.opts.finishing_allowance + thin + self.sliver_width,
+                r + self.opts.wall_allowance() + thin + self.sliver_width,
                 self.opts.offset_eps * r,
                 self.opts.arc_step,
             )
@@ -406,13 +413,14 @@ impl Ctx<'_> {
     /// that wall.
     fn clearances(&self, keepouts: &[&Region2], above: Option<&Nest>) -> Vec<Clearance> {
         let rect = self.centre_rect();
-        let clearance = |off: Region2| {
+        let clearance = |(off, keepout): (Region2, &&Region2)| {
             let free = rect.difference(&off);
-            Clearance { off, free }
+            let keepout = self.opts.arc_fit().map(|_| Arc::new(keepout.index()));
+            Clearance { off, free, keepout }
         };
         if !self.opts.nest_levels {
             // Each level's keep-out grown on its own ([`PlanOptions::nest_levels`]).
-            return keepouts.par_iter().map(|k| clearance(self.grown(k))).collect();
+            return keepouts.par_iter().map(|k| clearance((self.grown(k), k))).collect();
         }
         // The growths, in parallel; their running union is sequential.
         let added: Vec<Option<Region2>> = keepouts
@@ -436,7 +444,7 @@ impl Ctx<'_> {
                 (None, a) => a.unwrap_or_else(Region2::empty),
             });
         }
-        offs.into_par_iter().map(clearance).collect()
+        offs.into_par_iter().zip(keepouts.par_iter()).map(clearance).collect()
     }
 
     /// Plans one layer, whose keep-out gives `clearance` ([`Ctx::clearance`]). `roughed` is
@@ -452,7 +460,7 @@ impl Ctx<'_> {
         roughed: Option<(&Region2, &RegionIndex)>,
     ) -> LayerPlan {
         let r = self.envelope.radius;
-        let Clearance { off, free } = clearance;
+        let Clearance { off, free, keepout } = clearance;
         let to_clear = match roughed {
             Some((done, _)) => Cow::Owned(free.difference(done)),
             None => Cow::Borrowed(free),
@@ -533,7 +541,17 @@ impl Ctx<'_> {
                 }
             }
         }
-        LayerPlan { index, z, z_above, free: free.clone(), clearing_region, contour, clearing, cut_air }
+        LayerPlan {
+            index,
+            z,
+            z_above,
+            free: free.clone(),
+            clearing_region,
+            contour,
+            clearing,
+            cut_air,
+            keepout: keepout.clone(),
+        }
     }
 }
 
@@ -765,6 +783,10 @@ pub fn plan_setup_watched<S: MotionSink>(
     let ctx = make_ctx(&stock, sliced.sliver_width, tool, opts, rest);
     let clear_z = stock.max.z + opts.clearance_height;
     let params = LinkParams {
+        // What the tool centre keeps from the keep-outs, and what arcs may leave their path
+        // by without that check: the contour's thinning (its vertices keep that much more).
+        wall: ctx.envelope.radius + opts.finishing_allowance + ctx.sliver_width,
+        arc_slack: CONTOUR_THINNING * ctx.envelope.radius,
         clear_z: clear_z.max(ctx.start.z),
         gap: opts.retract_gap.unwrap_or(0.5 * opts.layer_height),
         max_link: opts.max_stay_down_link.unwrap_or(2.0 * tool.diameter()),
