@@ -51,6 +51,11 @@ impl Job {
                 + 0.5,
             rapid_feed: self.popts.rapid_feed,
             coolant: f.tool.coolant != Coolant::Off,
+            // What the roughing can have left on the part: the finisher's rapids keep that
+            // far from it, beside steep walls as over flats.
+            stock_left: std::env::var("T_NOSTOCK").is_err().then_some(
+                self.popts.layer_height + self.popts.finishing_allowance + self.popts.axial_allowance + 0.5,
+            ),
             ..FinishOptions::default()
         }
     }
@@ -90,6 +95,9 @@ impl Job {
             clearance_height: clearance,
             stock: Some(stock_in_setup(stock, setup)),
             rapid_feed: rapid,
+            // A shop's finer levels are entered from the side, down in the roughing cut's
+            // air, rather than by a ramp at the plunge feed into every step.
+            lead_in: cutting.is_some() && std::env::var("T_NOLEAD").is_err(),
             ..PlanOptions::default()
         };
         // A library tool steps over no more than its radial limit.
