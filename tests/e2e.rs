@@ -1,6 +1,7 @@
 //! End-to-end tests of the whole system on the bundled sample data.
 
 mod e2e {
+    mod arcs;
     pub mod common;
     mod fdm;
     mod feature;

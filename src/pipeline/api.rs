@@ -172,14 +172,21 @@ pub struct MillOptions {
     /// G-code) stops at once with [`MillError::ActionTooLarge`] instead of writing for
     /// days. Default 10,000 h (the shipped policy's bunny estimates at about 140 h).
     pub max_estimated_hours: f64,
-    /// Fit G2/G3 arcs to runs of straight moves, within this distance in program units
-    /// (mm): every planned point and segment midpoint lies within it of the arc written
-    /// ([`ArcFitOptions`](crate::gcode::ArcFitOptions)), and the simulator cuts the arcs
-    /// as written. The walls keep that much more material ([`PlanOptions::
-    /// finishing_allowance`](crate::toolpath::PlanOptions::finishing_allowance)), so no
-    /// arc comes nearer the part than planned, and the simulator follows arcs within 1/64
-    /// of a voxel. `None` (the default, the paper's programs) writes straight moves only.
+    /// Write G2/G3 arcs (and one line for a run that a line fits) within this distance in
+    /// program units (mm), `None` (the default, the paper's programs): straight moves
+    /// through every planned point. The planner fits each roughing pass on the part's side
+    /// of its path ([`PlanOptions::arc_tolerance`](crate::toolpath::PlanOptions::arc_tolerance)):
+    /// the walls keep the tolerance as allowance, so no arc comes nearer the part than
+    /// planned and none leaves material the path would have cut. Finishing passes along X
+    /// or Y become G18/G19 arcs above their cutter-location points, each checked with the
+    /// drop-cutter as a straight move is
+    /// ([`FinishOptions::arc_tolerance`](crate::toolpath::finish::FinishOptions::arc_tolerance)).
+    /// The simulator follows arcs within 1/64 of a voxel.
     pub arc_tolerance: Option<f64>,
+    /// With [`arc_tolerance`](Self::arc_tolerance): fit arcs (default true). False plans
+    /// the same paths (the walls keep the tolerance) and writes them straight: the program
+    /// the fitted one is compared with.
+    pub fit_arcs: bool,
     /// Shop preset: the tool library whose flat end mills rough (the action space's radii
     /// are theirs), at their cutting data in [`material`](Self::material) on the library's
     /// machine. `None`: the shipped library ([`default_tool_library`](super::default_tool_library),
@@ -265,6 +272,7 @@ impl Default for MillOptions {
             max_estimated_hours: 10_000.0,
             input_scale: 1.0,
             arc_tolerance: None,
+            fit_arcs: true,
             tools: None,
             material: "aluminium-6061".into(),
             machine: None,

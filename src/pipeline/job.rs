@@ -1,7 +1,7 @@
 //! What a setup is planned with: a policy's action mapped to a tool, feeds and plan
 //! options, and the features the policy sees.
 
-use super::api::{MillError, MillOptions};
+use super::api::{MillError, MillOptions, Preset};
 use crate::gcode::Coolant;
 use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
@@ -47,15 +47,23 @@ impl Job {
             approach: f.tool.radius()
                 + self.popts.layer_height
                 + self.popts.finishing_allowance
+                + self.popts.arc_tolerance.unwrap_or(0.0)
                 + self.popts.axial_allowance
                 + 0.5,
             rapid_feed: self.popts.rapid_feed,
             coolant: f.tool.coolant != Coolant::Off,
             // What the roughing can have left on the part: the finisher's rapids keep that
             // far from it, beside steep walls as over flats.
-            stock_left: std::env::var("T_NOSTOCK").is_err().then_some(
-                self.popts.layer_height + self.popts.finishing_allowance + self.popts.axial_allowance + 0.5,
+            stock_left: Some(
+                self.popts.layer_height
+                    + self.popts.finishing_allowance
+                    + self.popts.arc_tolerance.unwrap_or(0.0)
+                    + self.popts.axial_allowance
+                    + 0.5,
             ),
+            // Passes along X or Y as G18/G19 arcs above the cutter-location points (the
+            // milling dialects all select planes).
+            arc_tolerance: self.popts.arc_tolerance.filter(|_| self.popts.fit_arcs),
             ..FinishOptions::default()
         }
     }
@@ -79,12 +87,12 @@ impl Job {
             layer_height: action.layer_height,
             strategy,
             contour: opts.contour,
-            // A fitted arc may pass up to its tolerance from the planned points, on either
-            // side: the walls keep that much more, so no arc comes nearer the part than
-            // planned.
-            // With finishing the roughing also leaves the finisher's stock.
-            finishing_allowance: opts.arc_tolerance.unwrap_or(0.0)
-                + opts.finish.map_or(0.0, |_| opts.finish_allowance[0]),
+            // With finishing the roughing leaves the finisher's stock.
+            finishing_allowance: opts.finish.map_or(0.0, |_| opts.finish_allowance[0]),
+            // Arcs fitted on the part's side of the passes, within the tolerance, which
+            // the walls keep as well: none comes nearer the part than the allowance.
+            arc_tolerance: opts.arc_tolerance,
+            fit_arcs: opts.fit_arcs,
             axial_allowance: opts.finish.map_or(0.0, |_| opts.finish_allowance[1]),
             // A library tool roughs as deep as its axial limit in the material allows.
             roughing_depth: match cutting {
@@ -97,7 +105,9 @@ impl Job {
             rapid_feed: rapid,
             // A shop's finer levels are entered from the side, down in the roughing cut's
             // air, rather than by a ramp at the plunge feed into every step.
-            lead_in: cutting.is_some() && std::env::var("T_NOLEAD").is_err(),
+            lead_in: cutting.is_some(),
+            // The shop preset's levels nest exactly (issue 35); the paper's keep their own offsets.
+            nest_levels: opts.preset == Preset::Shop,
             ..PlanOptions::default()
         };
         // A library tool steps over no more than its radial limit.

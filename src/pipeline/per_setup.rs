@@ -83,13 +83,8 @@ pub(super) fn machine_setup(
     let setups = ctx.setups;
     progress(Stage::GcodeTranslation { setup: i + 1, setups });
     let t = Instant::now();
-    // The simulator was flushed at the end of the previous setup: its counts so far
-    // belong to earlier programs.
-    let (gouges_before, rapids_before) = {
-        let sim = ctx.sim.borrow();
-        let r = sim.report();
-        (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>())
-    };
+    // The simulator's counts so far (flushed after the previous setup) are earlier programs'.
+    let (gouges_before, rapids_before) = sim_counts(ctx);
     let mut tee = simulating(ctx.sim, trace);
     tee.first.clock = ctx.machine.map(|m| MachineTime::new(m.clone()));
     let finishing = prepare_finishing(ctx, job, i, &mut tee.first)?;
@@ -111,26 +106,9 @@ pub(super) fn machine_setup(
     if wopts.work_offset.is_some() {
         wopts.program_number = u32::try_from(i + 1).unwrap_or(u32::MAX).min(9999);
     }
-    let copy = match ctx.outputs {
-        Some(open) => {
-            Some(open(i).map_err(|e| MillError::program(i + 1, "opening the program's output", e))?)
-        }
-        None => None,
-    };
-    // A setup that is finished roughs only what lies beyond the finisher's stock: the
-    // skin within the allowance that earlier setups left on the part is the finisher's
-    // (this roughing keeps it too), and tracing the part's walls to cut it would cost a
-    // contour per level for nothing.
-    let beyond = match job.finish.as_ref().filter(|_| std::env::var("T_NOSKIN").is_err()) {
-        Some(_) => {
-            let allowance = job.popts.finishing_allowance.max(job.popts.axial_allowance);
-            // The skin: the allowance, and half a layer of the steps earlier roughing left
-            // beside it, for the finisher to take with it.
-            let skin = allowance + 0.5 * job.popts.layer_height;
-            Some(beyond_skin(remaining, ctx.target, &MeshIndex::new(ctx.part)?, skin))
-        }
-        None => None,
-    };
+    let copy = ctx.outputs.map(|open| open(i)).transpose();
+    let copy = copy.map_err(|e| MillError::program(i + 1, "opening the program's output", e))?;
+    let beyond = roughing_excess(ctx, job, remaining)?;
     let remaining = beyond.as_ref().unwrap_or(remaining);
     let watch = PlanProgress::default();
     let mut tee = Tee::new(tee.first.watching(&mut *progress, &watch, i + 1, setups), tee.second);
@@ -244,6 +222,28 @@ pub(super) fn machine_setup(
     Ok((program, remaining))
 }
 
+/// The simulator's gouge count and rapid-collision lines so far.
+fn sim_counts(ctx: &Ctx<'_>) -> (u64, std::collections::BTreeSet<u64>) {
+    let sim = ctx.sim.borrow();
+    let r = sim.report();
+    (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect())
+}
+
+/// What a finished setup's roughing cuts: only what lies beyond the finisher's stock. The
+/// skin within the allowance that earlier setups left on the part is the finisher's (this
+/// roughing keeps it too), and tracing the part's walls to cut it would cost a contour
+/// per level for nothing. `None` for a setup roughed only (it cuts all of `remaining`).
+fn roughing_excess(ctx: &Ctx<'_>, job: &Job, remaining: &VoxelGrid) -> Result<Option<VoxelGrid>, MillError> {
+    if job.finish.is_none() {
+        return Ok(None);
+    }
+    let allowance = job.popts.finishing_allowance.max(job.popts.axial_allowance);
+    // The skin: the allowance, and half a layer of the steps earlier roughing left beside
+    // it, for the finisher to take with it.
+    let skin = allowance + 0.5 * job.popts.layer_height;
+    Ok(Some(beyond_skin(remaining, ctx.target, &MeshIndex::new(ctx.part)?, skin)))
+}
+
 /// The voxels of `excess` whose centres lie farther than `skin` from the part (`part`,
 /// indexed in the part frame, whose voxels are `target`): what a roughing that leaves an
 /// allowance on the part has to cut, the skin an earlier setup left within it being the
@@ -312,7 +312,7 @@ fn prepare_finishing(
                 HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
                     .map_err(sim_error)?,
             );
-            let rest = Unfinished::new(ctx.part, ctx.jobs, i)?.filter(|_| std::env::var("T_NOREST").is_err());
+            let rest = Unfinished::new(ctx.part, ctx.jobs, i)?;
             Some(Finishing { opts: job.finish_options(f, [lo.z, hi.z]), index, rest })
         }
         None => None,

@@ -13,7 +13,7 @@ use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
-use crate::gcode::{ArcFitOptions, FooterRetract, WriterOptions};
+use crate::gcode::{FooterRetract, WriterOptions};
 use crate::geom::{
     Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
@@ -90,6 +90,16 @@ pub struct MillRun {
     /// Where the run finishes: surface samples of the part (point, outward normal) at
     /// which the finished surface's deviation is measured ([`PartDeviation`]).
     deviation_samples: Vec<(Point3, Vector3)>,
+}
+
+/// Where the run finishes: the surface samples (point, outward normal; part frame) at which
+/// the finished surface's deviation is measured ([`PartDeviation`]); none otherwise.
+fn deviation_samples(part: &Mesh, opts: &MillOptions) -> Result<Vec<(Point3, Vector3)>, MillError> {
+    if opts.finish.is_none() {
+        return Ok(Vec::new());
+    }
+    let s = sample_surface(part, PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
+    Ok(s.points.into_iter().zip(s.normals).collect())
 }
 
 impl MillRun {
@@ -187,7 +197,7 @@ impl MillRun {
             // Arcs along the walls: the simulator's chords (a quarter of a voxel deep by
             // default, always inside the arc) would cut into the part where an arc runs
             // around it, so they follow the arc within 1/64 of a voxel.
-            sim_opts.arc_tolerance = 1.0 / 64.0;
+            sim_opts.arc_tolerance = 1.0 / 1024.0;
         }
         let mut sim = Simulator::new(body.voxels(spec), tools, sim_opts)
             .map_err(sim_error)?
@@ -197,13 +207,7 @@ impl MillRun {
         remaining.andnot(&target).map_err(|e| MillError::Simulation(e.into()))?;
         times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
-        let deviation_samples = match opts.finish {
-            Some(_) => {
-                let s = sample_surface(&part, PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
-                s.points.into_iter().zip(s.normals).collect()
-            }
-            None => Vec::new(),
-        };
+        let deviation_samples = deviation_samples(&part, opts)?;
         Ok(Self {
             opts: opts.clone(),
             unit_part: mesh.transformed(&unit.as_similarity()),
@@ -231,11 +235,6 @@ impl MillRun {
             wopts: WriterOptions {
                 decimals,
                 retract: FooterRetract::None,
-                arc_fit: opts.arc_tolerance.map(|tolerance| ArcFitOptions {
-                    tolerance,
-                    xy_only: true,
-                    ..ArcFitOptions::default()
-                }),
                 // A shop's programs set each tool's length offset after its change, and
                 // select G54, the work coordinate system their datum is stated in.
                 tool_length_offset: tooling.machine().is_some(),
@@ -391,6 +390,12 @@ impl MillRun {
     /// layout).
     pub fn report(&self) -> SimReport {
         self.sim.borrow().report().clone()
+    }
+
+    /// The simulated stock so far (per-setup layout: after the setups machined), on the
+    /// simulation grid: what two runs' programs cut can be compared voxel for voxel.
+    pub fn residual_grid(&self) -> VoxelGrid {
+        self.sim.borrow_mut().residual_grid()
     }
 
     /// The setups machined so far (per-setup layout; empty for the rotary layout until

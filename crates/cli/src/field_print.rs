@@ -30,7 +30,7 @@ pub struct PrintArgs {
     #[arg(long)]
     steps: Option<usize>,
     /// Layer height, mm.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 0.8)]
     layer_height: f64,
     /// Bead width and path spacing, mm.
     #[arg(long, default_value_t = 1.0)]

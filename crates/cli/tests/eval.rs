@@ -18,19 +18,14 @@ fn data(rel: &str) -> String {
 
 const MESH: &str = "fdm/models/cube10.stl";
 
+/// The small evaluation every test here runs: a 16^3 grid, 256 surface points, two policies.
+const SMALL: [&str; 6] = ["--res", "16", "--points", "256", "--policies", "heuristic,coarse"];
+
 fn eval(format: &str) -> std::process::Child {
     s2g()
-        .args([
-            "eval",
-            &data(MESH),
-            "--res",
-            "16",
-            "--points",
-            "256",
-            "--policies",
-            "heuristic,coarse",
-            format,
-        ])
+        .args(["eval", &data(MESH)])
+        .args(SMALL)
+        .arg(format)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -236,16 +231,8 @@ fn eval_corpus(parts: &std::path::Path, more: &[&str], env: &[(&str, &str)]) -> 
         .arg("eval")
         .arg("--corpus")
         .arg(parts)
-        .args([
-            "--res",
-            "16",
-            "--points",
-            "256",
-            "--policies",
-            "heuristic,coarse",
-            "--tables",
-            "policies,orientation",
-        ])
+        .args(SMALL)
+        .args(["--tables", "policies,orientation"])
         .args(more)
         .envs(env.iter().copied())
         .stdout(std::process::Stdio::piped())

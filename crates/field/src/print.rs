@@ -13,6 +13,7 @@
 mod emit;
 mod extract;
 mod lattice;
+mod offsets;
 mod order;
 mod parts;
 mod rebuild;

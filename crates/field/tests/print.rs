@@ -64,9 +64,9 @@ fn planar_arm_prints_rebuilds_and_repeats() {
     );
     assert!(beads.iter().all(|b| (b.axis - s2g_geom::Vector3::z()).norm() < 1e-9), "planar beads tilt");
     let score = s2g_field::score_print(&beads, &mesh, &s2g_field::ScoreOptions::default()).unwrap();
-    assert!(score.iou > 0.85, "IoU {}", score.iou);
+    assert!(score.iou > 0.9, "IoU {}", score.iou);
     let spacing = bead_spacing(&plan.layers, opts.bead_width);
-    assert!(spacing.within_25 > 0.8, "{spacing:?}");
+    assert!(spacing.within_25 > 0.95, "{spacing:?}");
     let again = print_program(
         &extract_print(&PlanarLayers, &part, &bbox, None, &opts).unwrap(),
         bbox.min.z,
@@ -74,6 +74,32 @@ fn planar_arm_prints_rebuilds_and_repeats() {
     )
     .unwrap();
     assert!(again.text == program.text, "the program changed between two runs");
+}
+
+/// Planar slicing of the arch and the bracket, whose layers have sharp corners, thin
+/// walls and regions of every width: the rings (rounded outside the innermost), the infill
+/// fitted to each region and the trimming keep the bead spacing within ±25 % over 95 % of
+/// the path length (measured 98.9 % on both at 0.8 mm layers), and the rebuilt print keeps
+/// an IoU above 0.9 (measured 0.937-0.948).
+#[test]
+fn planar_arch_and_bracket_are_spaced_and_filled() {
+    for (name, mesh) in [
+        ("arch", arch_mesh(14.0, 6.0, 10.0, 10.0, 48).unwrap()),
+        ("bracket", bracket_mesh(6.0, 12.0, 10.0, 20.0, 2.0, 10.0, 24).unwrap()),
+    ] {
+        let part = MeshSdf::new(&mesh).unwrap();
+        let bbox = mesh.bbox().unwrap();
+        let opts = PrintPathOptions::default();
+        let plan = extract_print(&PlanarLayers, &part, &bbox, None, &opts).unwrap();
+        let spacing = bead_spacing(&plan.layers, opts.bead_width);
+        assert!(spacing.within_25 >= 0.95, "{name}: {spacing:?}");
+        assert!(spacing.median_ratio > 0.95 && spacing.median_ratio < 1.05, "{name}: {spacing:?}");
+        let program = print_program(&plan, bbox.min.z, &PrintProgramOptions::default()).unwrap();
+        assert_eq!(program.collisions, 0, "{name}");
+        let beads = read_beads(&program.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+        let score = s2g_field::score_print(&beads, &mesh, &s2g_field::ScoreOptions::default()).unwrap();
+        assert!(score.iou > 0.9, "{name}: IoU {}", score.iou);
+    }
 }
 
 /// Support-free layers on the bent arm, optimised briefly: the rebuilt print overhangs

@@ -13,6 +13,7 @@ mod arc;
 mod dialect;
 mod error;
 mod expr;
+mod fit;
 mod machine;
 mod motion;
 mod parser;
@@ -31,6 +32,7 @@ pub use crate::dialect::{
     TimeUnit, ToolChange, UnknownDialect,
 };
 pub use crate::error::{GcodeError, GcodeErrorKind, ParseError};
+pub use crate::fit::{FitSide, PlanarFitOptions, PlanarPiece, fit_planar};
 pub use crate::machine::{MachineProfile, MachineTime, junction_speed};
 pub use crate::motion::{
     ArcDirection, Coolant, CycleKind, DrillCycle, Marker, Motion, MotionRecorder, MotionSink,

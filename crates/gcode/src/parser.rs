@@ -56,8 +56,13 @@
 //!   after which the position backs off 0.254 mm and `#5061`-`#5063` hold the target;
 //!   `G76` threading is expanded into its passes as `rs274` makes them; under `G93` a
 //!   feed move's F is moves per minute (the reported feed is F times the length) and
-//!   is required on every feed block. `G70`-`G72` lathe cycles and `G95` are not
-//!   supported.
+//!   is required on every feed block. `G95` is not supported.
+//! - LinuxCNC's lathe cycles `G70` (finishing), `G71`/`G71.1`/`G71.2` and
+//!   `G72`/`G72.1`/`G72.2` (roughing along Z and X) run with their profile subroutine
+//!   `o<Q>` as the `rs274` of LinuxCNC 2.9.0~pre1 runs them (`G70` under cutter
+//!   compensation too); an expansion it would loop on for ever, or one of more than a
+//!   million moves, is an error ([`GcodeErrorKind::CannedCycle`](crate::GcodeErrorKind::CannedCycle)).
+//!   Lenient `G70`/`G71` without `Q` stay old Fanuc inch/mm.
 //! - Rotary axis words are accepted and ignored, unless
 //!   [`ParseOptions::rotary`] names a kinematics: then A/B/C words become
 //!   [`Motion::Setup`](crate::Motion::Setup) (see [`crate::rotary_frame`]). U, V and W
@@ -100,6 +105,9 @@ mod cycle;
 mod execute;
 mod flow;
 mod interp;
+mod lathe_cycle;
+mod lathe_geom;
+mod lathe_path;
 mod lex;
 mod mcodes;
 mod moves;

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Point3;
 use s2g_gcode::{
     ArcDirection, GcodeErrorKind, Marker, Motion, MotionRecorder, ParseDialect, ParseError, ParseOptions,
-    ParseSummary, Plane, Stats, parse_file, parse_reader, parse_str,
+    ParseSummary, Plane, RotaryAxes, Stats, parse_file, parse_reader, parse_str,
 };
 
 fn data(rel: &str) -> PathBuf {
@@ -829,4 +829,76 @@ fn o_word_subroutines_from_the_search_path() {
     assert!(s.errors.is_empty(), "{:?}", s.errors);
     assert_eq!(m.iter().map(|x| x.1).collect::<Vec<_>>(), [[9.0, 1.5, 0.0], [9.0, 1.5, 1.0]]);
     assert_eq!(s.lines, 4);
+}
+
+#[test]
+fn lathe_cycles() {
+    // A roughing cycle whose passes never end (`rs274` loops for ever on it): refused with
+    // an error, at the line that ends its profile as `rs274` reports the cycle's errors,
+    // none of its passes made; the program goes on.
+    let endless = "G18 G21 F100\nG0 X9.797 Z2.344\nO100 SUB\nG0 X1.219 Z1.006\nG1 X5.031 Z1.006\n\
+                   G1 X6.600 Z0.103\nG1 X7.600 Z0.103\nO100 ENDSUB\nG71 Q100 X8.797 Z1.344 D0.480 I1.104 R0.464\n\
+                   G0 X10.797\nM2\n";
+    let (s, m) = run(endless, &ParseOptions::default());
+    let e = s.errors.first().expect("an error");
+    assert_eq!(e.line, 8, "{e}");
+    assert!(matches!(&e.kind, GcodeErrorKind::CannedCycle(w) if w.contains("never end")), "{e}");
+    let lines: Vec<u64> =
+        m.iter().filter(|(_, m)| matches!(m, Motion::Rapid { .. })).map(|(l, _)| *l).collect();
+    // The rapid before, the cycle's rapid to its start, the rapid after.
+    assert_eq!(lines, [2, 9, 10]);
+
+    // A finishing pass: its moves are the cycle line's, and it ends at the profile's end.
+    let g70 = "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\n\
+               G70 Q100 X15 Z4\nM2\n";
+    let (s, m) = run(g70, &strict());
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    let cycle: Vec<&Motion<'_>> = m.iter().filter(|(l, _)| *l == 9).map(|(_, m)| m).collect();
+    assert_eq!(cycle.len(), 6, "{cycle:?}");
+    match cycle.last() {
+        Some(Motion::Linear { to, .. }) => close(*to, [12.0, 0.0, -10.0], "last G70 feed"),
+        other => panic!("{other:?}"),
+    }
+
+    // Without Q: strict LinuxCNC wants it; lenient reads old Fanuc G70 (inch).
+    let (_, _, kind) = first_error("G18 G21\nG70 X1 Z1\nM2\n", &strict());
+    assert!(matches!(kind, GcodeErrorKind::MissingWord { letter: 'Q', .. }), "{kind:?}");
+    let (s, m) = run("G70\nG0 X1\nM2\n", &ParseOptions::default());
+    assert!(s.errors.is_empty(), "{:?}", s.errors);
+    match m.iter().find(|(_, m)| matches!(m, Motion::Rapid { .. })) {
+        Some((_, Motion::Rapid { to })) => close(*to, [25.4, 0.0, 0.0], "G70 as inch"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Inputs the fuzzer found in the lathe cycles (fuzz/seeds/parse/lathe_fuzz_regression*.ngc:
+/// control bytes, profiles with an arc whose centre cannot be, cycles calling missing
+/// profiles), read with the fuzz target's options: early versions sent moves to
+/// non-finite points. Every line is read and every end point is finite, in both modes.
+#[test]
+fn lathe_cycle_fuzz_inputs_move_to_finite_points() {
+    let inputs: [&[u8]; 2] = [
+        include_bytes!("../../../fuzz/seeds/parse/lathe_fuzz_regression.ngc"),
+        include_bytes!("../../../fuzz/seeds/parse/lathe_fuzz_regression2.ngc"),
+    ];
+    for (k, bytes) in inputs.into_iter().enumerate() {
+        let text = String::from_utf8_lossy(bytes);
+        let lines = text.split_terminator('\n').count() as u64;
+        for dialect in [ParseDialect::Auto, ParseDialect::Cnc] {
+            let opts = ParseOptions {
+                dialect,
+                rotary: Some(RotaryAxes::BC),
+                stop_at_program_end: false,
+                max_steps: 500,
+                tool_diameters: (1..10).map(|t| (t, t as f64 * 0.5)).collect(),
+                ..ParseOptions::default()
+            };
+            let (s, m) = run(&text, &opts);
+            assert_eq!(s.lines, lines, "input {k}, {dialect:?}");
+            for (line, motion) in &m {
+                let finite = motion.end_point().is_none_or(|p| p.iter().all(|v| v.is_finite()));
+                assert!(finite, "input {k}, {dialect:?}: line {line}: {motion:?}");
+            }
+        }
+    }
 }

@@ -246,6 +246,19 @@ fn check(dir: &Path, name: &str, text: &str) -> usize {
     check_with(dir, name, text, Tools::Zero)
 }
 
+/// [`check`] on each of `programs` (name, text): how many `rs274` rejects, and how many
+/// moves agree in all.
+fn check_programs(dir: &Path, programs: &[(&str, &str)]) -> (usize, usize) {
+    let mut errors = 0;
+    let mut moves = 0;
+    for (name, text) in programs {
+        let file = format!("{name}.ngc");
+        errors += run_rs274(dir, &file, text).error.is_some() as usize;
+        moves += check(dir, &file, text);
+    }
+    (errors, moves)
+}
+
 /// [`check`] with a tool table.
 fn check_with(dir: &Path, name: &str, text: &str, tools: Tools) -> usize {
     let reference = run_rs274_with(dir, name, text, &tools);
@@ -442,12 +455,7 @@ fn feature_programs_agree_with_rs274() {
         ),
         ("g76_toward_plus_z", "G21 G18 S500 M3\nG0 X10 Z-20\nG76 P1 Z0 I-1 J0.3 K0.6 E1 L1\nM2\n"),
     ];
-    let mut errors = 0;
-    for (name, text) in programs {
-        let r = run_rs274(dir.path(), &format!("{name}.ngc"), text);
-        errors += r.error.is_some() as usize;
-        check(dir.path(), &format!("{name}.ngc"), text);
-    }
+    let (errors, _) = check_programs(dir.path(), programs);
     // bad_arc, bad_arc_inch, r_too_small, no_feed, no_center, g53_alone, axes_no_motion,
     // exponent, polar_with_x, undefined_call, l20_rotation, inverse_time_no_f,
     // probe_too_close, uvw_axes.
@@ -506,13 +514,7 @@ fn compensation_programs_agree_with_rs274() {
         ("comp_plane_change", "G21 F100\nG0 X0 Y0\nG41.1 D2\nG1 X10\nG18\nM2\n"),
         ("comp_arc_too_small", "G21 F100\nG0 X0 Y-20\nG41.1 D4\nG1 X0 Y0\nG1 X20\nG3 X21 Y1 R1\nG1 X0\nM2\n"),
     ];
-    let mut errors = 0;
-    let mut moves = 0;
-    for (name, text) in programs {
-        let r = run_rs274(dir.path(), &format!("{name}.ngc"), text);
-        errors += r.error.is_some() as usize;
-        moves += check(dir.path(), &format!("{name}.ngc"), text);
-    }
+    let (errors, moves) = check_programs(dir.path(), programs);
     // The nine from comp_entry_too_short on.
     assert_eq!(errors, 9, "rs274 should reject exactly the nine bad programs");
     assert!(moves > 80, "only {moves} moves compared");
@@ -523,6 +525,183 @@ fn compensation_programs_agree_with_rs274() {
     assert!(s.errors.is_empty(), "{:?}", s.errors);
     let side = canon_of(programs[0].1, &rec);
     assert!(side.iter().any(|c| c.kind == "feed" && (c.to[1] - 2.0).abs() < 1e-9), "{side:?}");
+}
+
+/// The lathe cycle programs of [`lathe_cycles_agree_with_rs274`]: good ones, then the
+/// nineteen that `rs274` refuses (from `no_q` on).
+const LATHE_PROGRAMS: &[(&str, &str)] = &[
+    (
+        "g70_plain",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nX8 Z-10\nG2 X12 Z-14 R4\nG1 Z-20\nG1 X16\nO100 ENDSUB\nG70 Q100 X16 Z4 D1 P3 E0.2\nG1 X25\nM2\n",
+    ),
+    (
+        "g71_plain",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nX8 Z-10\nG2 X12 Z-14 R4\nG1 Z-20\nG1 X16\nO100 ENDSUB\nG71 Q100 X16 Z4 D0.3 I0.7 R0.2\nM2\n",
+    ),
+    (
+        "g71_1_pocket",
+        "G18 G21 F100\nG0 X20 Z5\nO200 SUB\nG0 X2 Z1\nG1 Z-2\nG1 X8 Z-6\nG1 Z-9\nG1 X5 Z-12\nG1 Z-14\nG3 X9 Z-18 K-4 I0\nG1 X12 Z-20\nG1 Z-24\nG1 X16\nO200 ENDSUB\nG71.1 Q200 X16 Z3 D0.2 I1 R0.4\nM2\n",
+    ),
+    (
+        "g71_2_pocket",
+        "G18 G21 F100\nG0 X20 Z5\nO200 SUB\nG0 X2 Z1\nG1 Z-2\nG1 X8 Z-6\nG1 Z-9\nG1 X5 Z-12\nG1 Z-14\nG3 X9 Z-18 K-4 I0\nG1 X12 Z-20\nG1 Z-24\nG1 X16\nO200 ENDSUB\nG71.2 Q200 X16 Z3 D0.2 I1 R0.4\nM2\n",
+    ),
+    (
+        "g71_pocket",
+        "G18 G21 F100\nG0 X20 Z5\nO200 SUB\nG0 X2 Z1\nG1 Z-2\nG1 X8 Z-6\nG1 Z-9\nG1 X5 Z-12\nG1 Z-14\nG3 X9 Z-18 K-4 I0\nG1 X12 Z-20\nG1 Z-24\nG1 X16\nO200 ENDSUB\nG71 Q200 X16 Z3 D0.2 I0.6 R0.4\nG70 Q200 X16 Z3\nM2\n",
+    ),
+    (
+        "g72_face",
+        "G18 G21 F100\nG0 X20 Z5\nO300 SUB\nG0 X14 Z-9\nG1 X14 Z-8\nG1 X10 Z-7\nG3 X6 Z-3 K4 I0\nG1 X6 Z-1\nG1 X-1\nG1 Z1\nO300 ENDSUB\nG72 Q300 X16 Z3 D0.2 I0.5 R0.3\nG72.1 Q300 X16 Z3 D0.2 I0.7 R0.3\nG72.2 Q300 X16 Z3 D0.2 I0.7 R0.3\nG70 Q300 X16 Z3 D0.5 P2\nM2\n",
+    ),
+    (
+        "inch",
+        "G18 G20 F10\nG0 X1 Z0.5\nO100 SUB\nG0 X0.1 Z0.2\nG1 Z0\nX0.4 Z-0.5\nG2 X0.6 Z-0.7 I0.2 K0\nG1 Z-1\nG1 X0.8\nO100 ENDSUB\nG71 Q100 X0.8 Z0.2 D0.01 I0.05 R0.01\nG70 Q100 X0.8 Z0.2\nM2\n",
+    ),
+    (
+        "incremental",
+        "G18 G21 F100\nG0 X20 Z5\nG91\nO100 SUB\nG0 X-14 Z-3\nG1 Z-2\nG1 X6 Z-10\nG2 X4 Z-4 R4\nG1 Z-6\nG1 X4\nO100 ENDSUB\nG71 Q100 X-4 Z-1 D0.3 I0.7 R0.2\nG1 X1\nG90 G0 X30\nM2\n",
+    ),
+    (
+        "ijk_abs",
+        "G18 G21 F100 G90.1\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG3 X6 Z-4 I2 K-4\nG1 X12\nO100 ENDSUB\nG71 Q100 X12 Z4 I1 D0.1\nM2\n",
+    ),
+    (
+        "chamfers_fillets",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0 C0.5\nG1 X8 C1\nG1 Z-10 A1\nG1 X12 A0.5\nG1 Z-20\nG1 X16\nO100 ENDSUB\nG71 Q100 X16 Z4 D0.3 I0.7 R0.2\nG70 Q100 X16 Z4 D0.3 P2\nM2\n",
+    ),
+    (
+        "g70_then_axis_words",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nX8 Z-10\nG2 X12 Z-14 R4\nG1 Z-20\nG1 X16\nO100 ENDSUB\nG70 Q100 X16 Z4\nX30\nZ10\nM2\n",
+    ),
+    (
+        "one_segment_profile",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG1 X2 Z2\nO100 ENDSUB\nG70 Q100 X16 Z4\nG91 X1\nM2\n",
+    ),
+    (
+        "profile_u_w",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 W-2\nU6 W-10\nG1 U4\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "g70_comp_right",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nX8 Z-10\nG2 X12 Z-14 R4\nG1 Z-20\nG1 X16\nO100 ENDSUB\nG42.1 D0.4\nG1 X18 Z4\nG70 Q100 X16 Z4\nG40 G0 X30 Z6\nM2\n",
+    ),
+    (
+        "profile_control",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\n#<z> = 0\nG0 X2 Z2\nO101 WHILE [#<z> GT -12]\n  #<z> = [#<z> - 3]\n  O102 IF [#<z> LT -5]\n    G1 X[#<_x> + 1] Z#<z>\n  O102 ELSE\n    G1 Z#<z>\n  O102 ENDIF\nO101 ENDWHILE\nO103 CALL\nG1 X12\nO100 ENDSUB\nO103 SUB\nG1 X[#<_x> + 0.5] Z[#<_z> - 1]\nO103 ENDSUB\nG71 Q100 X16 Z4 D0.2 I0.5\nG70 Q100 X16 Z4\nG1 X20\nM2\n",
+    ),
+    (
+        "params_on_line",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z#1\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\n#1=-3 G70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "return_value",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nO100 RETURN\nG1 X12\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    ("empty_profile", "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nO100 ENDSUB\nG70 Q100 X16 Z4\nG91 G1 X1\nM2\n"),
+    (
+        "g72_g91_block",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X1 Z1\nG1 Z0\nG1 X5 Z-3\nG1 X9 Z-4\nO100 ENDSUB\nG91 G72 Q100 X-4 Z-2 I0.7\nG90 G0 X30\nM2\n",
+    ),
+    (
+        "d_word_g72",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG72 Q100 X16 Z4 D0.3\nM2\n",
+    ),
+    (
+        "m2_on_cycle_line",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG70 Q100 X16 Z4 M2\n",
+    ),
+    (
+        "no_q",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG70 X16 Z4\nM2\n",
+    ),
+    (
+        "q_missing_sub",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG71 Q200 X16 Z4\nM2\n",
+    ),
+    (
+        "xy_plane",
+        "G17 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "comp_g71",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG41.1 D1\nG71 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "i_zero",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG71 Q100 X16 Z4 I0\nM2\n",
+    ),
+    (
+        "u_and_x",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 U1 X3 Z0\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "w_incremental",
+        "G18 G21 F100\nG0 X20 Z5\nG91\nO100 SUB\nG0 X-18 Z-3\nG1 W-2\nG1 U1 W-1\nO100 ENDSUB\nG70 Q100 X-4 Z-1\nM2\n",
+    ),
+    (
+        "r_and_i",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG2 X4 Z0 R3 I1\nG1 X8\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "arc_no_centre",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG2 X4 Z0\nG1 X8\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "a_and_c",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0 A0.5 C0.5\nG1 X8\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "not_monotonic",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X5 Z1\nG1 X8 Z-3\nO100 ENDSUB\nG71 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "feed_zero",
+        "G18 G21\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG71 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "profile_bad_word",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0 G0\nG1 X8\nO100 ENDSUB\nG70 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "e_word_g71",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG71 Q100 X16 Z4 E1\nM2\n",
+    ),
+    (
+        "uw_on_block",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG71 Q100 X16 Z4 U0.2\nM2\n",
+    ),
+    (
+        "g70_dot1",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG70.1 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "g71_3",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nG1 X8 Z-10\nG1 X12\nO100 ENDSUB\nG71.3 Q100 X16 Z4\nM2\n",
+    ),
+    (
+        "g71_pocket_bad_arc",
+        "G18 G21 F100\nG0 X20 Z5\nO200 SUB\nG0 X2 Z1\nG1 Z-2\nG1 X8 Z-6\nG1 Z-9\nG1 X5 Z-12\nG1 Z-14\nG3 X9 Z-18 K-18 I0\nG1 X12 Z-20\nG1 Z-24\nG1 X16\nO200 ENDSUB\nG71 Q200 X16 Z3 D0.2 I0.6 R0.4\nG70 Q200 X16 Z3\nM2\n",
+    ),
+    (
+        "comp_left_gouges",
+        "G18 G21 F100\nG0 X20 Z5\nO100 SUB\nG0 X2 Z2\nG1 Z0\nX8 Z-10\nG2 X12 Z-14 R4\nG1 Z-20\nG1 X16\nO100 ENDSUB\nG41.1 D0.4\nG70 Q100 X16 Z4 D0.5 P2\nG40 G0 X30\nM2\n",
+    ),
+];
+
+/// LinuxCNC's lathe cycles (`G70` finishing, `G71`/`G72` roughing and their `.1`/`.2`
+/// variants) against `rs274`, move for move: profiles with pockets, arcs by `R` and by
+/// `I K` (`G91.1` and `G90.1`), `U`/`W` words, chamfers (`C`) and fillets (`A`), control
+/// flow and parameters inside the profile, inch, `G91`, cutter compensation under `G70`;
+/// and the programs `rs274` refuses, refused at the same line after the same moves.
+#[test]
+fn lathe_cycles_agree_with_rs274() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let programs = LATHE_PROGRAMS;
+    let (errors, moves) = check_programs(dir.path(), programs);
+    // The nineteen from no_q on.
+    assert_eq!(errors, 19, "rs274 should reject exactly the nineteen bad programs");
+    assert!(moves > 1500, "only {moves} moves compared");
 }
 
 /// The programs that use cutter radius compensation with the tool table's diameters
@@ -548,7 +727,7 @@ fn compensation_with_tool_diameters_agrees_with_rs274() {
     for f in &files {
         let text = String::from_utf8_lossy(&std::fs::read(f).expect("read")).replace("\r\n", "\n");
         let name = f.file_name().and_then(|n| n.to_str()).expect("name").to_string();
-        if !uses_comp(&text) || KNOWN_GAPS.iter().any(|g| g.0 == name) {
+        if !uses_comp(&text) {
             continue;
         }
         programs += 1;
@@ -561,31 +740,8 @@ fn compensation_with_tool_diameters_agrees_with_rs274() {
     assert!(moves > 800, "only {moves} moves compared");
 }
 
-/// Programs that `rs274` runs and we do not yet interpret as it does, each with why and
-/// how many of its first moves must still agree (measured when the gap was listed). The
-/// list is exact: a program that starts to agree, or any other that stops agreeing,
-/// fails the test.
-const KNOWN_GAPS: &[(&str, &str, usize)] = &[
-    // The cycles come first in these three: no move before them to compare.
-    ("lathe_g70_71_demo.ngc", "G70/G71 lathe finishing and roughing cycles", 0),
-    ("lathe_g7x_face_boring.ngc", "G70/G72 lathe cycles", 0),
-    ("lathe_g7x_quadrants.ngc", "G70/G71/G72 lathe cycles", 0),
-];
-
-/// How many of the first moves agree.
-fn agreeing_prefix(reference: &[Canon], got: &[Canon]) -> usize {
-    reference
-        .iter()
-        .zip(got)
-        .take_while(|(r, g)| {
-            std::panic::catch_unwind(|| compare("", &[(*r).clone()], &[(*g).clone()])).is_ok()
-        })
-        .count()
-}
-
 /// Checks every program in `files` with [`check`], catching each failure; returns the
-/// failures (name and why) and how many programs `rs274` ran without error. A program
-/// of [`KNOWN_GAPS`] must fail, with at least its listed prefix of moves agreeing.
+/// failures (name and why) and how many programs `rs274` ran without error.
 fn check_all(files: &[PathBuf]) -> (Vec<String>, usize) {
     let dir = tempfile::tempdir().expect("tempdir");
     let mut differ = Vec::new();
@@ -597,17 +753,6 @@ fn check_all(files: &[PathBuf]) -> (Vec<String>, usize) {
         clean += reference.error.is_none() as usize;
         let d = dir.path().to_path_buf();
         let result = std::panic::catch_unwind(|| check(&d, &name, &text));
-        if let Some((_, why, prefix)) = KNOWN_GAPS.iter().find(|g| g.0 == name) {
-            let (got, _) = ours(&text, &ParseOptions::default());
-            let agree = agreeing_prefix(&reference.moves, &got);
-            if result.is_ok() {
-                differ.push(format!("{name}: agrees now: remove it from KNOWN_GAPS ({why})"));
-            } else if agree < *prefix {
-                differ.push(format!("{name}: only {agree} first moves agree, {prefix} did ({why})"));
-            }
-            eprintln!("{name}: known gap ({why}): {agree} of {} moves agree first", reference.moves.len());
-            continue;
-        }
         if let Err(e) = result {
             let why = e
                 .downcast_ref::<String>()
@@ -635,8 +780,7 @@ fn ngc_files(dir: &Path) -> Vec<PathBuf> {
 
 /// Every sample program (`.ngc`) LinuxCNC ships, compared with `rs274`: each one it runs
 /// cleanly agrees move for move, each one it rejects is rejected at the same line after
-/// the same moves; the [`KNOWN_GAPS`] differ, as listed. The list is the folder's, read at
-/// test time: none is skipped.
+/// the same moves. The list is the folder's, read at test time: none is skipped.
 #[test]
 fn linuxcnc_samples_agree_with_rs274() {
     let src = Path::new("/usr/share/linuxcnc/ncfiles");
@@ -653,14 +797,14 @@ fn linuxcnc_samples_agree_with_rs274() {
         files.len(),
         differ.join("\n")
     );
-    // Every sample outside the known gaps agrees (the gaps are checked in `check_all`).
-    let gaps = files.iter().filter(|f| KNOWN_GAPS.iter().any(|g| f.ends_with(g.0))).count();
-    eprintln!("{} of {} samples agree with rs274 ({gaps} known gaps)", files.len() - gaps, files.len());
+    // linuxcnc-uspace 2.9.0~pre1: rs274 runs 50 of the 56 cleanly (the lathe cycle
+    // samples among them), and rejects 6.
+    assert!(clean >= 50, "rs274 runs only {clean} of the samples cleanly");
 }
 
 /// The shared corpus's extra programs (GPL, so read in place from `../shared` beside the
 /// clone where it is there; `S2G_SHARED_DATA` overrides the folder): the seven real
-/// LinuxCNC programs agree with `rs274` (but for the [`KNOWN_GAPS`]), and the odd ones
+/// LinuxCNC programs agree with `rs274`, and the odd ones
 /// get its verdict (the same first error line after the same moves, or agreement).
 #[test]
 fn extra_programs_agree_with_rs274() {

@@ -493,9 +493,13 @@ fn a_tool_reach_hides_what_lies_deeper_than_it() {
     let depth = 20.0;
     let reach = ToolReach { stock: bar, depth };
     let plain = VisibilityContext::new(&mesh, &index, &samples, &VisibilityOptions::default()).unwrap();
-    let limited =
-        VisibilityContext::new(&mesh, &index, &samples, &VisibilityOptions { reach: Some(reach), ..Default::default() })
-            .unwrap();
+    let limited = VisibilityContext::new(
+        &mesh,
+        &index,
+        &samples,
+        &VisibilityOptions { reach: Some(reach), ..Default::default() },
+    )
+    .unwrap();
     // The stock's top along v is the corner (5, *, 50): v . x = 55 / sqrt 2.
     let floor = reach.floor(&v.into_inner());
     assert!((floor - (55.0 / 2f64.sqrt() - depth)).abs() < 1e-12);
@@ -515,7 +519,8 @@ fn a_tool_reach_hides_what_lies_deeper_than_it() {
     assert!(row(&limited) < row(&plain), "{} vs {}", row(&limited), row(&plain));
     // A negative or infinite depth is refused.
     for bad in [-1.0, f64::INFINITY] {
-        let opts = VisibilityOptions { reach: Some(ToolReach { stock: bar, depth: bad }), ..Default::default() };
+        let opts =
+            VisibilityOptions { reach: Some(ToolReach { stock: bar, depth: bad }), ..Default::default() };
         assert!(VisibilityContext::new(&mesh, &index, &samples, &opts).is_err(), "depth {bad}");
     }
 }

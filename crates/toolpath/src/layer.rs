@@ -1,6 +1,8 @@
 //! [`LayerPlan`]: one layer's regions and paths, between planning and emission.
 
-use crate::region::{Polyline2, Region2};
+use std::sync::Arc;
+
+use crate::region::{Polyline2, Region2, RegionIndex};
 
 /// One layer's plan: its regions and paths (tool-centre XY at level `z`).
 #[derive(Debug, Clone)]
@@ -30,6 +32,10 @@ pub struct LayerPlan {
     ///
     /// [`PlanOptions::lead_in`]: crate::PlanOptions::lead_in
     pub roughed: Option<Region2>,
+    /// The level's keep-out (the part's projection), indexed, where arcs are fitted: a
+    /// fitted piece that leaves its path by more than the arc tolerance must keep the
+    /// tool's distance from it ([`PlanOptions::arc_tolerance`](crate::PlanOptions::arc_tolerance)).
+    pub(crate) keepout: Option<Arc<RegionIndex>>,
 }
 
 impl LayerPlan {
@@ -45,6 +51,7 @@ impl LayerPlan {
             clearing: Vec::new(),
             cut_air: (0.0, 0.0),
             roughed: None,
+            keepout: None,
         }
     }
 }

@@ -112,6 +112,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod baseline;
+mod clear;
 mod error;
 pub mod features;
 pub mod finish;

@@ -1,11 +1,19 @@
 //! Linking and emission: turns layer plans into motions with safe retracts and entries.
 //!
-//! Safety argument (why rapids never meet material): the keep-out grows downward, so the
-//! free region at a layer lies inside the free region of every layer above, where the
-//! contour and clearing passes (or the absence of material) have already removed the
-//! material down to that layer's level. So a rapid straight down at a path start is safe to
-//! `z_above + gap`; below that the tool feeds in (helix, ramp or plunge). Horizontal rapids
-//! run only on the clearance plane above the stock.
+//! Safety argument (why rapids never meet material): a path start `s` lies in its layer's
+//! free region, and the free regions nest: each level's tool-centre keep-out is the level
+//! above's joined with the growth of what its own keep-out adds, so the same polygons,
+//! not merely the same exact sets (see `Ctx::clearances` in the planner; growing each
+//! level's keep-out on its own gave each level its own chords, and an entry's tool reached
+//! micrometres past the cut above into the stock skin on an undercut's wall, issue 35). So
+//! `s` lies in the free region `F` of the level `z_above`, which was cut before. A point `p`
+//! within the radius of `s` is then either in `F`, within the radius of that level's
+//! passes (the clearing covers its region; what a roughing level below cut, or what the
+//! material reach left out, held no material), or beyond `F`'s boundary, crossed at `q`
+//! with `|p - q| <= |p - s|`: `q` lies on the contour (or where no material lies within the
+//! radius), which removed the material within the radius of `q`. So a rapid straight
+//! down at a path start is safe to `z_above + gap`; below that the tool feeds in (helix,
+//! ramp or plunge). Horizontal rapids run only on the clearance plane above the stock.
 //!
 //! With [`PlanOptions::lead_in`] (the shop's programs) three more moves rest on the same
 //! argument. A rapid between two points of a level's free region, at the height a level
@@ -19,9 +27,13 @@
 
 use std::f64::consts::PI;
 
-use s2g_gcode::{ArcDirection, Coolant, Marker, Motion, MotionSink, Plane, SpindleDirection};
+use s2g_gcode::{
+    ArcDirection, ArcSpec, Coolant, FitSide, Marker, Motion, MotionSink, PlanarFitOptions, PlanarPiece,
+    Plane, SpindleDirection, fit_planar,
+};
 use s2g_geom::{Aabb, Point3, Setup};
 
+use crate::clear::piece_clear;
 use crate::error::ToolpathError;
 use crate::layer::LayerPlan;
 use crate::options::PlanOptions;
@@ -53,6 +65,11 @@ pub(crate) fn book_move(
 }
 
 pub(crate) struct LinkParams {
+    /// The least distance from a level's keep-out at which the tool centre cuts.
+    pub wall: f64,
+    /// How far beyond the arc tolerance a fitted piece may leave its path: it is then
+    /// checked against the keep-out ([`LayerPlan::keepout`]).
+    pub arc_slack: f64,
     pub clear_z: f64,
     pub gap: f64,
     pub max_link: f64,
@@ -87,6 +104,8 @@ pub(crate) struct Emitter<'s, S: MotionSink> {
     helix_radius: f64,
     min_ramp: f64,
     p: LinkParams,
+    /// Arc fitting of the passes ([`PlanOptions::arc_tolerance`]): pieces on the part's side.
+    fit: Option<PlanarFitOptions>,
     pos: Option<Point3>,
     stats: Stats,
     /// The levels cut so far (the last [`CROSSINGS`]): the height their descents stop at
@@ -106,6 +125,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         p: LinkParams,
         rest: Option<&'s dyn RemainingMaterial>,
     ) -> Self {
+        let arc_slack = p.arc_slack;
         Self {
             sink,
             tool: *tool,
@@ -115,6 +135,15 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
             helix_radius: opts.ramp.helix_radius.unwrap_or(0.5 * tool.radius()),
             min_ramp: opts.ramp.min_ramp_length.unwrap_or(tool.radius()),
             p,
+            // Climb milling runs with the part on the right of travel (contours and rings
+            // alike), conventional milling with it on the left.
+            fit: opts.arc_fit().map(|tolerance| PlanarFitOptions {
+                tolerance: tolerance + arc_slack,
+                side: if opts.climb { FitSide::Right } else { FitSide::Left },
+                // Round joins, their vertices on the circle, fit from their chords' middles.
+                midpoints: true,
+                ..PlanarFitOptions::default()
+            }),
             pos: None,
             stats: Stats::default(),
             crossings: std::collections::VecDeque::new(),
@@ -319,13 +348,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                 self.enter(path, index, plan, top)?;
             }
         }
-        for q in path.points.iter().skip(1) {
-            self.feed(Point3::new(q.x, q.y, z), self.tool.feed)?;
-        }
-        if path.closed {
-            self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
-        }
-        Ok(())
+        self.along(path, z, plan)
     }
 
     /// Whether the tool standing at `s` between heights `z` and `top` meets no material:
@@ -356,6 +379,58 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         }
         let q = b + d * (0.02 * r / l);
         (roughed.contains(&q) && free.segment_inside(&q, s, tol)).then_some(q)
+    }
+
+    /// Feeds along `path` at level `z` from its start (where the tool is): through every
+    /// point, or by the fitted arcs and lines where arcs are fitted.
+    fn along(&mut self, path: &Polyline2, z: f64, plan: &LayerPlan) -> Result<(), ToolpathError<S::Error>> {
+        let mut pts: Vec<[f64; 2]> = Vec::with_capacity(path.points.len() + 1);
+        let back = path.start().filter(|_| path.closed);
+        for q in path.points.iter().chain(back.as_ref()) {
+            if pts.last() != Some(&[q.x, q.y]) {
+                pts.push([q.x, q.y]);
+            }
+        }
+        let feed = self.tool.feed;
+        let Some(opts) = self.fit else {
+            for q in pts.iter().skip(1) {
+                self.feed(Point3::new(q[0], q[1], z), feed)?;
+            }
+            return Ok(());
+        };
+        // Within the arc tolerance of its path (which keeps that much more from the part)
+        // a piece is safe; beyond it, it must keep the tool's distance from the keep-out.
+        let tolerance = opts.tolerance - self.p.arc_slack;
+        let safe = |from: &[f64; 2], piece: &PlanarPiece| {
+            piece.deviation <= tolerance
+                || plan.keepout.as_deref().is_some_and(|k| piece_clear(k, *from, piece, self.p.wall))
+        };
+        for piece in fit_planar(&pts, &opts, safe) {
+            let q = piece.to;
+            let to = Point3::new(q[0], q[1], z);
+            match piece.arc {
+                None => self.feed(to, feed)?,
+                Some((c, direction)) => self.arc(to, Point3::new(c[0], c[1], z), direction, feed)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// A feed along the XY arc about `center` to `to`, booked by its length.
+    fn arc(
+        &mut self,
+        to: Point3,
+        center: Point3,
+        direction: ArcDirection,
+        feed: f64,
+    ) -> Result<(), ToolpathError<S::Error>> {
+        let Some(from) = self.pos else { return self.feed(to, feed) };
+        let spec = ArcSpec { start: from, end: to, center, plane: Plane::XY, direction, turns: 0 };
+        let l = spec.length();
+        self.stats.cutting_length += l;
+        self.stats.time_s += l / feed * 60.0;
+        self.pos = Some(to);
+        self.send(Motion::Arc { to, center, plane: Plane::XY, direction, turns: 0, feed, extrude: None })
     }
 
     /// Feeds from `top` down to the layer at the path's start: straight in air, else by

@@ -129,6 +129,24 @@ pub struct PlanOptions {
     /// its descents stop, rather than at the clearance plane. Default false (the paper's
     /// entries and retracts).
     pub lead_in: bool,
+    /// Write the passes with G2/G3 arcs (and runs that a line fits as one line) within this
+    /// tolerance, `None` (default): straight moves through every planned point. The walls
+    /// keep the tolerance as allowance (the tool centre keep-out grows by it), and every
+    /// fitted piece lies on the part's side of the path it replaces, within the tolerance
+    /// ([`s2g_gcode::fit_planar`]): it comes no nearer the part than the finishing
+    /// allowance, and leaves no material the path would have cut (where a rapid or the
+    /// next layer would find it). A tolerance with `fit_arcs` false plans the same paths
+    /// written straight (the reference the fitted program is compared with).
+    pub arc_tolerance: Option<f64>,
+    /// With [`arc_tolerance`](Self::arc_tolerance): fit the pieces (default true); false
+    /// writes the same plan with straight moves.
+    pub fit_arcs: bool,
+    /// Grow each level's tool-centre keep-out from the level above's, so that the levels'
+    /// free regions nest as polygons and a rapid down to the level above meets no material
+    /// (issue 35). Off by default, which keeps the paper's programs as they were: there
+    /// the levels' own offsets differ from nesting by far less than a voxel, and the nested
+    /// keep-outs accumulate vertices over many fine levels. On in the shop preset.
+    pub nest_levels: bool,
 }
 
 impl Default for PlanOptions {
@@ -161,11 +179,24 @@ impl Default for PlanOptions {
             sliver_width: None,
             measure_air_cut: false,
             lead_in: false,
+            arc_tolerance: None,
+            fit_arcs: true,
+            nest_levels: false,
         }
     }
 }
 
 impl PlanOptions {
+    /// What the walls keep radially: the finishing allowance and the arc tolerance.
+    pub(crate) fn wall_allowance(&self) -> f64 {
+        self.finishing_allowance + self.arc_tolerance.unwrap_or(0.0)
+    }
+
+    /// The tolerance arcs are fitted with, where they are.
+    pub(crate) fn arc_fit(&self) -> Option<f64> {
+        self.arc_tolerance.filter(|_| self.fit_arcs)
+    }
+
     /// Checks every option and the strategy's own parameters; the message names the
     /// offending one.
     pub(crate) fn validate(&self) -> Result<(), String> {
@@ -221,6 +252,9 @@ impl PlanOptions {
         }
         if let Some(d) = self.roughing_depth {
             pos("roughing_depth", d)?;
+        }
+        if let Some(t) = self.arc_tolerance {
+            pos("arc_tolerance", t)?;
         }
         self.strategy.validate()?;
         if let Some(p) = self.safe_start

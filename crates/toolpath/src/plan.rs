@@ -143,7 +143,7 @@ fn slice_levels<E>(
         Vec::new()
     };
     let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
-    let grow = envelope.radius + opts.finishing_allowance;
+    let grow = envelope.radius + opts.wall_allowance();
     let min_hole_area = std::f64::consts::PI * grow * grow;
     let sliver_width = opts.sliver_width.unwrap_or(1e-6 * stock.extent().x.max(stock.extent().y));
     let slabs = slab_regions(
@@ -155,6 +155,11 @@ fn slice_levels<E>(
     );
     Ok(Sliced { stock, part_bbox, levels, slabs, min_hole_area, sliver_width })
 }
+
+/// The contour keep-out is grown by this fraction of the tool radius more and thinned
+/// (Douglas-Peucker) by as much: its vertices keep the full distance, its chords cut up to
+/// this much inside.
+const CONTOUR_THINNING: f64 = 0.005;
 
 pub(crate) struct Ctx<'a> {
     pub tool: &'a Tool,
@@ -179,6 +184,16 @@ pub(crate) struct Clearance {
     off: Region2,
     /// The stock outline grown by the tool radius, less `off`.
     free: Region2,
+    /// The keep-out itself, indexed, where arcs are fitted.
+    keepout: Option<Arc<RegionIndex>>,
+}
+
+/// A level's keep-out and tool-centre keep-out, from which the next levels' grow
+/// ([`Ctx::clearances`]).
+#[derive(Clone)]
+pub(crate) struct Nest {
+    keepout: Region2,
+    off: Region2,
 }
 
 /// The tool-centre region near remaining material on a level.
@@ -378,19 +393,64 @@ impl Ctx<'_> {
         !rest.any_in_box(&Point3::new(p.x - r, p.y - r, z), &Point3::new(p.x + r, p.y + r, z_above))
     }
 
-    /// The tool-centre keep-out and free region of a level with keep-out `keepout`.
-    fn clearance(&self, keepout: &Region2) -> Clearance {
+    /// The tool-centre keep-out of a keep-out region: grown by the tool radius and the
+    /// finishing allowance.
+    fn grown(&self, keepout: &Region2) -> Region2 {
         let r = self.envelope.radius;
-        let thin = 0.005 * r;
-        let off = keepout
+        let thin = CONTOUR_THINNING * r;
+        keepout
             .grown_safe(
-                r + self.opts.finishing_allowance + thin + self.sliver_width,
+                r + self.opts.wall_allowance() + thin + self.sliver_width,
                 self.opts.offset_eps * r,
                 self.opts.arc_step,
             )
-            .thinned(thin);
-        let free = self.centre_rect().difference(&off);
-        Clearance { off, free }
+            .thinned(thin)
+    }
+
+    /// The clearances of consecutive levels (top down) with keep-outs `keepouts`, each
+    /// level's tool-centre keep-out that of the level above (`above`, for the first)
+    /// joined with the growth of what its keep-out adds: `grown(K ∪ A) = grown(K) ∪
+    /// grown(A)`, and where a wall does not move between levels both keep the same
+    /// polygon. So the levels' free regions nest exactly, as the link's safety argument
+    /// needs ([`crate::link`]). Growing each level's keep-out whole gave each its own
+    /// chords and roundings, and where two levels' keep-outs share a wall (an undercut's
+    /// rim) the lower level's free region reached a few micrometres past the upper's: a
+    /// rapid down to the lower level then met the skin of stock the upper level left on
+    /// that wall.
+    fn clearances(&self, keepouts: &[&Region2], above: Option<&Nest>) -> Vec<Clearance> {
+        let rect = self.centre_rect();
+        let clearance = |(off, keepout): (Region2, &&Region2)| {
+            let free = rect.difference(&off);
+            let keepout = self.opts.arc_fit().map(|_| Arc::new(keepout.index()));
+            Clearance { off, free, keepout }
+        };
+        if !self.opts.nest_levels {
+            // Each level's keep-out grown on its own ([`PlanOptions::nest_levels`]).
+            return keepouts.par_iter().map(|k| clearance((self.grown(k), k))).collect();
+        }
+        // The growths, in parallel; their running union is sequential.
+        let added: Vec<Option<Region2>> = keepouts
+            .par_iter()
+            .enumerate()
+            .map(|(k, keepout)| {
+                let prev = if k == 0 { above.map(|a| &a.keepout) } else { Some(keepouts[k - 1]) };
+                let new = match prev {
+                    Some(p) => Cow::Owned(keepout.difference(p)),
+                    None => Cow::Borrowed(*keepout),
+                };
+                (!new.is_empty() || prev.is_none()).then(|| self.grown(&new))
+            })
+            .collect();
+        let mut offs: Vec<Region2> = Vec::with_capacity(keepouts.len());
+        for add in added {
+            let prev = offs.last().or(above.map(|a| &a.off));
+            offs.push(match (prev, add) {
+                (Some(p), Some(a)) => p.union(&a),
+                (Some(p), None) => p.clone(),
+                (None, a) => a.unwrap_or_else(Region2::empty),
+            });
+        }
+        offs.into_par_iter().zip(keepouts.par_iter()).map(clearance).collect()
     }
 
     /// Plans one layer, whose keep-out gives `clearance` ([`Ctx::clearance`]). `roughed` is
@@ -406,7 +466,7 @@ impl Ctx<'_> {
         roughed: Option<(&Region2, &RegionIndex)>,
     ) -> LayerPlan {
         let r = self.envelope.radius;
-        let Clearance { off, free } = clearance;
+        let Clearance { off, free, keepout } = clearance;
         let to_clear = match roughed {
             Some((done, _)) => Cow::Owned(free.difference(done)),
             None => Cow::Borrowed(free),
@@ -498,6 +558,7 @@ impl Ctx<'_> {
             clearing,
             cut_air,
             roughed,
+            keepout: keepout.clone(),
         }
     }
 }
@@ -517,7 +578,8 @@ pub fn plan_layers<E>(
     let ctx = make_ctx(&slices.stock, slices.sliver_width, tool, opts, rest);
     let groups = roughing_groups(&slices.levels, slices.stock.max.z, opts);
     let levels = Levels { z: &slices.levels, top: slices.stock.max.z, keepouts: &slices.keepouts, base: 0 };
-    let mut layers: Vec<LayerPlan> = plan_groups(&ctx, &levels, &groups)
+    let mut layers: Vec<LayerPlan> = plan_groups(&ctx, &levels, &groups, None)
+        .0
         .into_iter()
         .flat_map(|(rough, fine)| fine.into_iter().chain([rough]))
         .collect();
@@ -573,12 +635,21 @@ impl Levels<'_> {
 /// Plans `groups` in parallel: the roughing levels first (each cuts from its level up to the
 /// previous roughing level), then the finer levels, limited to what their roughing level
 /// left. Returns each group's roughing plan and its finer plans, top down.
-fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(LayerPlan, Vec<LayerPlan>)> {
+///
+/// `above` is the level above the first group's first level (`None` for the setup's first
+/// level); the returned one is the last level's, the next call's `above`
+/// ([`Ctx::clearances`]).
+fn plan_groups(
+    ctx: &Ctx<'_>,
+    levels: &Levels<'_>,
+    groups: &[Group],
+    above: Option<&Nest>,
+) -> (Vec<(LayerPlan, Vec<LayerPlan>)>, Option<Nest>) {
     // The groups' levels are consecutive. Runs of levels with equal keep-outs (the part
     // adds nothing to the projection) share one clearance.
     let (first, end) = match (groups.first(), groups.last()) {
         (Some(a), Some(b)) => (a.fine.start, b.rough + 1),
-        _ => return Vec::new(),
+        _ => return (Vec::new(), above.cloned()),
     };
     let mut distinct: Vec<usize> = Vec::new();
     let mut slot: Vec<usize> = Vec::with_capacity(end - first);
@@ -588,7 +659,8 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
         }
         slot.push(distinct.len() - 1);
     }
-    let clearances: Vec<Clearance> = distinct.par_iter().map(|&l| ctx.clearance(levels.keepout(l))).collect();
+    let keepouts: Vec<&Region2> = distinct.iter().map(|&l| levels.keepout(l)).collect();
+    let clearances = ctx.clearances(&keepouts, above);
     let clearance = |l: usize| &clearances[slot[l - first]];
     let rough: Vec<LayerPlan> = groups
         .par_iter()
@@ -618,7 +690,11 @@ fn plan_groups(ctx: &Ctx<'_>, levels: &Levels<'_>, groups: &[Group]) -> Vec<(Lay
     for (k, plan) in planned {
         fine_plans[k].push(plan);
     }
-    rough.into_iter().zip(fine_plans).collect()
+    let last = distinct
+        .last()
+        .zip(clearances.last())
+        .map(|(&l, c)| Nest { keepout: levels.keepout(l).clone(), off: c.off.clone() });
+    (rough.into_iter().zip(fine_plans).collect(), last)
 }
 
 fn make_ctx<'a>(
@@ -715,6 +791,10 @@ pub fn plan_setup_watched<S: MotionSink>(
     let ctx = make_ctx(&stock, sliced.sliver_width, tool, opts, rest);
     let clear_z = stock.max.z + opts.clearance_height;
     let params = LinkParams {
+        // What the tool centre keeps from the keep-outs, and what arcs may leave their path
+        // by without that check: the contour's thinning (its vertices keep that much more).
+        wall: ctx.envelope.radius + opts.finishing_allowance + ctx.sliver_width,
+        arc_slack: CONTOUR_THINNING * ctx.envelope.radius,
         clear_z: clear_z.max(ctx.start.z),
         gap: opts.retract_gap.unwrap_or(0.5 * opts.layer_height),
         max_link: opts.max_stay_down_link.unwrap_or(2.0 * tool.diameter()),
@@ -749,14 +829,17 @@ pub fn plan_setup_watched<S: MotionSink>(
     // while this batch's layers are planned.
     let mut chain = Keepouts::new(sliced.slabs, sliced.min_hole_area);
     let mut window = batches.first().map(|b| chain.advance(end_level(b))).unwrap_or_default();
+    // The tool-centre keep-out of the last level planned: the next batch's grow from it.
+    let mut above: Option<Nest> = None;
     for (i, b) in batches.iter().enumerate() {
         progress.check()?;
         let levels = Levels { z: &sliced.levels, top: stock.max.z, keepouts: &window, base: first_level(b) };
         let next_end = batches.get(i + 1).map(end_level);
-        let (plans, next) = rayon::join(
-            || plan_groups(&ctx, &levels, &groups[b.clone()]),
+        let ((plans, last), next) = rayon::join(
+            || plan_groups(&ctx, &levels, &groups[b.clone()], above.as_ref()),
             || next_end.map(|end| chain.advance(end)).unwrap_or_default(),
         );
+        above = last;
         for (rough, fine) in &plans {
             for plan in std::iter::once(rough).chain(fine) {
                 progress.check()?;

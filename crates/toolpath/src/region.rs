@@ -680,6 +680,11 @@ impl RegionIndex {
         })
     }
 
+    /// Boundary edge `e`: `[ax, ay, bx, by]`.
+    pub(crate) fn edge(&self, e: u32) -> [f64; 4] {
+        self.edges[e as usize]
+    }
+
     /// Indices of the boundary edges within `d` of `p` (ascending).
     fn edges_near(&self, p: &Point2, d: f64) -> Vec<u32> {
         let mut out: Vec<u32> = self
@@ -702,7 +707,7 @@ impl RegionIndex {
 
     /// The edges listed in the cells that the box `lo`-`hi` meets (an edge listed in
     /// several of them comes once per cell): every edge that meets the box is among them.
-    fn edge_ids_in(&self, lo: Point2, hi: Point2) -> impl Iterator<Item = u32> + '_ {
+    pub(crate) fn edge_ids_in(&self, lo: Point2, hi: Point2) -> impl Iterator<Item = u32> + '_ {
         let (i0, j0) = self.cell_of(lo.x, lo.y);
         let (i1, j1) = self.cell_of(hi.x, hi.y);
         (j0..=j1)

@@ -13,7 +13,10 @@
 //!   nozzle and carriage ([`Tool`], the collision loss's test): a point below the
 //!   platform, or inside the part on a layer already printed (`G(q) < g_k - ¼ Δg`), is a
 //!   collision. The tip itself is tested on travel moves only (on an extruding move it
-//!   sits on its own bead).
+//!   sits on its own bead). Before a path is written, each of its points whose pose
+//!   collides gets the first clear axis of: turned toward vertical by ¼, ½, ¾ or all of
+//!   the way, then 15°, 30°, 45° off its own in eight directions (the layer field's
+//!   optimisation samples the nozzle only; the carriage above it is wider).
 //! - Moves are split so that no block turns a rotary axis by more than
 //!   [`PrintProgramOptions::max_angle_step_deg`]; each rotary block is merged into the move
 //!   after it, as in the milling program.
@@ -114,6 +117,8 @@ pub struct PrintProgram {
     pub poses_checked: usize,
     /// Of them, poses in collision with printed material or the platform.
     pub collisions: usize,
+    /// Of them, poses on travel moves (lift, traverse, lower).
+    pub travel_collisions: usize,
     /// Travels that needed a higher hop than the first.
     pub raised_hops: usize,
     /// Motion blocks written.
@@ -170,6 +175,7 @@ impl<'a> Emitter<'a> {
                 filament: 0.0,
                 poses_checked: 0,
                 collisions: 0,
+                travel_collisions: 0,
                 raised_hops: 0,
                 blocks: 0,
             },
@@ -307,6 +313,41 @@ impl Emitter<'_> {
         out
     }
 
+    /// `path` with each point whose nozzle or carriage would hit printed material given
+    /// the first clear axis of: the axis turned toward vertical by ¼, ½, ¾ and the whole
+    /// way, then axes 15°, 30° and 45° off it in eight directions (the axis kept where
+    /// none is clear).
+    fn clear_axes(&self, path: &PrintPath) -> PrintPath {
+        let mut out = path.clone();
+        for (p, a) in out.points.iter().zip(out.axes.iter_mut()) {
+            if !self.collides(p, a, false) {
+                continue;
+            }
+            let axis = *a;
+            let toward = [0.25, 0.5, 0.75, 1.0].map(|f| {
+                (axis * (1.0 - f) + Vector3::z() * f).try_normalize(1e-9).unwrap_or_else(Vector3::z)
+            });
+            let e1 = a
+                .cross(&Vector3::x())
+                .try_normalize(1e-6)
+                .unwrap_or_else(|| a.cross(&Vector3::y()).normalize());
+            let e2 = a.cross(&e1);
+            let around = [15.0f64, 30.0, 45.0].into_iter().flat_map(|deg| {
+                let (s, c) = deg.to_radians().sin_cos();
+                (0..8).map(move |k| {
+                    let phi = k as f64 * std::f64::consts::FRAC_PI_4;
+                    (axis * c + (e1 * phi.cos() + e2 * phi.sin()) * s).normalize()
+                })
+            });
+            if let Some(b) =
+                toward.into_iter().chain(around).find(|b| b.z > 0.0 && !self.collides(p, b, false))
+            {
+                *a = b;
+            }
+        }
+        out
+    }
+
     fn axis(&self, s: &State) -> Vector3 {
         self.frame(s).rotation * Vector3::z()
     }
@@ -319,6 +360,7 @@ impl Emitter<'_> {
             let (checked, hits) = self.count_way(&above, &[start], true);
             self.report.poses_checked += checked;
             self.report.collisions += hits;
+            self.report.travel_collisions += hits;
             return self.go(&[above, start], None);
         };
         let here = self.frame(&cur).inverse() * cur.tip;
@@ -345,6 +387,7 @@ impl Emitter<'_> {
         if let Some((checked, hits, way)) = best {
             self.report.poses_checked += checked;
             self.report.collisions += hits;
+            self.report.travel_collisions += hits;
             self.go(&way, None)?;
         }
         if self.opts.retract > 0.0 {
@@ -363,6 +406,7 @@ impl Emitter<'_> {
         self.report.layers += 1;
         self.printed_below = layer.level - 0.25 * step;
         for path in &layer.paths {
+            let path = &self.clear_axes(path);
             let states = self.path_states(path);
             self.travel(states[0])?;
             self.report.paths += 1;

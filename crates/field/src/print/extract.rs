@@ -3,16 +3,21 @@
 //! iso-lines of scalars on that triangle mesh (marching triangles), chained into
 //! polylines:
 //!
-//! - **Contours**: iso-lines of the in-layer distance to the part's boundary at
-//!   `(i + ½) w` for `i < rings` (`w` the bead width). The in-layer distance is the part's
-//!   signed distance `s` divided by the length of its gradient projected into the layer's
-//!   tangent plane, `s / |∇s - (∇s·n)n|`: exact where the boundary is a straight wall
-//!   crossing the layer, and a first-order correction where the layer meets it obliquely
-//!   (a 45° meeting would otherwise space the rings 41 % wide).
-//! - **Infill (zig-zag)**: iso-lines of `x·u` at spacing `w`, `u` a unit vector in the
-//!   layer's mean tangent plane (turned 90° from layer to layer), clipped to the region
-//!   whose in-layer distance is beyond `(rings + ½ - overlap) w`; consecutive lines whose ends lie
-//!   within `2w` are joined into one zig-zag path.
+//! - **Boundary**: the iso-line of the part's signed distance `s` on the layer, `s` taken
+//!   [`PrintPathOptions::wall_depth`] of the local thickness below the tip (mid-bead by
+//!   default); each vertex gets its distance within the layer to that curve (exact near
+//!   it, `offsets.rs`), beyond it the first-order `s / |∇s - (∇s·n)n|`.
+//! - **Contours**: ring `i < rings` `(i + ½) w` inside the boundary (`w` the bead width),
+//!   each ring but the innermost rounded at convex corners by half a width more than the
+//!   ring inside it, so that rings stay within `1.21 w` of each other across a corner.
+//! - **Infill (zig-zag)**: iso-lines of `x·u`, `u` a unit vector in the layer's mean
+//!   tangent plane (turned 90° from layer to layer), fitted to each connected region
+//!   deeper than `(rings + ½ - overlap) w`: the first and last lines one width inside the
+//!   inner ring, the lines between evenly spaced at the nearest whole number of widths;
+//!   consecutive lines whose ends lie within `2w` are joined into one zig-zag path.
+//! - **Trimming**: every path is cut where it comes within
+//!   [`PrintPathOptions::min_spacing`] of a path before it on the layer (rings, then
+//!   infill), or of its own other side across a thin wall.
 //! - **Path field**: iso-lines of `P` at levels `w × median |∇P|` apart (the median of
 //!   `P`'s gradient projected into the layer over the layer's vertices inside the part),
 //!   clipped to the part shrunk by `½ w`.
@@ -27,13 +32,14 @@ use s2g_geom::{Mesh, Point3, SignedDistance, Vector3, marching_cubes_samples};
 
 use super::LayerField;
 use super::lattice::Lattice;
+use super::offsets::{Sample, fitted_infill, in_layer_distance, ring_scalar, trim_close};
 use crate::error::{FieldError, Result};
 
 /// How layers and toolpaths are extracted. Lengths in the part's units (mm).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PrintPathOptions {
     /// Nominal layer height: the levels are `h × median |∇G|` apart (inside the part), so
-    /// planar layers are `h` apart. Default `1.0`.
+    /// planar layers are `h` apart. Default `0.8`.
     pub layer_height: f64,
     /// Bead width and the spacing of neighbouring paths. Default `1.0`.
     pub bead_width: f64,
@@ -49,18 +55,30 @@ pub struct PrintPathOptions {
     /// How far the infill lines reach into the innermost contour's bead, in bead widths
     /// (the lines' rounded ends leave gaps beside them otherwise). Default `0.3`.
     pub infill_overlap: f64,
+    /// Paths are cut where they come closer than this many bead widths to a path printed
+    /// before them on the layer (an earlier ring, or the same ring across a thin wall);
+    /// `0` keeps them whole. Default `0.8`.
+    pub min_spacing: f64,
+    /// Where across the bead the layer's boundary is taken, as a fraction of the layer's
+    /// thickness below the tip: `0` at the tip (the top of the bead), `0.5` at mid-bead,
+    /// so that where the part's wall meets the layer obliquely, the bead's edge crosses
+    /// it half-way down instead of leaving the whole wedge below empty (or overfilled).
+    /// Default `0.5`.
+    pub wall_depth: f64,
 }
 
 impl Default for PrintPathOptions {
     fn default() -> Self {
         Self {
-            layer_height: 1.0,
+            layer_height: 0.8,
             bead_width: 1.0,
             rings: 2,
             lattice: 0.5,
             flat_deg: 5.0,
             min_path_widths: 1.0,
             infill_overlap: 0.3,
+            min_spacing: 0.8,
+            wall_depth: 0.5,
         }
     }
 }
@@ -74,6 +92,12 @@ impl PrintPathOptions {
             ("paths.lattice", self.lattice),
         ])?;
         FieldError::check_non_negative(&[("paths.min_path_widths", self.min_path_widths)])?;
+        if !(self.wall_depth.is_finite() && (0.0..=1.0).contains(&self.wall_depth)) {
+            return Err(FieldError::config("paths.wall_depth", "must be in [0, 1]"));
+        }
+        if !(self.min_spacing.is_finite() && (0.0..1.0).contains(&self.min_spacing)) {
+            return Err(FieldError::config("paths.min_spacing", "must be in [0, 1)"));
+        }
         if !(self.infill_overlap.is_finite() && (0.0..=0.5).contains(&self.infill_overlap)) {
             return Err(FieldError::config("paths.infill_overlap", "must be in [0, 0.5]"));
         }
@@ -131,27 +155,6 @@ pub struct PrintLayer {
     pub paths: Vec<PrintPath>,
     /// The iso-surface's triangles whose centroid lies inside the part.
     pub surface: Mesh,
-}
-
-/// Per-vertex data of a layer mesh.
-#[derive(Debug, Clone, Copy)]
-struct Sample {
-    p: Point3,
-    n: Vector3,
-    t: f64,
-    /// In-layer distance to the boundary (negative inside).
-    phi: f64,
-}
-
-impl Sample {
-    fn lerp(&self, o: &Sample, u: f64) -> Sample {
-        Sample {
-            p: self.p + (o.p - self.p) * u,
-            n: (self.n + (o.n - self.n) * u).try_normalize(1e-12).unwrap_or(self.n),
-            t: self.t + (o.t - self.t) * u,
-            phi: self.phi + (o.phi - self.phi) * u,
-        }
-    }
 }
 
 /// A point of an iso-line: on a mesh edge (`key`, shared by the two triangles of that
@@ -254,15 +257,37 @@ fn chain(segs: &[(End, End)]) -> Vec<(Vec<Sample>, bool)> {
 pub(crate) fn levels(lattice: &Lattice, field: &dyn LayerField, h: f64) -> Result<(Vec<f64>, f64)> {
     let mut norms = Vec::new();
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let [nx, ny, nz] = lattice.dims;
+    let h0 = lattice.spacing;
+    // Central differences of the lattice's values at index i (one-sided at its faces).
+    let diff = |v: &[f64], i: usize| {
+        let (x, y, z) = (i % nx, (i / nx) % ny, i / (nx * ny));
+        let strides = [1, nx, nx * ny];
+        let at = [x, y, z];
+        let dims = [nx, ny, nz];
+        Vector3::from_fn(|a, _| {
+            let lo = if at[a] > 0 { i - strides[a] } else { i };
+            let hi = if at[a] + 1 < dims[a] { i + strides[a] } else { i };
+            let span = (hi - lo) / strides[a];
+            if span == 0 { 0.0 } else { (v[hi] - v[lo]) / (span as f64 * h0) }
+        })
+    };
     for (i, (&g, &s)) in lattice.g.iter().zip(&lattice.sdf).enumerate() {
         if s < 0.0 {
-            lo = lo.min(g);
-            hi = hi.max(g);
+            // Near the skin, G where a Newton step along the distance's gradient meets it:
+            // the part's extent in G, not its inside lattice points'.
+            let g_skin = if s > -1.5 * h0 {
+                let gs = diff(&lattice.sdf, i);
+                let n2 = gs.norm_squared();
+                if n2 > 0.25 { g - s * diff(&lattice.g, i).dot(&gs) / n2 } else { g }
+            } else {
+                g
+            };
+            lo = lo.min(g_skin);
+            hi = hi.max(g_skin);
             if i % 7 == 0 {
-                let [nx, ny, _] = lattice.dims;
                 let p = lattice.origin
-                    + Vector3::new((i % nx) as f64, ((i / nx) % ny) as f64, (i / (nx * ny)) as f64)
-                        * lattice.spacing;
+                    + Vector3::new((i % nx) as f64, ((i / nx) % ny) as f64, (i / (nx * ny)) as f64) * h0;
                 norms.push(field.value_gradient(&p).1.norm());
             }
         }
@@ -274,9 +299,6 @@ pub(crate) fn levels(lattice: &Lattice, field: &dyn LayerField, h: f64) -> Resul
     }
     norms.sort_by(f64::total_cmp);
     let step = h * norms[norms.len() / 2];
-    // The part reaches half a lattice spacing beyond its inside lattice points.
-    let half = 0.5 * lattice.spacing * norms[norms.len() / 2];
-    let (lo, hi) = (lo - half, hi + half);
     let n = ((hi - lo) / step).round().max(1.0);
     if n > 100_000.0 {
         return Err(FieldError::InvalidArgument(format!("{n} layers (> 100 000)")));
@@ -302,9 +324,12 @@ fn layer_mesh(
     part: &dyn SignedDistance,
     level: f64,
     step: f64,
-    h: f64,
-    flat_deg: f64,
+    opts: &PrintPathOptions,
 ) -> Result<Option<LayerMesh>> {
+    let (h, flat_deg, wall_depth) = (opts.layer_height, opts.flat_deg, opts.wall_depth);
+    // The in-layer distance is exact this far from the boundary (the rings and the
+    // infill's edge lie within it).
+    let reach = (opts.rings as f64 + 2.0) * opts.bead_width;
     let spacing = Vector3::repeat(lattice.spacing);
     let mesh = marching_cubes_samples(lattice.dims, lattice.origin, spacing, level, &lattice.g)
         .map_err(FieldError::geom)?;
@@ -312,16 +337,20 @@ fn layer_mesh(
         return Ok(None);
     }
     let mut samples = Vec::with_capacity(mesh.vertices().len());
+    let mut estimate = Vec::with_capacity(mesh.vertices().len());
     for p in mesh.vertices() {
         let (_, grad) = field.value_gradient(p);
         let norm = grad.norm();
         let n = grad.try_normalize(1e-12).unwrap_or_else(Vector3::z);
-        let s = part.distance(p);
-        let gs = part.gradient(p);
-        let tangential = (gs - n * gs.dot(&n)).norm().max(0.3);
         let t = if norm > 0.0 { (step / norm).clamp(0.25 * h, 3.0 * h) } else { h };
-        samples.push(Sample { p: *p, n, t, phi: s / tangential });
+        let q = p - n * (wall_depth * t);
+        let s = part.distance(&q);
+        let gs = part.gradient(&q);
+        let tangential = (gs - n * gs.dot(&n)).norm().max(0.3);
+        samples.push(Sample { p: *p, n, t, phi: s });
+        estimate.push(s / tangential);
     }
+    in_layer_distance(&mesh, &mut samples, &estimate, reach);
     let mut mean = Vector3::zeros();
     let mut tilt_max = 0.0f64;
     let mut kept = Vec::new();
@@ -366,18 +395,16 @@ pub(crate) fn extract(
     let min_len = opts.min_path_widths * w;
     let mut out = Vec::with_capacity(levels.len());
     for (k, &level) in levels.iter().enumerate() {
-        let Some(layer) = layer_mesh(lattice, field, part, level, step, opts.layer_height, opts.flat_deg)?
-        else {
+        let Some(layer) = layer_mesh(lattice, field, part, level, step, opts)? else {
             continue;
         };
         let full = &layer.full;
         let mut polylines: Vec<(PathKind, Vec<Sample>, bool)> = Vec::new();
-        let phi: Vec<f64> = layer.samples.iter().map(|s| s.phi).collect();
         match path_field {
             None => {
                 for i in 0..opts.rings {
-                    let at = -(i as f64 + 0.5) * w;
-                    for (pl, closed) in iso_lines(full, &layer.samples, &phi, at, f64::INFINITY) {
+                    let ring = ring_scalar(full, &layer.samples, i, opts.rings, w);
+                    for (pl, closed) in iso_lines(full, &layer.samples, &ring, 0.0, f64::INFINITY) {
                         polylines.push((PathKind::Contour, pl, closed));
                     }
                 }
@@ -388,21 +415,12 @@ pub(crate) fn extract(
                     .or_else(|| (Vector3::z() - n * n.z).try_normalize(1e-6))
                     .unwrap_or_else(Vector3::x);
                 let psi: Vec<f64> = layer.samples.iter().map(|s| s.p.coords.dot(&u)).collect();
-                let inner = -(opts.rings as f64 + 0.5 - opts.infill_overlap) * w;
-                let (lo, hi) = layer
-                    .samples
-                    .iter()
-                    .zip(&psi)
-                    .filter(|(s, _)| s.phi < inner)
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, &v)| (lo.min(v), hi.max(v)));
-                if lo <= hi {
-                    let first = (lo / w).floor() as i64;
-                    let last = (hi / w).ceil() as i64;
-                    for j in first..=last {
-                        let at = (j as f64 + 0.5) * w;
-                        for (pl, closed) in iso_lines(full, &layer.samples, &psi, at, inner) {
-                            polylines.push((PathKind::Infill, pl, closed));
-                        }
+                let clip = -(opts.rings as f64 + 0.5 - opts.infill_overlap) * w;
+                let edge = -(opts.rings as f64 + 0.5) * w;
+                let (fitted, most) = fitted_infill(full, &layer.samples, &psi, clip, edge, w);
+                for j in 0..=most {
+                    for (pl, closed) in iso_lines(full, &layer.samples, &fitted, j as f64, clip) {
+                        polylines.push((PathKind::Infill, pl, closed));
                     }
                 }
             }
@@ -440,6 +458,7 @@ pub(crate) fn extract(
                 }
             }
         }
+        let polylines = trim_close(polylines, opts.min_spacing * w, 3.0 * w);
         let paths = polylines
             .into_iter()
             .map(|(kind, pl, _)| PrintPath {

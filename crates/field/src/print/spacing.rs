@@ -1,7 +1,8 @@
 //! Bead spacing measured on the extracted paths: each path is sampled every quarter bead
 //! width, and each sample's spacing is the distance to the nearest sample of another path
 //! on its layer, or of its own path more than three bead widths away along it (the next
-//! line of a zig-zag). Samples with no neighbour within twice the bead width (a lone
+//! line of a zig-zag; around a closed path the shorter way, so that the two sides of its
+//! seam are neighbours along it, not across). Samples with no neighbour within twice the bead width (a lone
 //! bead in a feature one bead wide) are counted apart.
 
 use std::collections::HashMap;
@@ -32,8 +33,16 @@ pub fn bead_spacing(layers: &[PrintLayer], width: f64) -> SpacingStats {
     let (mut measured, mut within, mut lone) = (0usize, 0usize, 0usize);
     let mut ratios = Vec::new();
     for layer in layers {
-        // (path, arc length, point)
+        // (path, arc length, point); the length of each closed path (0 for an open one).
         let mut samples: Vec<(usize, f64, Point3)> = Vec::new();
+        let loops: Vec<f64> = layer
+            .paths
+            .iter()
+            .map(|p| {
+                let closed = p.points.len() > 3 && (p.points[0] - p.points[p.points.len() - 1]).norm() < 1e-9;
+                if closed { p.length() } else { 0.0 }
+            })
+            .collect();
         for (pi, path) in layer.paths.iter().enumerate() {
             let mut arc = 0.0;
             let mut next = 0.0;
@@ -59,7 +68,9 @@ pub fn bead_spacing(layers: &[PrintLayer], width: f64) -> SpacingStats {
                         let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
                         for &j in list {
                             let (pj, aj, q) = &samples[j];
-                            if pj == pi && (aj - arc).abs() <= 3.0 * width {
+                            let along = (aj - arc).abs();
+                            let around = if loops[*pi] > 0.0 { along.min(loops[*pi] - along) } else { along };
+                            if pj == pi && around <= 3.0 * width {
                                 continue;
                             }
                             best = best.min((q - p).norm());

@@ -4,14 +4,15 @@ use std::borrow::Cow;
 
 use super::comp::comp_refused;
 use super::interp::{Fail, Interp, Mode, POLAR_A, POLAR_R, Res, bit, fmt_code};
+use super::lathe_cycle::is_lathe_cycle;
 use super::words::Pre;
 use crate::error::GcodeErrorKind;
 use crate::expr::ParamKey;
 use crate::motion::{ArcDirection, Marker, Motion, MotionSink, Plane};
 
 /// A block's G codes by modal group (index: group; 0 non-modal, 12 `G53`).
-struct Groups {
-    g: [Option<(u16, usize)>; 14],
+pub(super) struct Groups {
+    pub(super) g: [Option<(u16, usize)>; 14],
     g53: bool,
 }
 
@@ -37,8 +38,9 @@ impl Interp<'_> {
         if self.block.mask & bit(b'e') != 0 && !self.fdm {
             self.exponent_check(line)?;
         }
-        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A)) != 0 {
-            self.polar()?;
+        // One test on the common path for the rare words: polar ones, and Q (a lathe cycle).
+        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A) | bit(b'q')) != 0 && self.rare_words()? {
+            return Ok(());
         }
         self.comments_and_markers(line, sink)?;
         if self.block.mask == 0 && self.block.ng == 0 && self.block.nm == 0 {
@@ -48,6 +50,24 @@ impl Interp<'_> {
         self.execute(sink)?;
         self.apply_assignments(line);
         Ok(())
+    }
+
+    /// Polar words become X and Y; a lathe cycle (`G70`-`G72` with its `Q` word) outside
+    /// control flow asks for it, as an O-word line does. Returns `true` for the latter
+    /// (the driver runs the line again under control flow).
+    #[cold]
+    fn rare_words<E>(&mut self) -> Res<bool, E> {
+        if self.block.mask & (bit(POLAR_R) | bit(POLAR_A)) != 0 {
+            self.polar()?;
+        }
+        let blk = &self.block;
+        if blk.has(b'q') && !self.in_flow && blk.g[..blk.ng].iter().any(|&(g, _)| is_lathe_cycle(g)) {
+            // The cycle calls its profile subroutine: control flow from this line on.
+            self.flow_request = true;
+            self.done = true;
+            return Ok(true);
+        }
+        Ok(false)
     }
 
     /// Turns the block's polar words into X and Y words (LinuxCNC): the point at radius `@`
@@ -206,7 +226,7 @@ impl Interp<'_> {
 
     /// Classifies the block's G codes by modal group and checks conflicts. `None`: an
     /// unknown code (lenient) skips the line.
-    fn g_groups<E>(&mut self) -> Res<Option<Groups>, E> {
+    pub(super) fn g_groups<E>(&mut self) -> Res<Option<Groups>, E> {
         let mut groups: [Option<(u16, usize)>; 14] = [None; 14];
         let mut g53 = false;
         let mut skip_line = false;
@@ -251,8 +271,9 @@ impl Interp<'_> {
                 40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
                 530 => 12,
                 // Old Fanuc/Mach inch/mm, when lenient; with a Q word (its profile
-                // subroutine) LinuxCNC's lathe cycle, which is not interpreted.
+                // subroutine) LinuxCNC's lathe cycle.
                 700 | 710 if !self.strict && !self.block.has(b'q') => 6,
+                700 | 710 | 711 | 712 | 720 | 721 | 722 => 1,
                 _ => {
                     let name = format!("G{}", fmt_code(code));
                     if self.strict {
@@ -293,9 +314,23 @@ impl Interp<'_> {
 
     /// Word sanity: line number, value-less words, unsupported feed modes.
     fn check_words<E>(&mut self, groups: &[Option<(u16, usize)>; 14]) -> Res<(), E> {
-        // `G76 E` is the threading cycle's taper, not extrusion.
-        if self.block.has(b'e') && groups[1].is_none_or(|g| g.0 != 760) {
-            self.fdm_evidence();
+        // `G76 E` is the threading cycle's taper, `G70 E` its last pass's distance: not
+        // extrusion. `rs274` refuses it on the other lathe cycles.
+        if self.block.has(b'e') {
+            match groups[1] {
+                Some((760 | 700, _)) => {}
+                Some((code, _)) if is_lathe_cycle(code) => {
+                    if self.strict {
+                        return Err(Fail::Line(
+                            self.block.col(b'e'),
+                            GcodeErrorKind::NotGcode(
+                                "E word with no G70, G76, M66, M67 or M68 to use it".into(),
+                            ),
+                        ));
+                    }
+                }
+                _ => self.fdm_evidence(),
+            }
         }
         if let Some(n) = self.block.get(b'n') {
             // LinuxCNC accepts fractional line numbers (`N4567.789`); only negative ones are refused.
@@ -309,6 +344,7 @@ impl Interp<'_> {
         if self.strict
             && self.block.has(b'd')
             && !groups[7].is_some_and(|g| matches!(g.0, 410 | 420 | 411 | 421))
+            && !groups[1].is_some_and(|g| is_lathe_cycle(g.0))
         {
             return Err(Fail::Line(
                 self.block.col(b'd'),
@@ -585,6 +621,7 @@ impl Interp<'_> {
                 }
                 730 | 810 | 820 | 830 => Mode::Cycle(code),
                 50 | 51 | 330 | 331 | 382..=385 | 760 => Mode::Special(code),
+                c if is_lathe_cycle(c) => Mode::Special(code),
                 _ => {
                     return Err(Fail::Line(col, GcodeErrorKind::Unsupported(format!("G{}", fmt_code(code)))));
                 }
@@ -638,6 +675,7 @@ impl Interp<'_> {
                     20 => Mode::Arc(ArcDirection::Clockwise),
                     30 => Mode::Arc(ArcDirection::CounterClockwise),
                     c @ (50 | 51 | 330 | 331 | 382..=385 | 760) => Mode::Special(c),
+                    c if is_lathe_cycle(c) => Mode::Special(c),
                     c => Mode::Cycle(c),
                 });
             }
@@ -664,6 +702,11 @@ impl Interp<'_> {
                     Some(Mode::Special(code)) => {
                         let col = explicit.map_or(0, |e| e.1);
                         self.special(code, col, sink)?;
+                        if let Some(req) = self.lathe.as_mut() {
+                            // The cycle runs once its profile is read; the block's stop after it.
+                            req.m_stop = m_stop;
+                            return Ok(());
+                        }
                     }
                     Some(Mode::Cycle(code)) => {
                         let r = if self.comp.side.is_some() {

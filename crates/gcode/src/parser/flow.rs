@@ -6,7 +6,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use super::interp::Interp;
+use super::interp::{Fail, Interp};
 use super::lex::read_o_word;
 use super::words::find_eol;
 use crate::error::{GcodeErrorKind, ParseError};
@@ -343,6 +343,9 @@ fn execute<S: MotionSink>(
         let Some(ol) = &p.o[pc] else {
             it.lineno = base + pc as u64 - 1;
             it.line(line, sink)?;
+            if it.lathe.is_some() {
+                lathe_cycle(it, p, base, pc, sink)?;
+            }
             pc += 1;
             continue;
         };
@@ -518,6 +521,13 @@ fn call(
             GcodeErrorKind::ControlFlow(format!("o{shown} call with more than 30 arguments")),
         ));
     }
+    enter(it, frames, pc + 1, &args);
+    Ok(sub + 1)
+}
+
+/// Enters a subroutine with arguments `args`, to return to line `ret`: the caller's
+/// `#1`-`#30` and local named parameters are kept aside.
+fn enter(it: &mut Interp<'_>, frames: &mut Vec<Frame>, ret: usize, args: &[f64]) {
     let mut saved = [0.0; 30];
     saved.copy_from_slice(&it.params.numbered[1..=30]);
     let named = it.params.named.clone();
@@ -525,6 +535,69 @@ fn call(
     for (k, slot) in it.params.numbered[1..=30].iter_mut().enumerate() {
         *slot = args.get(k).copied().unwrap_or(0.0);
     }
-    frames.push(Frame { ret: pc + 1, saved, named, repeats: Vec::new() });
-    Ok(sub + 1)
+    frames.push(Frame { ret, saved, named, repeats: Vec::new() });
+}
+
+/// Runs the lathe cycle that line `pc` asked for ([`Interp::lathe`]): its profile
+/// subroutine `o<Q>` is called, its lines read as the profile (O-word lines run as
+/// usual), then the cycle runs. An error of the profile is at its line; one of the
+/// cycle at the line that ended the subroutine, as in `rs274`.
+fn lathe_cycle<S: MotionSink>(
+    it: &mut Interp<'_>,
+    p: &Program<'_>,
+    base: u64,
+    pc: usize,
+    sink: &mut S,
+) -> Result<(), ParseError<S::Error>> {
+    let Some(req) = it.lathe.take() else { return Ok(()) };
+    let line_of = |k: usize| base + k as u64;
+    let Some(&sub) = p.subs.get(req.q.to_string().as_bytes()) else {
+        it.lineno = line_of(pc);
+        let what = format!("G7x: Q routine o{} not found", req.q);
+        return it.record(0, GcodeErrorKind::ControlFlow(what));
+    };
+    let mut prof = it.profile_start(&req);
+    let mut frames = vec![Frame { ret: NONE, saved: [0.0; 30], named: BTreeMap::new(), repeats: Vec::new() }];
+    enter(it, &mut frames, NONE, &[]);
+    let mut k = sub + 1;
+    let mut steps = 0u64;
+    while frames.len() > 1 {
+        steps += 1;
+        it.lineno = line_of(k);
+        let r = match (&p.o.get(k), steps > it.opts.max_steps) {
+            (None, _) => Err((0, GcodeErrorKind::ControlFlow("profile subroutine not closed".into()))),
+            (_, true) => Err((0, GcodeErrorKind::StepLimit(it.opts.max_steps))),
+            (Some(Some(ol)), _) => step(it, p, k, ol, &mut frames).map(|next| {
+                if frames.len() > 1 {
+                    k = next;
+                }
+            }),
+            (Some(None), _) => it.profile_line(p.lines[k], &mut prof).map(|()| k += 1),
+        };
+        if let Err((col, kind)) = r {
+            // Back in the caller's parameters.
+            if let Some(f) = frames.get(1) {
+                it.params.numbered[1..=30].copy_from_slice(&f.saved);
+                it.params.named = f.named.clone();
+            }
+            // As in `execute`, a control-flow error or the step limit ends the program.
+            it.done = matches!(kind, GcodeErrorKind::ControlFlow(_) | GcodeErrorKind::StepLimit(_));
+            return it.record(col, kind);
+        }
+    }
+    let end_line = it.lineno;
+    it.lineno = line_of(pc);
+    match it.lathe_run(&req, prof, sink) {
+        Ok(()) => {}
+        Err(Fail::Sink(e)) => return Err(ParseError::Sink(e)),
+        Err(Fail::Line(col, kind)) => {
+            it.lineno = end_line;
+            return it.record(col, kind);
+        }
+    }
+    match it.end_of_block(req.m_stop, sink) {
+        Ok(()) => Ok(()),
+        Err(Fail::Sink(e)) => Err(ParseError::Sink(e)),
+        Err(Fail::Line(col, kind)) => it.record(col, kind),
+    }
 }

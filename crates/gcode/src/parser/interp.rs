@@ -178,6 +178,9 @@ pub(super) struct Interp<'o> {
     pub(super) in_flow: bool,
     /// [`ParseSummary::lines`] when [`Self::sync_params`] last ran.
     pub(super) synced_line: u64,
+    /// A lathe cycle (`G70`-`G72`) whose block has run: [`super::flow`] reads its profile
+    /// and runs it.
+    pub(super) lathe: Option<Box<super::lathe_cycle::LatheRequest>>,
     // Scratch reused across lines.
     pub(super) comments: Vec<(usize, usize)>,
     pub(super) assigns: Vec<(ParamKey, f64)>,
@@ -235,6 +238,7 @@ impl<'o> Interp<'o> {
             flow_request: false,
             in_flow: false,
             synced_line: 0,
+            lathe: None,
             comments: Vec::new(),
             assigns: Vec::new(),
             block: Block {

@@ -23,7 +23,7 @@ impl Interp<'_> {
         col: usize,
         sink: &mut S,
     ) -> Res<(), S::Error> {
-        if self.comp.side.is_some() {
+        if self.comp.side.is_some() && !super::lathe_cycle::is_lathe_cycle(code) {
             let refused = match code {
                 50 | 51 => Some("cannot convert spline with cutter radius compensation"),
                 382..=385 => Some("cannot probe with cutter radius comp on"),
@@ -40,6 +40,7 @@ impl Interp<'_> {
             50 | 51 => self.spline(code == 50, col, sink),
             330 | 331 => self.spindle_sync(code == 331, col, sink),
             760 => self.g76(col, sink),
+            c if super::lathe_cycle::is_lathe_cycle(c) => self.g7x(c, col, sink),
             _ => self.probe(code, col, sink),
         }
     }

@@ -17,7 +17,10 @@
 // NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use s2g_gcode::{Coolant, Motion, MotionSink, SpindleDirection};
+use s2g_gcode::{
+    ArcSpec, Coolant, FitSide, Motion, MotionSink, PlanarFitOptions, PlanarPiece, Plane, SpindleDirection,
+    fit_planar, plane_axes,
+};
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
 
 use super::{FinishContext, FinishingStrategy};
@@ -74,6 +77,14 @@ pub struct FinishOptions {
     /// shorter than this (along the pass) between two kept ones is machined anyway.
     /// Default `20`.
     pub max_skip_gap: f64,
+    /// Fit each pass that lies in the ZX or YZ plane (parallel passes along X or Y) with
+    /// G18/G19 arcs and lines within this tolerance above its points; `None` (default):
+    /// every point a straight move. A piece is taken only where it lies above the pass
+    /// (never nearer the part) and the drop-cutter finds it clear at samples
+    /// [`link_check_step`](Self::link_check_step) apart, as a straight move must be; where
+    /// the cutter-location surface bulges above a chord, an arc over it replaces the step
+    /// up, across and down.
+    pub arc_tolerance: Option<f64>,
 }
 
 impl Default for FinishOptions {
@@ -93,6 +104,7 @@ impl Default for FinishOptions {
             max_skip_gap: 20.0,
             stock_left: None,
             hop_step: 0.25,
+            arc_tolerance: None,
         }
     }
 }
@@ -209,7 +221,11 @@ pub fn finish_setup_keep<S: MotionSink>(
     let grown = opts.stock_left.map(|t| {
         let (r, corner) = (cutter.radius + t, cutter.corner_radius() + t);
         let flutes = (cutter.flute_length + t).max(2.0 * r);
-        let c = if corner >= r * (1.0 - 1e-12) { Cutter::ball(r, flutes) } else { Cutter::bull(r, corner, flutes) };
+        let c = if corner >= r * (1.0 - 1e-12) {
+            Cutter::ball(r, flutes)
+        } else {
+            Cutter::bull(r, corner, flutes)
+        };
         (c, t)
     });
     let safe = match &grown {
@@ -281,6 +297,11 @@ fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
     }
     if o.stock_left.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
         return bad(format!("stock_left must be finite and >= 0, got {:?}", o.stock_left));
+    }
+    if let Some(t) = o.arc_tolerance
+        && !(t.is_finite() && t > 0.0)
+    {
+        return bad(format!("arc_tolerance must be finite and > 0, got {t}"));
     }
     if o.floor.is_some_and(|z| !z.is_finite()) {
         return bad(format!("floor must be finite, got {:?}", o.floor));
@@ -458,9 +479,7 @@ impl<S: MotionSink> Emitter<'_, S> {
         if let Some(low) = self.safe_height(s.x, s.y, s.z) {
             self.rise()?;
             let hop = match self.pos.filter(|p| p.z < clear) {
-                Some(p) => {
-                    self.hop_height(&p, &s).filter(|&h| h < clear).map(|h| (p, h.max(p.z)))
-                }
+                Some(p) => self.hop_height(&p, &s).filter(|&h| h < clear).map(|h| (p, h.max(p.z))),
                 None => None,
             };
             match hop {
@@ -496,9 +515,90 @@ impl<S: MotionSink> Emitter<'_, S> {
             _ => self.enter(s)?,
         }
         self.sum.passes += 1;
-        for w in path.windows(2) {
-            self.step(w[0], w[1])?;
+        let Some((plane, fit)) = self.arc_fit(&path) else {
+            for w in path.windows(2) {
+                self.step(w[0], w[1])?;
+            }
+            return Ok(());
+        };
+        let (u, v, _) = plane_axes(plane);
+        let pts: Vec<[f64; 2]> = path.iter().map(|p| [p[u], p[v]]).collect();
+        let at = |q: &[f64; 2]| {
+            let mut p = path[0];
+            (p[u], p[v]) = (q[0], q[1]);
+            p
+        };
+        let pieces =
+            fit_planar(&pts, &fit, |from, piece| self.piece_clear(at(from), at(&piece.to), plane, piece));
+        let mut i = 0;
+        for piece in pieces {
+            let to = path[piece.end];
+            match piece.arc {
+                None if piece.end == i + 1 => self.step(path[i], to)?,
+                None => self.feed(to, self.tool.feed)?,
+                Some((c, direction)) => {
+                    let mut center = to;
+                    (center[u], center[v]) = (c[0], c[1]);
+                    self.arc(ArcSpec { start: path[i], end: to, center, plane, direction, turns: 0 })?;
+                }
+            }
+            i = piece.end;
         }
         Ok(())
+    }
+
+    /// The plane of `path` (ZX: all points at one Y; YZ: at one X) and the fitting options
+    /// that keep its pieces above it, where arcs are fitted.
+    fn arc_fit(&self, path: &[Point3]) -> Option<(Plane, PlanarFitOptions)> {
+        let tolerance = self.opts.arc_tolerance?;
+        let (first, last) = (path.first()?, path.last()?);
+        let flat = |a: usize| path.iter().all(|p| p[a] == first[a]);
+        let plane = if flat(1) {
+            Plane::ZX
+        } else if flat(0) {
+            Plane::YZ
+        } else {
+            return None;
+        };
+        let (u, v, _) = plane_axes(plane);
+        // Up (+Z) in the plane's (u, v) axes, and on which side of the travel it lies.
+        let up = if u == 2 { [1.0, 0.0] } else { [0.0, 1.0] };
+        let d = [last[u] - first[u], last[v] - first[v]];
+        let left = -d[1] * up[0] + d[0] * up[1];
+        let len = d[0].hypot(d[1]);
+        if !(left.abs() > 1e-6 * len) {
+            return None;
+        }
+        let side = if left > 0.0 { FitSide::Left } else { FitSide::Right };
+        Some((plane, PlanarFitOptions { tolerance, side, ..PlanarFitOptions::default() }))
+    }
+
+    /// Whether the piece from `a` to `b` is clear: the drop-cutter finds no
+    /// interference at samples [`FinishOptions::link_check_step`] apart along it.
+    fn piece_clear(&self, a: Point3, b: Point3, plane: Plane, piece: &PlanarPiece) -> bool {
+        let Some((c, direction)) = piece.arc else { return self.clear(&a, &b, self.opts.link_tolerance) };
+        let (u, v, _) = plane_axes(plane);
+        let mut center = b;
+        (center[u], center[v]) = (c[0], c[1]);
+        let spec = ArcSpec { start: a, end: b, center, plane, direction, turns: 0 };
+        let n = (spec.length() / self.opts.link_check_step).ceil();
+        if !(n <= 1e7) {
+            return false;
+        }
+        let n = n.max(1.0) as usize;
+        (0..=n).all(|j| {
+            let p = spec.point_at(j as f64 / n as f64);
+            !self.dc.interferes(p.x, p.y, p.z + self.opts.link_tolerance)
+        })
+    }
+
+    /// A feed along `spec` (from where the tool is), booked by its length.
+    fn arc(&mut self, spec: ArcSpec) -> Result<(), ToolpathError<S::Error>> {
+        let l = spec.length();
+        self.sum.cutting_length += l;
+        self.sum.time_s += l / self.tool.feed * 60.0;
+        self.pos = Some(spec.end);
+        let ArcSpec { end: to, center, plane, direction, .. } = spec;
+        self.send(Motion::Arc { to, center, plane, direction, turns: 0, feed: self.tool.feed, extrude: None })
     }
 }
