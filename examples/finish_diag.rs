@@ -97,7 +97,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for &l in holder.iter().take(8) {
             let i = l as usize;
             if i >= 3 && i < lines.len() {
-                println!("  program {} line {l}: {} | {} | {}", k + 1, lines[i - 3], lines[i - 2], lines[i - 1]);
+                println!(
+                    "  program {} line {l}: {} | {} | {}",
+                    k + 1,
+                    lines[i - 3],
+                    lines[i - 2],
+                    lines[i - 1]
+                );
             }
         }
     }

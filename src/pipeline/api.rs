@@ -579,7 +579,7 @@ impl PartDeviation {
                 best = vec![f32::NAN; r.len()];
             }
             for (b, &d) in best.iter_mut().zip(r) {
-                if !d.is_nan() && !(*b <= d) {
+                if !d.is_nan() && (b.is_nan() || *b > d) {
                     *b = d;
                 }
             }

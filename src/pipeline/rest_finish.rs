@@ -96,7 +96,7 @@ impl Unfinished {
     /// part frame) touches it.
     fn finished(&self, c: &Point3) -> bool {
         let contact = self.part.closest_point(c);
-        if !(contact.distance > 1e-9) {
+        if contact.distance.is_nan() || contact.distance <= 1e-9 {
             return false;
         }
         let q = contact.point;

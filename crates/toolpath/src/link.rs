@@ -254,7 +254,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                     if easy(&s) {
                         return None;
                     }
-                    path.points.iter().position(|q| easy(q))
+                    path.points.iter().position(easy)
                 })
                 .flatten();
             let pieces: Vec<&Polyline2> = match at {

@@ -8,7 +8,8 @@ use s2g_gcode::{Coolant, Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup};
 use s2g_toolpath::Tool;
 use s2g_toolpath::finish::{
-    Crossed, FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline, finish_setup_opt,
+    Crossed, FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline,
+    finish_setup_opt,
 };
 use s2g_voxsim::{HeightField, HeightFieldOptions, ToolTable, surface_deviation};
 
@@ -297,9 +298,12 @@ fn crossed_rasters_keep_the_scallop_on_steep_walls_one_raster_does_not() {
     for st in strategies {
         let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
         let (rec, _) = finish(&index, &tool, st, &opts);
-        let mut field =
-            HeightField::new([-12.0, -12.0], [12.0, 12.0], ToolTable::single(Cutter::ball(tool.radius(), 30.0)))
-                .unwrap();
+        let mut field = HeightField::new(
+            [-12.0, -12.0],
+            [12.0, 12.0],
+            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
+        )
+        .unwrap();
         replay(&rec, &mut field);
         let d = surface_deviation(&field, &index);
         assert!(d.gouge_depth <= 1e-4, "{}: {d:?}", st.name());
@@ -333,7 +337,9 @@ fn crossed_rasters_keep_the_scallop_on_steep_walls_one_raster_does_not() {
 /// plane where it can.
 #[test]
 fn rapids_keep_the_stock_left_away_from_the_part() {
-    let block = Mesh::cuboid(&s2g_geom::Aabb::new(Point3::new(-10.0, -6.0, 0.0), Point3::new(10.0, 6.0, 12.0))).unwrap();
+    let block =
+        Mesh::cuboid(&s2g_geom::Aabb::new(Point3::new(-10.0, -6.0, 0.0), Point3::new(10.0, 6.0, 12.0)))
+            .unwrap();
     let index = MeshIndex::new(&block).unwrap();
     let tool = Tool::ball(2.0);
     let t = 1.5;
@@ -342,25 +348,33 @@ fn rapids_keep_the_stock_left_away_from_the_part() {
     let crossed = Crossed::default();
     let strategies: [&dyn FinishingStrategy; 2] = [&crossed, &SteepShallow::default()];
     for st in strategies {
-        let opts = FinishOptions { scallop: 0.05, floor: Some(1.0), stock_left: Some(t), ..Default::default() };
+        let opts =
+            FinishOptions { scallop: 0.05, floor: Some(1.0), stock_left: Some(t), ..Default::default() };
         let mut rec = MotionRecorder::default();
         let sum = match finish_setup_opt(&index, &Setup::top(), &tool, st, &opts, &mut rec) {
             Ok(sum) => sum,
-            Err(e) => panic!("{}: {e} ({:?})", st.name(), std::error::Error::source(&e).map(|s| s.to_string())),
+            Err(e) => {
+                panic!("{}: {e} ({:?})", st.name(), std::error::Error::source(&e).map(|s| s.to_string()))
+            }
         };
         let mut pos: Option<Point3> = None;
         let mut low = 0;
         for (_, m) in &rec.motions {
-            if let Motion::Rapid { to } = m {
-                if let Some(p) = pos {
-                    for q in [p, p + (to - p) * 0.5, *to] {
-                        if let Some(h) = dc.height(q.x, q.y) {
-                            assert!(q.z >= h + t - 1e-6, "{}: rapid {p} -> {to} at {q}: safe {}", st.name(), h + t);
-                        }
+            if let Motion::Rapid { to } = m
+                && let Some(p) = pos
+            {
+                for q in [p, p + (to - p) * 0.5, *to] {
+                    if let Some(h) = dc.height(q.x, q.y) {
+                        assert!(
+                            q.z >= h + t - 1e-6,
+                            "{}: rapid {p} -> {to} at {q}: safe {}",
+                            st.name(),
+                            h + t
+                        );
                     }
-                    if (to.xy() - p.xy()).norm() > 1e-9 && to.z < sum.clear_z {
-                        low += 1;
-                    }
+                }
+                if (to.xy() - p.xy()).norm() > 1e-9 && to.z < sum.clear_z {
+                    low += 1;
                 }
             }
             pos = m.end_point().or(pos);

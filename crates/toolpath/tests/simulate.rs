@@ -587,10 +587,17 @@ fn side_entries_and_low_crossings_cut_the_same_part_faster_and_safely() {
             shop.estimated_time_s,
             paper.estimated_time_s
         );
-        assert!((differ as f64) <= 0.002 * paper_report.removed_voxels as f64, "{name}: {differ} voxels differ");
+        assert!(
+            (differ as f64) <= 0.002 * paper_report.removed_voxels as f64,
+            "{name}: {differ} voxels differ"
+        );
         assert!(shop.lead_in_entries > 0 && shop.low_retracts > 0, "{name}: {shop:?}");
         assert!(shop.ramp_entries + shop.helix_entries < paper.ramp_entries + paper.helix_entries, "{name}");
         assert!(shop.estimated_time_s < paper.estimated_time_s, "{name}");
-        assert_eq!((paper.lead_in_entries, paper.low_retracts), (0, 0), "{name}: the paper's entries changed");
+        assert_eq!(
+            (paper.lead_in_entries, paper.low_retracts),
+            (0, 0),
+            "{name}: the paper's entries changed"
+        );
     }
 }

@@ -282,7 +282,7 @@ impl FinishingStrategy for Crossed {
     fn paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
         let k = self.directions;
         let (o, e) = (self.overlap, self.slope_step);
-        if !(k >= 1 && k <= 12 && o.is_finite() && o >= 0.0 && e.is_finite() && e > 0.0) {
+        if !((1..=12).contains(&k) && o.is_finite() && o >= 0.0 && e.is_finite() && e > 0.0) {
             return Err(FinishError::InvalidOptions(format!(
                 "crossed needs 1 to 12 directions, an overlap >= 0 and a positive slope step, got {k}, {o}, {e}"
             )));
