@@ -13,7 +13,8 @@
 #
 # S2G defaults to target/release/s2g (`cargo build --release -p shape2gcode-cli`), RES (the
 # simulation's voxels along the stock's longest side) to 128, CHECK_RES (the independent
-# scorer's) to 64. EXTRA adds arguments to every `s2g mill` (say EXTRA="--arc-tolerance 0.005").
+# scorer's) to 64. EXTRA adds arguments to every `s2g mill` (say EXTRA="--arc-tolerance 0"
+# for straight programs; the preset fits arcs at 0.005 mm).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 s2g=${1:-target/release/s2g}

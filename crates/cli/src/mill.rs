@@ -112,11 +112,15 @@ pub struct Args {
     /// many hours by an upper estimate (every layer cleared whole at the stepover).
     #[arg(long, value_name = "HOURS", default_value_t = 10_000.0)]
     max_hours: f64,
-    /// Write G2/G3 arcs where runs of straight moves lie on a circle within this distance
-    /// (mm; the walls keep as much more material, so no arc comes nearer the part than
-    /// planned); 0 writes straight moves only, as the paper's programs
-    #[arg(long, value_name = "MM", default_value_t = 0.0)]
-    arc_tolerance: f64,
+    /// Fit G2/G3 arcs within this distance (mm) in the planner: roughing passes on the
+    /// part's side of their path (the walls keep the tolerance as more allowance, so no
+    /// arc comes nearer the part than planned and none leaves stock the path would have
+    /// cut), finishing passes along X or Y as G18/G19 arcs above their points, each checked
+    /// as a straight move is. 0 writes straight moves only. Default: 0.005 in the shop
+    /// preset (about 78 % fewer lines on the bunny at 100 mm), 0 in the paper preset, as
+    /// the paper's programs
+    #[arg(long, value_name = "MM")]
+    arc_tolerance: Option<f64>,
     /// Stock box, in mm of the planned part (the paper preset's part is 100 mm long):
     /// `X,Y,Z` (a box of that size centred on the part) or `MINX,MINY,MINZ,MAXX,MAXY,MAXZ`.
     /// Default: the preset's (the paper's cube, the shop's box with a margin)
@@ -192,6 +196,18 @@ fn finish_choice(args: &Args, preset: Preset, layout: ProgramLayout) -> anyhow::
         );
     };
     Ok(Some(FinishChoice { tool: args.finish_tool, scallop: args.scallop, strategy }))
+}
+
+/// The shop preset's arc tolerance when `--arc-tolerance` is not given (mm): issue 35's.
+const SHOP_ARC_TOLERANCE: f64 = 0.005;
+
+/// `--arc-tolerance` as the run's: `None` (straight moves) for 0, the preset's default
+/// when not given.
+fn arc_tolerance(given: Option<f64>, preset: Preset) -> Option<f64> {
+    match given {
+        Some(t) => (t != 0.0).then_some(t),
+        None => (preset == Preset::Shop).then_some(SHOP_ARC_TOLERANCE),
+    }
 }
 
 /// `--allowance RADIAL[,AXIAL]` (one value for both).
@@ -432,7 +448,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
         max_estimated_hours: args.max_hours,
-        arc_tolerance: (args.arc_tolerance != 0.0).then_some(args.arc_tolerance),
+        arc_tolerance: arc_tolerance(args.arc_tolerance, preset),
         stock: parse_stock(args)?,
         datum: parse_datum(args.datum.as_deref())?,
         stock_removal: !args.visibility_only_setups,

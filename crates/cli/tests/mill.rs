@@ -301,3 +301,42 @@ fn units_scale_and_size_set_the_part_s_size_in_the_shop_preset() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("shop preset"), "{err}");
 }
+
+/// The programs `dir` holds (`block.ngc`, or `block.1.ngc`, ... per setup), joined, and
+/// their arc blocks (G2/G3, the helical entries among them).
+fn block_programs(dir: &std::path::Path) -> (String, usize) {
+    let mut names: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "ngc"))
+        .collect();
+    names.sort();
+    let text: String = names.iter().map(|p| std::fs::read_to_string(p).unwrap()).collect();
+    let arcs = text.lines().filter(|l| l.starts_with("G2 ") || l.starts_with("G3 ")).count();
+    (text, arcs)
+}
+
+/// Issue 35's arcs: the shop preset fits them at 0.005 mm unless `--arc-tolerance 0` says
+/// otherwise (more arcs, fewer lines); the paper preset writes straight moves by default,
+/// the same bytes as `--arc-tolerance 0`.
+#[test]
+fn the_shop_preset_fits_arcs_by_default_and_the_paper_preset_does_not() {
+    let run = |extra: &[&str]| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = mill_letterblock(dir.path(), extra);
+        assert!(out.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
+        block_programs(dir.path())
+    };
+    let shop = ["--preset", "shop", "--no-finish"];
+    let (fitted, fitted_arcs) = run(&shop);
+    let (straight, straight_arcs) = run(&[&shop[..], &["--arc-tolerance", "0"]].concat());
+    assert!(
+        fitted_arcs > straight_arcs && fitted.lines().count() < straight.lines().count(),
+        "shop: {fitted_arcs} arcs in {} lines by default, {straight_arcs} in {} straight",
+        fitted.lines().count(),
+        straight.lines().count()
+    );
+    let (paper, _) = run(&[]);
+    let (paper_straight, _) = run(&["--arc-tolerance", "0"]);
+    assert!(paper == paper_straight, "the paper preset's default programs are not straight");
+}

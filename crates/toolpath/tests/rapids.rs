@@ -7,6 +7,7 @@
 //! each level's offset of it had chords of its own, so an entry's tool reached a few
 //! micrometres past the upper level's cut into the skin it left on the wall.
 
+use s2g_gcode::{Motion, MotionSink};
 use s2g_geom::{Aabb, GridSpec, Mesh, Setup, UnitVector3, Vector3, VoxelGrid, load_mesh, voxelize};
 use s2g_toolpath::{LayerPlan, PlanOptions, Tool, plan_layers, plan_setup};
 use s2g_voxsim::{Cutter, SimOptions, Simulator, ToolTable};
@@ -44,6 +45,26 @@ fn oblique(part: &Mesh) -> (Setup, Tool, PlanOptions, Aabb) {
     (setup, tool, opts, stock)
 }
 
+/// Forwards motions to the simulator and counts the arcs (helical entries among them).
+struct Counted<'a> {
+    sim: &'a mut Simulator,
+    arcs: usize,
+}
+
+impl MotionSink for Counted<'_> {
+    type Error = <Simulator as MotionSink>::Error;
+    fn motion(&mut self, motion: &Motion<'_>) -> Result<(), Self::Error> {
+        self.arcs += usize::from(matches!(motion, Motion::Arc { .. }));
+        self.sim.motion(motion)
+    }
+    fn source_line(&mut self, line: u64) -> Result<(), Self::Error> {
+        self.sim.source_line(line)
+    }
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        self.sim.finish()
+    }
+}
+
 /// Every level's free region lies inside the free region of the level above: the premise
 /// of the link's safety argument, to the boolean engine's rounding (a millionth of the
 /// stock's size; the chords of two offsets of one wall differed by micrometres).
@@ -70,7 +91,9 @@ fn the_free_regions_of_an_oblique_setup_into_a_cavity_nest() {
     assert!(worst.0 <= tol, "level {}'s free region reaches {} mm past the level above", worst.1, worst.0);
 }
 
-/// The same setup simulated from a full stock: no rapid removes material, no cut gouges.
+/// The same setup simulated from a full stock, with straight passes and with arcs fitted
+/// on the part's side at the 0.005 mm (the nested keep-outs and the arcs' exact
+/// check together): no rapid removes material, no cut gouges.
 #[test]
 fn an_oblique_setup_into_a_cavity_rapids_through_no_material() {
     let part = example004();
@@ -81,17 +104,30 @@ fn an_oblique_setup_into_a_cavity_rapids_through_no_material() {
     let spec = GridSpec::new(&stock, dims).expect("grid");
     let target = voxelize(&part, &spec).expect("voxelize");
     let cutter = Cutter::flat(tool.radius(), 100.0);
-    let mut sim = Simulator::new(VoxelGrid::full(spec), ToolTable::single(cutter), SimOptions::default())
-        .expect("simulator")
-        .with_target(&target)
-        .expect("same grid");
-    plan_setup(&part, &setup, &tool, &opts, &mut sim).expect("plan");
-    let (report, _) = sim.into_simulation().expect("simulation").into_parts();
-    assert!(report.removed_voxels > 0, "nothing cut");
-    assert_eq!(report.gouge_voxels, 0, "gouges, first at line {:?}", report.first_gouge_line);
-    assert_eq!(
-        report.rapid_collision_voxels, 0,
-        "rapids through material at lines {:?}",
-        report.rapid_collision_lines
-    );
+    let mut arcs = Vec::new();
+    for arc_tolerance in [None, Some(0.005)] {
+        // Arcs are followed within 1/64 of a voxel, as `s2g mill` simulates them.
+        let sim_opts = SimOptions { arc_tolerance: 1.0 / 1024.0, ..SimOptions::default() };
+        let mut sim = Simulator::new(VoxelGrid::full(spec), ToolTable::single(cutter), sim_opts)
+            .expect("simulator")
+            .with_target(&target)
+            .expect("same grid");
+        let opts = PlanOptions { arc_tolerance, ..opts.clone() };
+        let mut counted = Counted { sim: &mut sim, arcs: 0 };
+        plan_setup(&part, &setup, &tool, &opts, &mut counted).expect("plan");
+        arcs.push(counted.arcs);
+        let (report, _) = sim.into_simulation().expect("simulation").into_parts();
+        assert!(report.removed_voxels > 0, "{arc_tolerance:?}: nothing cut");
+        assert_eq!(
+            report.gouge_voxels, 0,
+            "{arc_tolerance:?}: gouges, first at line {:?}",
+            report.first_gouge_line
+        );
+        assert_eq!(
+            report.rapid_collision_voxels, 0,
+            "{arc_tolerance:?}: rapids through material at lines {:?}",
+            report.rapid_collision_lines
+        );
+    }
+    assert!(arcs[1] > 2 * arcs[0], "arcs (helical entries among them) straight and fitted: {arcs:?}");
 }
