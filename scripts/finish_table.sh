@@ -4,7 +4,7 @@
 # own millimetres), milled in the shop preset with `--finish` and with `--no-finish`; the
 # same policy chooses the same roughing tool either way (with finishing, the deepest
 # layers). Prints a Markdown table: Chamfer x1000 and normal consistency of both runs,
-# gouges, machining time.
+# gouges, rapids through material and holder collisions of both, machining time.
 #
 #   scripts/finish_table.sh [S2G] [RES] [OUT_DIR]   (default target/release/s2g, 128, /tmp/s2g_finish_table)
 set -euo pipefail
@@ -12,8 +12,8 @@ S2G=${1:-target/release/s2g}
 RES=${2:-128}
 OUT=${3:-/tmp/s2g_finish_table}
 mkdir -p "$OUT"
-echo "| part | roughing tool | CD x1000 rough | CD x1000 finished | NC rough | NC finished | gouges (voxels, finish) | time rough / finished (h) |"
-echo "| --- | --- | ---: | ---: | ---: | ---: | --- | --- |"
+echo "| part | roughing tool | CD x1000 rough | CD x1000 finished | NC rough | NC finished | gouges (voxels, finish) | rapids, holder rough / finished | time rough / finished (h) |"
+echo "| --- | --- | ---: | ---: | ---: | ---: | --- | --- | --- |"
 parts=(tests/data/meshes/openscad/*.stl tests/data/meshes/classic/stanford_bunny.stl
        tests/data/meshes/classic/gearwheel_40t.bin.stl tests/data/meshes/shop/*.stl)
 for mesh in "${parts[@]}"; do
@@ -31,6 +31,7 @@ tools = ",".join(sorted({str(2 * s["tool_radius"]) for s in r["setups"]}))
 gouged = sum(1 for s in f["setups"] if s.get("surface_deviation", {}).get("gouged"))
 print(f"| {sys.argv[3]} | {tools} mm | {r['chamfer_x1000']:.4f} | {f['chamfer_x1000']:.4f} | "
       f"{r['normal_consistency']:.4f} | {f['normal_consistency']:.4f} | {f['gouge_voxels']}, {gouged} | "
+      f"{r['rapid_collisions']}, {r['holder_collisions']} / {f['rapid_collisions']}, {f['holder_collisions']} | "
       f"{r['machining_time_s'] / 3600:.2f} / {f['machining_time_s'] / 3600:.2f} |")
 PY
 done

@@ -102,6 +102,14 @@ impl Milled {
                 report["feed_time_s"] = json!(round(sim.machining_time_s, 3));
             }
         }
+        if let Some(d) = &self.surface_deviation {
+            report["surface_deviation"] = json!({
+                "max_mm": round(d.max, 6),
+                "p99_mm": round(d.p99, 6),
+                "mean_mm": round(d.mean, 6),
+                "samples": d.samples,
+            });
+        }
         if timings {
             let t = &self.stage_seconds;
             report["stage_seconds"] = json!({

@@ -542,6 +542,57 @@ pub struct SetupFinish {
     /// [`MillOptions::surface_spacing`] apart in the setup's frame, from the part: max and
     /// mean over the columns the finisher reached, gouge depth over all.
     pub deviation: SurfaceDeviation,
+    /// The material this setup's finishing left at each of the run's surface samples
+    /// ([`PartDeviation::SAMPLES`] points of the part's surface), for
+    /// [`Milled::surface_deviation`]: the thickness along the surface's normal up to the
+    /// cut, where the finisher's ball reaches the point and cut to within 1 mm of it; NaN
+    /// where not.
+    pub reached: Vec<f32>,
+}
+
+/// The deviation of the finished part's surface from the part, over every setup: at each
+/// surface sample a setup's finishing reached ([`SetupFinish::reached`]), the least of
+/// those setups' (where one setup finished a place, another that only brushed it leaves
+/// no more material).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PartDeviation {
+    /// Largest deviation, in part units (mm).
+    pub max: f64,
+    /// Mean over the reached samples.
+    pub mean: f64,
+    /// 99th percentile over the reached samples.
+    pub p99: f64,
+    /// Samples reached by some setup's finishing.
+    pub samples: usize,
+}
+
+impl PartDeviation {
+    /// Surface samples (area-weighted) at which the deviation is measured.
+    pub const SAMPLES: usize = 100_000;
+
+    /// The setups' per-sample deviations ([`SetupFinish::reached`]) combined; `None` where
+    /// no setup reached any sample.
+    pub fn combine<'a>(reached: impl IntoIterator<Item = &'a [f32]>) -> Option<Self> {
+        let mut best: Vec<f32> = Vec::new();
+        for r in reached {
+            if best.is_empty() {
+                best = vec![f32::NAN; r.len()];
+            }
+            for (b, &d) in best.iter_mut().zip(r) {
+                if !d.is_nan() && (b.is_nan() || *b > d) {
+                    *b = d;
+                }
+            }
+        }
+        let mut ds: Vec<f64> = best.iter().filter(|d| !d.is_nan()).map(|&d| f64::from(d)).collect();
+        if ds.is_empty() {
+            return None;
+        }
+        ds.sort_by(f64::total_cmp);
+        let n = ds.len();
+        let p99 = ds[((0.99 * (n - 1) as f64).round() as usize).min(n - 1)];
+        Some(Self { max: ds[n - 1], mean: ds.iter().sum::<f64>() / n as f64, p99, samples: n })
+    }
 }
 
 impl SetupFinish {
@@ -592,6 +643,9 @@ pub struct Milled {
     pub trace_axis: Vector3,
     /// Wall time per stage (not part of anything compared byte for byte).
     pub stage_seconds: StageSeconds,
+    /// The finished surface's deviation from the part over every setup, where the run
+    /// finishes ([`PartDeviation`]).
+    pub surface_deviation: Option<PartDeviation>,
 }
 
 impl Milled {

@@ -52,6 +52,15 @@ impl Job {
                 + 0.5,
             rapid_feed: self.popts.rapid_feed,
             coolant: f.tool.coolant != Coolant::Off,
+            // What the roughing can have left on the part: the finisher's rapids keep that
+            // far from it, beside steep walls as over flats.
+            stock_left: Some(
+                self.popts.layer_height
+                    + self.popts.finishing_allowance
+                    + self.popts.arc_tolerance.unwrap_or(0.0)
+                    + self.popts.axial_allowance
+                    + 0.5,
+            ),
             // Passes along X or Y as G18/G19 arcs above the cutter-location points (the
             // milling dialects all select planes).
             arc_tolerance: self.popts.arc_tolerance.filter(|_| self.popts.fit_arcs),
@@ -94,6 +103,9 @@ impl Job {
             clearance_height: clearance,
             stock: Some(stock_in_setup(stock, setup)),
             rapid_feed: rapid,
+            // A shop's finer levels are entered from the side, down in the roughing cut's
+            // air, rather than by a ramp at the plunge feed into every step.
+            lead_in: cutting.is_some(),
             // The shop preset's levels nest exactly (issue 35); the paper's keep their own offsets.
             nest_levels: opts.preset == Preset::Shop,
             ..PlanOptions::default()

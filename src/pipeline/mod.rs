@@ -27,14 +27,15 @@ mod api;
 mod job;
 mod per_setup;
 mod pipe;
+mod rest_finish;
 mod rotary;
 mod run;
 mod stock;
 mod tooling;
 
 pub use self::api::{
-    Datum, MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupFinish, SetupProgram,
-    Stage, StageSeconds, Stock,
+    Datum, MillError, MillOptions, Milled, PartDeviation, Preset, ProgramLayout, SetupCount, SetupFinish,
+    SetupProgram, Stage, StageSeconds, Stock,
 };
 pub use self::run::MillRun;
 pub use self::tooling::default_tool_library;

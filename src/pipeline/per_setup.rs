@@ -8,16 +8,20 @@ use std::time::Instant;
 use super::api::{MillError, SetupFinish, SetupProgram, Stage, StageSeconds};
 use super::job::Job;
 use super::pipe::chunk_channel;
+use super::rest_finish::Unfinished;
 use crate::gcode::{
     Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, Tee, ToolChange,
     WriterOptions, parse_reader,
 };
 use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
-use crate::toolpath::finish::{FinishOptions, FinishSummary, finish_setup_opt, part_in_setup_frame};
+use crate::toolpath::finish::{
+    FinishOptions, FinishSummary, KeepPoint, finish_setup_keep, part_in_setup_frame,
+};
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
 use crate::voxsim::{
-    DeviationOptions, HeightField, HeightFieldOptions, Simulator, ToolTable, surface_deviation_opt,
+    DeviationOptions, HeightField, HeightFieldOptions, Simulator, ToolTable, deviation_at,
+    surface_deviation_opt, surface_deviation_where,
 };
 
 /// What both layouts share.
@@ -41,6 +45,9 @@ pub(super) struct Ctx<'a> {
     pub(super) machine: Option<&'a MachineProfile>,
     /// Column spacing of the finished surface's height field.
     pub(super) surface_spacing: f64,
+    /// Surface samples of the part (point, outward normal; part frame) at which the
+    /// finished surface's deviation is measured; empty when the run does not finish.
+    pub(super) samples: &'a [(Point3, crate::geom::Vector3)],
 }
 
 /// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
@@ -76,16 +83,11 @@ pub(super) fn machine_setup(
     let setups = ctx.setups;
     progress(Stage::GcodeTranslation { setup: i + 1, setups });
     let t = Instant::now();
-    // The simulator was flushed at the end of the previous setup: its counts so far
-    // belong to earlier programs.
-    let (gouges_before, rapids_before) = {
-        let sim = ctx.sim.borrow();
-        let r = sim.report();
-        (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect::<std::collections::BTreeSet<u64>>())
-    };
+    // The simulator's counts so far (flushed after the previous setup) are earlier programs'.
+    let (gouges_before, rapids_before) = sim_counts(ctx);
     let mut tee = simulating(ctx.sim, trace);
     tee.first.clock = ctx.machine.map(|m| MachineTime::new(m.clone()));
-    let finishing = prepare_finishing(ctx, job, &mut tee.first)?;
+    let finishing = prepare_finishing(ctx, job, i, &mut tee.first)?;
     // A 3-axis program per setup: the fixture rotation is in its header comment,
     // so the simulator is told the frame here.
     tee.motion(&Motion::Setup { frame: job.setup.frame, rotary: [None; 3] }).map_err(sim_error)?;
@@ -104,12 +106,10 @@ pub(super) fn machine_setup(
     if wopts.work_offset.is_some() {
         wopts.program_number = u32::try_from(i + 1).unwrap_or(u32::MAX).min(9999);
     }
-    let copy = match ctx.outputs {
-        Some(open) => {
-            Some(open(i).map_err(|e| MillError::program(i + 1, "opening the program's output", e))?)
-        }
-        None => None,
-    };
+    let copy = ctx.outputs.map(|open| open(i)).transpose();
+    let copy = copy.map_err(|e| MillError::program(i + 1, "opening the program's output", e))?;
+    let beyond = roughing_excess(ctx, job, remaining)?;
+    let remaining = beyond.as_ref().unwrap_or(remaining);
     let watch = PlanProgress::default();
     let mut tee = Tee::new(tee.first.watching(&mut *progress, &watch, i + 1, setups), tee.second);
     let (planned, parsed, waited) = std::thread::scope(|scope| {
@@ -196,7 +196,15 @@ pub(super) fn machine_setup(
         let Ok(()) = c.finish();
         c.seconds()
     });
-    let finish = finish_result(job, (finished, surface, finishing), split_s, machine_time_s, &plan, times);
+    let finish = finish_result(
+        job,
+        (finished, surface, finishing),
+        split_s,
+        machine_time_s,
+        &plan,
+        ctx.samples,
+        times,
+    );
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
@@ -214,14 +222,83 @@ pub(super) fn machine_setup(
     Ok((program, remaining))
 }
 
+/// The simulator's gouge count and rapid-collision lines so far.
+fn sim_counts(ctx: &Ctx<'_>) -> (u64, std::collections::BTreeSet<u64>) {
+    let sim = ctx.sim.borrow();
+    let r = sim.report();
+    (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect())
+}
+
+/// What a finished setup's roughing cuts: only what lies beyond the finisher's stock. The
+/// skin within the allowance that earlier setups left on the part is the finisher's (this
+/// roughing keeps it too), and tracing the part's walls to cut it would cost a contour
+/// per level for nothing. `None` for a setup roughed only (it cuts all of `remaining`).
+fn roughing_excess(ctx: &Ctx<'_>, job: &Job, remaining: &VoxelGrid) -> Result<Option<VoxelGrid>, MillError> {
+    if job.finish.is_none() {
+        return Ok(None);
+    }
+    let allowance = job.popts.finishing_allowance.max(job.popts.axial_allowance);
+    // The skin: the allowance, and half a layer of the steps earlier roughing left beside
+    // it, for the finisher to take with it.
+    let skin = allowance + 0.5 * job.popts.layer_height;
+    Ok(Some(beyond_skin(remaining, ctx.target, &MeshIndex::new(ctx.part)?, skin)))
+}
+
+/// The voxels of `excess` whose centres lie farther than `skin` from the part (`part`,
+/// indexed in the part frame, whose voxels are `target`): what a roughing that leaves an
+/// allowance on the part has to cut, the skin an earlier setup left within it being the
+/// finisher's. Only voxels within `skin` (in whole voxels) of a voxel of `target` are
+/// measured.
+fn beyond_skin(excess: &VoxelGrid, target: &VoxelGrid, part: &MeshIndex, skin: f64) -> VoxelGrid {
+    use crate::geom::BRICK;
+    use rayon::prelude::*;
+    let spec = *excess.spec();
+    let k = (skin.max(0.0) / spec.voxel.min()).ceil() as usize + 1;
+    let d = excess.dims();
+    let range = |lo: [usize; 3], hi: [usize; 3]| {
+        let a = [lo[0].saturating_sub(k), lo[1].saturating_sub(k), lo[2].saturating_sub(k)];
+        let b = [(hi[0] + k).min(d[0] - 1), (hi[1] + k).min(d[1] - 1), (hi[2] + k).min(d[2] - 1)];
+        (a, b)
+    };
+    let mut out = excess.clone();
+    out.par_bricks_mut().for_each(|(base, brick)| {
+        let top = [
+            (base[0] + BRICK - 1).min(d[0] - 1),
+            (base[1] + BRICK - 1).min(d[1] - 1),
+            (base[2] + BRICK - 1).min(d[2] - 1),
+        ];
+        let (a, b) = range(base, top);
+        // Far from the part, the brick keeps all its voxels.
+        if brick.iter().all(|w| *w == 0) || !target.any_in_range(a, b) {
+            return;
+        }
+        for (z, slab) in brick.iter_mut().enumerate() {
+            let mut bits = *slab;
+            while bits != 0 {
+                let bit = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let at = [base[0] + bit % BRICK, base[1] + bit / BRICK, base[2] + z];
+                let (a, b) = range(at, at);
+                if target.any_in_range(a, b)
+                    && part.closest_point(&spec.center(at[0], at[1], at[2])).distance <= skin
+                {
+                    *slab &= !(1u64 << bit);
+                }
+            }
+        }
+    });
+    out
+}
+
 /// The part in the program's frame, for the finisher's drop-cutter and the finished
 /// surface's height field (which the watcher feeds the finishing moves, after the
 /// finishing tool change), and the finisher's options; `None` for a setup roughed only.
 fn prepare_finishing(
     ctx: &Ctx<'_>,
     job: &Job,
+    i: usize,
     watcher: &mut Watcher<'_>,
-) -> Result<Option<(FinishOptions, MeshIndex)>, MillError> {
+) -> Result<Option<Finishing>, MillError> {
     Ok(match &job.finish {
         Some(f) => {
             let mesh = part_in_setup_frame(ctx.part, &job.setup);
@@ -235,24 +312,35 @@ fn prepare_finishing(
                 HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
                     .map_err(sim_error)?,
             );
-            Some((job.finish_options(f, [lo.z, hi.z]), index))
+            let rest = Unfinished::new(ctx.part, ctx.jobs, i)?;
+            Some(Finishing { opts: job.finish_options(f, [lo.z, hi.z]), index, rest })
         }
         None => None,
     })
 }
 
+/// A setup's finishing, prepared ([`prepare_finishing`]).
+pub(super) struct Finishing {
+    opts: FinishOptions,
+    /// The part in the setup's frame.
+    index: MeshIndex,
+    /// What earlier setups finished, left out here.
+    rest: Option<Unfinished>,
+}
+
 /// The finishing of setup `i` (0-based) into `writer`, after its roughing.
 fn emit_finishing<W: std::io::Write>(
     job: &Job,
-    finishing: Option<&(FinishOptions, MeshIndex)>,
+    finishing: Option<&Finishing>,
     writer: &mut GcodeWriter<W>,
     i: usize,
 ) -> Result<Option<FinishSummary>, MillError> {
-    let (Some(f), Some((fopts, index))) = (&job.finish, finishing) else {
+    let (Some(f), Some(fin)) = (&job.finish, finishing) else {
         return Ok(None);
     };
     let strategy = f.choice.strategy.strategy();
-    finish_setup_opt(index, &job.setup, &f.tool, &*strategy, fopts, writer)
+    let keep = fin.rest.as_ref().map(|r| r as &dyn KeepPoint);
+    finish_setup_keep(&fin.index, &job.setup, &f.tool, &*strategy, &fin.opts, keep, writer)
         .map(Some)
         .map_err(|source| MillError::Plan { setup: i + 1, source })
 }
@@ -261,18 +349,15 @@ fn emit_finishing<W: std::io::Write>(
 /// else the planners' estimates) and the deviation of the surface its finishing cut.
 fn finish_result(
     job: &Job,
-    (finished, surface, finishing): (
-        Option<FinishSummary>,
-        Option<HeightField>,
-        Option<(FinishOptions, MeshIndex)>,
-    ),
+    (finished, surface, finishing): (Option<FinishSummary>, Option<HeightField>, Option<Finishing>),
     split_s: Option<f64>,
     machine_time_s: Option<f64>,
     plan: &PlanSummary,
+    samples: &[(Point3, crate::geom::Vector3)],
     times: &mut StageSeconds,
 ) -> Option<SetupFinish> {
     match (&job.finish, finished, surface, finishing) {
-        (Some(f), Some(summary), Some(field), Some((fopts, index))) => {
+        (Some(f), Some(summary), Some(field), Some(Finishing { opts: fopts, index, rest })) => {
             let t = Instant::now();
             // Over the surface the finishing tool can touch (a concave corner tighter than
             // it is not a region it reaches) and not below the finisher's floor (what its
@@ -282,7 +367,21 @@ fn finish_result(
                 floor: fopts.floor,
                 ..DeviationOptions::default()
             };
-            let deviation = surface_deviation_opt(&field, &index, &dopts);
+            // Where this setup finishes: not where an earlier one did.
+            let deviation = match &rest {
+                Some(rest) => {
+                    surface_deviation_where(&field, &index, &dopts, &|q, n| rest.keeps_contact(q, n))
+                }
+                None => surface_deviation_opt(&field, &index, &dopts),
+            };
+            // The run's surface samples in this setup's frame.
+            let inv = job.setup.frame.inverse();
+            let pts: Vec<(Point3, crate::geom::Vector3)> =
+                samples.iter().map(|(p, n)| (inv * p, inv * n)).collect();
+            let reached: Vec<f32> = deviation_at(&field, &index, &pts, &dopts)
+                .into_iter()
+                .map(|d| d.map_or(f32::NAN, |d| d as f32))
+                .collect();
             times.surface += t.elapsed().as_secs_f64();
             let (roughing_time_s, finishing_time_s) = match machine_time_s {
                 Some(total) => {
@@ -298,6 +397,7 @@ fn finish_result(
                 roughing_time_s,
                 finishing_time_s,
                 deviation,
+                reached,
             })
         }
         _ => None,

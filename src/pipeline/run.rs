@@ -5,8 +5,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::api::{
-    MillError, MillOptions, Milled, Preset, ProgramLayout, SetupCount, SetupProgram, Stage, StageSeconds,
-    Stock,
+    MillError, MillOptions, Milled, PartDeviation, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
+    StageSeconds, Stock,
 };
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
 use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
@@ -19,7 +19,9 @@ use crate::geom::{
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
     voxelize,
 };
-use crate::orient::{OrientOptions, OrientationResult, select_orientations, select_orientations_in_stock};
+use crate::orient::{
+    OrientOptions, OrientationResult, ToolReach, select_orientations, select_orientations_in_stock,
+};
 use crate::policy::{Action, ActionSpace, FinishChoice, Policy, SetupContext, SetupFeatures};
 use crate::toolpath::Tool;
 use crate::toolpath::library::Cutting;
@@ -85,6 +87,19 @@ pub struct MillRun {
     feed: f64,
     rapid: f64,
     clearance: f64,
+    /// Where the run finishes: surface samples of the part (point, outward normal) at
+    /// which the finished surface's deviation is measured ([`PartDeviation`]).
+    deviation_samples: Vec<(Point3, Vector3)>,
+}
+
+/// Where the run finishes: the surface samples (point, outward normal; part frame) at which
+/// the finished surface's deviation is measured ([`PartDeviation`]); none otherwise.
+fn deviation_samples(part: &Mesh, opts: &MillOptions) -> Result<Vec<(Point3, Vector3)>, MillError> {
+    if opts.finish.is_none() {
+        return Ok(Vec::new());
+    }
+    let s = sample_surface(part, PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
+    Ok(s.points.into_iter().zip(s.normals).collect())
 }
 
 impl MillRun {
@@ -121,6 +136,11 @@ impl MillRun {
             oopts.max_setups = n.max(1);
             oopts.coverage_target = 1.0;
         }
+        // A shop's tools reach only so deep below the stock's top: setups are chosen for
+        // what their tools reach, not only for what they see.
+        let (feed, _) = feeds(None);
+        let tooling = Tooling::new(opts, stock.extent().norm(), feed)?;
+        oopts.reach = tooling.reach(opts.finish.is_some()).map(|depth| ToolReach { stock, depth });
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
@@ -168,8 +188,6 @@ impl MillRun {
             .collect();
         times.action_selection = (t.elapsed() + beside[1]).as_secs_f64();
 
-        let (feed, _) = feeds(None);
-        let tooling = Tooling::new(opts, diag, feed)?;
         let (feed, rapid) = feeds(tooling.machine());
         let t = Instant::now();
         let tools = tooling.tool_table(&space.radii)?;
@@ -189,6 +207,7 @@ impl MillRun {
         remaining.andnot(&target).map_err(|e| MillError::Simulation(e.into()))?;
         times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
+        let deviation_samples = deviation_samples(&part, opts)?;
         Ok(Self {
             opts: opts.clone(),
             unit_part: mesh.transformed(&unit.as_similarity()),
@@ -232,6 +251,7 @@ impl MillRun {
             rapid,
             // Appendix A.1: start 0.1 (of the normalised part) above the top.
             clearance: 0.1 * stock.extent().max(),
+            deviation_samples,
         })
     }
 
@@ -250,6 +270,7 @@ impl MillRun {
             deadline: self.deadline,
             machine: self.tooling.machine(),
             surface_spacing: self.opts.surface_spacing,
+            samples: &self.deviation_samples,
         }
     }
 
@@ -562,7 +583,11 @@ impl MillRun {
             *a = back * *a;
             *b = back * *b;
         });
+        let surface_deviation = PartDeviation::combine(
+            self.setups.iter().filter_map(|s| s.finish.as_ref()).map(|f| f.reached.as_slice()),
+        );
         Ok(Milled {
+            surface_deviation,
             preset: opts.preset,
             stock_option: opts.stock,
             datum: opts.datum,

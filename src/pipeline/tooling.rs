@@ -107,6 +107,25 @@ impl Tooling {
         Ok(tools)
     }
 
+    /// How deep below the stock's top a setup's tools cut, for orientation selection
+    /// ([`ToolReach`](crate::orient::ToolReach)): the reach of the library's longest flat
+    /// end mill, which roughs, and, when `finishing`, no deeper than its longest ball or
+    /// bull-nose end mill, which finishes ([`Tool::envelope`]). `None` for the paper's
+    /// tools, whose flutes are as long as the stock's diagonal.
+    pub(super) fn reach(&self, finishing: bool) -> Option<f64> {
+        let Self::Library(shop) = self else { return None };
+        let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
+        let rough = shop.flats.iter().map(reach).fold(0.0, f64::max);
+        let finish = shop
+            .all
+            .iter()
+            .filter(|t| !matches!(t.cutter.shape, CutterShape::Flat(_)))
+            .map(reach)
+            .fold(0.0, f64::max);
+        let depth = if finishing && finish > 0.0 { rough.min(finish) } else { rough };
+        (depth.is_finite() && depth > 0.0).then_some(depth)
+    }
+
     /// The machine whose limits time the programs, where the tooling has one.
     pub(super) fn machine(&self) -> Option<&MachineProfile> {
         match self {

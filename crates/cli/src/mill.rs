@@ -166,8 +166,8 @@ pub struct Args {
     /// Scallop height allowed between finishing passes, mm
     #[arg(long, value_name = "MM", default_value_t = 0.01)]
     scallop: f64,
-    /// Finishing strategy: parallel, waterline or steep-shallow
-    #[arg(long, value_name = "STRATEGY", default_value = "parallel")]
+    /// Finishing strategy: parallel, waterline, steep-shallow or crossed
+    #[arg(long, value_name = "STRATEGY", default_value = "crossed")]
     finish_strategy: String,
     /// Finishing tool number in the library (a ball or bull-nose end mill). Default: the rule above
     #[arg(long, value_name = "T")]
@@ -190,7 +190,10 @@ fn finish_choice(args: &Args, preset: Preset, layout: ProgramLayout) -> anyhow::
         return Ok(None);
     }
     let Some(strategy) = FinishStrategyKind::from_name(&args.finish_strategy) else {
-        bail!("unknown finishing strategy {:?} (parallel, waterline or steep-shallow)", args.finish_strategy);
+        bail!(
+            "unknown finishing strategy {:?} (parallel, waterline, steep-shallow or crossed)",
+            args.finish_strategy
+        );
     };
     Ok(Some(FinishChoice { tool: args.finish_tool, scallop: args.scallop, strategy }))
 }
@@ -676,6 +679,16 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
                 d.gouge_depth
             );
         }
+    }
+    if let Some(d) = &milled.surface_deviation {
+        println!(
+            "finished surface over all setups: max {:.4} mm, 99 % under {:.4} mm, mean {:.4} mm ({} of {} samples reached)",
+            d.max,
+            d.p99,
+            d.mean,
+            d.samples,
+            shape2gcode::PartDeviation::SAMPLES
+        );
     }
     // The shop's time is the machine's (acceleration included), the paper's length / feed.
     let machine: Option<f64> = milled.setups.iter().map(|sp| sp.machine_time_s).sum();

@@ -11,7 +11,7 @@ use crate::cover::{SearchOptions, greedy, greedy_order, multi_start_search};
 use crate::directions::{candidate_directions, cone_directions, random_direction};
 use crate::error::{OrientError, Result};
 use crate::stock::{StockRemovalOptions, StockRemovalReport, StockSamples, improve_for_stock, left};
-use crate::visibility::{VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
+use crate::visibility::{ToolReach, VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
 
 /// How the directions are chosen from the candidates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -81,6 +81,10 @@ pub struct OrientOptions {
     pub baseline_trials: usize,
     /// The stock-removal term, used by [`select_orientations_in_stock`] only.
     pub stock_removal: StockRemovalOptions,
+    /// How deep the tools reach into the stock ([`VisibilityOptions::reach`]): samples of
+    /// the surface, and of the stock's material, deeper than that below the stock's top
+    /// along a direction are not reached from it. Default `None` (unlimited).
+    pub reach: Option<ToolReach>,
 }
 
 impl Default for OrientOptions {
@@ -100,6 +104,7 @@ impl Default for OrientOptions {
             refine: RefineOptions::default(),
             baseline_trials: 10,
             stock_removal: StockRemovalOptions::default(),
+            reach: None,
         }
     }
 }
@@ -112,6 +117,7 @@ impl OrientOptions {
             min_cos: self.min_cos,
             tool_radius: self.tool_radius,
             tool_rays: self.tool_rays,
+            reach: self.reach,
             ..VisibilityOptions::default()
         }
     }
@@ -296,7 +302,7 @@ pub fn select_orientations_in_stock(
         None
     } else {
         let diag = mesh.bbox().map_or(1.0, |b| b.extent().norm());
-        let samples = StockSamples::new(&index, mesh.vertices(), stock, diag);
+        let samples = StockSamples::new(&index, mesh.vertices(), stock, diag, opts.reach);
         Some(stock_term(&samples, &m, &mut chosen, opts)?)
     };
     times.search += t.elapsed().as_secs_f64();

@@ -10,13 +10,14 @@
 //! samples the stock's material on a grid and counts a sample as *removable* from tool
 //! axis `v` when it lies at or above the part's lowest point along `v` and the ray from
 //! it along `+v` meets no part: a straight tool along `-v` reaches it with the layers
-//! that setup cuts.
+//! that setup cuts, and, with a [`ToolReach`], lies no deeper than the tools reach below
+//! the stock's top along `v`.
 
 use rayon::prelude::*;
 use s2g_geom::{Aabb, MeshIndex, Point3, Real, UnitVector3};
 
 use crate::error::Result;
-use crate::visibility::{VisibilityMatrix, words_for};
+use crate::visibility::{ToolReach, VisibilityMatrix, words_for};
 
 /// Options of the stock-removal term ([`OrientOptions::stock_removal`](crate::OrientOptions::stock_removal)).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,16 +93,24 @@ pub(crate) struct StockSamples<'a> {
     vertices: &'a [Point3],
     /// Rays stop this far past the part's support plane.
     eps: Real,
+    /// How deep the tools reach below the stock's top.
+    reach: Option<ToolReach>,
 }
 
 impl<'a> StockSamples<'a> {
     /// Splits `points` into the part's and the material's.
-    pub(crate) fn new(index: &'a MeshIndex, vertices: &'a [Point3], points: &[Point3], diag: Real) -> Self {
+    pub(crate) fn new(
+        index: &'a MeshIndex,
+        vertices: &'a [Point3],
+        points: &[Point3],
+        diag: Real,
+        reach: Option<ToolReach>,
+    ) -> Self {
         let inside = index.par_contains(points);
         let material: Vec<Point3> =
             points.iter().zip(&inside).filter(|(_, i)| !**i).map(|(p, _)| *p).collect();
         let part = points.len() - material.len();
-        Self { index, material, part, vertices, eps: 1e-9 * diag }
+        Self { index, material, part, vertices, eps: 1e-9 * diag, reach }
     }
 
     pub(crate) fn material(&self) -> usize {
@@ -119,6 +128,8 @@ impl<'a> StockSamples<'a> {
             .iter()
             .map(|p| v.dot(&p.coords))
             .fold((Real::INFINITY, Real::NEG_INFINITY), |(a, b), h| (a.min(h), b.max(h)));
+        // Below the tools' reach nothing is removed either.
+        let lo = lo.max(self.reach.map_or(Real::NEG_INFINITY, |r| r.floor(&v.into_inner())));
         let mut out = vec![0u64; words_for(self.material.len())];
         out.par_chunks_mut(8).enumerate().for_each(|(c, chunk)| {
             for (w, word) in chunk.iter_mut().enumerate() {

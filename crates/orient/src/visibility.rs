@@ -45,6 +45,32 @@ pub struct VisibilityOptions {
     pub hull_cull: bool,
     /// Work cap of the supporting-triangle test (triangles x vertices). Default `4e8`.
     pub hull_cull_max_work: f64,
+    /// How deep the tools reach into the stock: a sample is visible from `v` only where it
+    /// lies at most [`ToolReach::depth`] below the stock's top along `v`. `None` (default):
+    /// tools of unlimited length, as in the paper.
+    pub reach: Option<ToolReach>,
+}
+
+/// The reach of a setup's tools ([`VisibilityOptions::reach`]): a tool fitted in its holder
+/// cuts at most `depth` below the top of the stock along its axis (the stock's highest
+/// corner along the axis, as a setup's first layer starts there), so a surface deeper
+/// than that is not reached from that axis, however visible. Oblique axes on a box stock
+/// start at a corner, so the same depth reaches less of the part from them than from a
+/// face's normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolReach {
+    /// The stock's box, in the part's frame.
+    pub stock: Aabb,
+    /// The deepest a tool cuts below the stock's top (part units).
+    pub depth: Real,
+}
+
+impl ToolReach {
+    /// The lowest height along unit axis `v` (`v . x`) the tools reach: the stock's top
+    /// along `v` less the depth.
+    pub fn floor(&self, v: &Vector3) -> Real {
+        self.stock.corners().iter().map(|c| v.dot(&c.coords)).fold(Real::NEG_INFINITY, Real::max) - self.depth
+    }
 }
 
 impl Default for VisibilityOptions {
@@ -56,6 +82,7 @@ impl Default for VisibilityOptions {
             tool_rays: 8,
             hull_cull: true,
             hull_cull_max_work: 4e8,
+            reach: None,
         }
     }
 }
@@ -134,6 +161,9 @@ struct Probe<'a> {
     /// plane `v . x = top` a ray along `v` cannot meet the part, so rays stop there (on
     /// oblique directions well before the bounding box's exit).
     top: Real,
+    /// The lowest height `v . x` the tools reach ([`ToolReach::floor`]); `-inf` without
+    /// a reach.
+    floor: Real,
 }
 
 impl std::fmt::Debug for VisibilityContext<'_> {
@@ -175,6 +205,16 @@ impl<'a> VisibilityContext<'a> {
             && !(r.is_finite() && r >= 0.0)
         {
             return Err(OrientError::InvalidArgument(format!("tool radius must be >= 0, got {r}")));
+        }
+        if let Some(r) = &opts.reach
+            && !(r.depth.is_finite()
+                && r.depth >= 0.0
+                && r.stock.min.coords.iter().chain(r.stock.max.coords.iter()).all(|v| v.is_finite()))
+        {
+            return Err(OrientError::InvalidArgument(format!(
+                "tool reach needs a finite stock and depth >= 0, got {:?} and {}",
+                r.stock, r.depth
+            )));
         }
         let diag = bbox.extent().norm();
         let eps = opts.eps * diag;
@@ -251,7 +291,12 @@ impl<'a> VisibilityContext<'a> {
         // a row (the front-facing ones) cast one.
         let worth = 2 * self.index.num_triangles() <= samples;
         let rays = worth.then(|| self.index.parallel_rays(v)).flatten();
-        Probe { rays, basis: orthonormal_basis(v), top: top + grow }
+        Probe { rays, basis: orthonormal_basis(v), top: top + grow, floor: self.floor(v) }
+    }
+
+    /// The lowest height along `v` the tools reach, `-inf` without a reach.
+    fn floor(&self, v: &Vector3) -> Real {
+        self.opts.reach.map_or(Real::NEG_INFINITY, |r| r.floor(v))
     }
 
     /// Whether a ray from `o` along `v` leaves the box, or passes the support plane of
@@ -276,6 +321,9 @@ impl<'a> VisibilityContext<'a> {
             return false;
         }
         let p = &self.points[i];
+        if v.dot(&p.coords) < probe.floor {
+            return false;
+        }
         match self.opts.tool_radius {
             None => {
                 if self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1) {
@@ -302,7 +350,8 @@ impl<'a> VisibilityContext<'a> {
     /// support plane (a pass over every vertex): its rays run to the box's exit, which
     /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        let probe = Probe { rays: None, basis: orthonormal_basis(v), top: Real::INFINITY };
+        let probe =
+            Probe { rays: None, basis: orthonormal_basis(v), top: Real::INFINITY, floor: self.floor(v) };
         i < self.points.len() && self.visible_with(i, v, &probe, &mut OccluderCache::default())
     }
 

@@ -477,3 +477,50 @@ fn setups_for_a_flat_plate_cut_away_its_stock() {
         }
     }
 }
+
+/// A tool reaches only so deep below the stock's top along its axis: a tall bar's side,
+/// seen from an axis tilted 45 degrees from it, is visible all the way down without a
+/// reach and only down to the reach with one (the stock's top along the tilted axis being
+/// its highest corner), and what a setup cannot reach does not count towards coverage.
+#[test]
+fn a_tool_reach_hides_what_lies_deeper_than_it() {
+    use s2g_orient::ToolReach;
+    let bar = Aabb::new(Point3::new(-5.0, -5.0, -50.0), Point3::new(5.0, 5.0, 50.0));
+    let mesh = Mesh::cuboid(&bar).unwrap();
+    let index = MeshIndex::new(&mesh).unwrap();
+    let samples = sample_surface(&mesh, 4000, 3).unwrap();
+    let v = UnitVector3::new_normalize(Vector3::new(1.0, 0.0, 1.0));
+    let depth = 20.0;
+    let reach = ToolReach { stock: bar, depth };
+    let plain = VisibilityContext::new(&mesh, &index, &samples, &VisibilityOptions::default()).unwrap();
+    let limited = VisibilityContext::new(
+        &mesh,
+        &index,
+        &samples,
+        &VisibilityOptions { reach: Some(reach), ..Default::default() },
+    )
+    .unwrap();
+    // The stock's top along v is the corner (5, *, 50): v . x = 55 / sqrt 2.
+    let floor = reach.floor(&v.into_inner());
+    assert!((floor - (55.0 / 2f64.sqrt() - depth)).abs() < 1e-12);
+    let (mut deep, mut shallow) = (0, 0);
+    for (i, (p, n)) in samples.points.iter().zip(&samples.normals).enumerate() {
+        // The +X side: every point faces v and nothing hides it.
+        if n.x < 0.99 {
+            continue;
+        }
+        assert!(plain.visible(i, &v), "sample {i} at {p:?}");
+        let within = v.dot(&p.coords) >= floor;
+        assert_eq!(limited.visible(i, &v), within, "sample {i} at {p:?}");
+        if within { shallow += 1 } else { deep += 1 }
+    }
+    assert!(deep > 50 && shallow > 20, "{deep} deep, {shallow} shallow");
+    let row = |c: &VisibilityContext<'_>| c.matrix(&[v]).coverage(&[0]);
+    assert!(row(&limited) < row(&plain), "{} vs {}", row(&limited), row(&plain));
+    // A negative or infinite depth is refused.
+    for bad in [-1.0, f64::INFINITY] {
+        let opts =
+            VisibilityOptions { reach: Some(ToolReach { stock: bar, depth: bad }), ..Default::default() };
+        assert!(VisibilityContext::new(&mesh, &index, &samples, &opts).is_err(), "depth {bad}");
+    }
+}

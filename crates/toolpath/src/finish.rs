@@ -9,14 +9,18 @@
 //! on a clearance plane, plunges, gouge-checked links) and sums their length and time.
 
 mod emit;
+mod order;
 mod parallel;
 mod scallop;
 mod strategy;
 
-pub use emit::{FinishOptions, FinishSummary, finish_setup, finish_setup_opt, part_in_setup_frame};
+pub use emit::{
+    FinishOptions, FinishSummary, KeepPoint, finish_setup, finish_setup_keep, finish_setup_opt,
+    part_in_setup_frame,
+};
 pub use parallel::{ParallelFinishOptions, parallel_finish, parallel_finish_opt};
 pub use scallop::{scallop_height, stepover_for_scallop};
-pub use strategy::{FinishContext, FinishingStrategy, Parallel, SteepShallow, Waterline, cl_slope};
+pub use strategy::{Crossed, FinishContext, FinishingStrategy, Parallel, SteepShallow, Waterline, cl_slope};
 
 /// Everything finishing can fail with.
 #[derive(Debug, thiserror::Error)]

@@ -26,6 +26,12 @@ pub struct LayerPlan {
     pub clearing: Vec<Polyline2>,
     /// Cut and air length of contour + clearing (air only with rest information).
     pub cut_air: (f64, f64),
+    /// On a finer level above a roughing level, with [`PlanOptions::lead_in`]: the roughing
+    /// level's free region, whose cut already removed the material its tool centres reach
+    /// up to this level (where the paths may enter from the side).
+    ///
+    /// [`PlanOptions::lead_in`]: crate::PlanOptions::lead_in
+    pub roughed: Option<Region2>,
     /// The level's keep-out (the part's projection), indexed, where arcs are fitted: a
     /// fitted piece that leaves its path by more than the arc tolerance must keep the
     /// tool's distance from it ([`PlanOptions::arc_tolerance`](crate::PlanOptions::arc_tolerance)).
@@ -44,6 +50,7 @@ impl LayerPlan {
             contour: Vec::new(),
             clearing: Vec::new(),
             cut_air: (0.0, 0.0),
+            roughed: None,
             keepout: None,
         }
     }

@@ -14,6 +14,16 @@
 //! radius), which removed the material within the radius of `q`. So a rapid straight
 //! down at a path start is safe to `z_above + gap`; below that the tool feeds in (helix,
 //! ramp or plunge). Horizontal rapids run only on the clearance plane above the stock.
+//!
+//! With [`PlanOptions::lead_in`] (the shop's programs) three more moves rest on the same
+//! argument. A rapid between two points of a level's free region, at the height a level
+//! cut before stops its descents, along a segment inside that level's free region: every
+//! tool centre there has cleared the material above that height (and the tool rises and
+//! falls in columns it has cleared). A rapid straight down to a finer level inside the
+//! free region of the roughing level below it, whose cut removed everything its tool
+//! centres reach from there up through the finer levels. And a clearing pass entered
+//! where it reaches air (outside the stock, or where the remaining material reports none)
+//! rather than at its start.
 
 use std::f64::consts::PI;
 
@@ -27,7 +37,7 @@ use crate::clear::piece_clear;
 use crate::error::ToolpathError;
 use crate::layer::LayerPlan;
 use crate::options::PlanOptions;
-use crate::region::{Point2, Polyline2, RegionIndex};
+use crate::region::{Point2, Polyline2, Region2, RegionIndex};
 use crate::rest::RemainingMaterial;
 use crate::tool::Tool;
 
@@ -64,6 +74,11 @@ pub(crate) struct LinkParams {
     pub gap: f64,
     pub max_link: f64,
     pub stock: Aabb,
+    /// Cut a clearing pass from its end where only that end lies in air.
+    pub enter_from_air: bool,
+    /// Cross between two paths of a level at the height its descents stop at, where the
+    /// segment between them lies in its free region.
+    pub local_retract: bool,
 }
 
 #[derive(Debug, Default, Clone, Copy)]
@@ -75,6 +90,8 @@ pub(crate) struct Stats {
     pub helix: usize,
     pub ramp: usize,
     pub plunge: usize,
+    pub lead_in: usize,
+    pub low_retracts: usize,
 }
 
 pub(crate) struct Emitter<'s, S: MotionSink> {
@@ -91,7 +108,14 @@ pub(crate) struct Emitter<'s, S: MotionSink> {
     fit: Option<PlanarFitOptions>,
     pos: Option<Point3>,
     stats: Stats,
+    /// The levels cut so far (the last [`CROSSINGS`]): the height their descents stop at
+    /// and their free region, above which every tool centre of it has cleared the
+    /// material ([`LinkParams::local_retract`]).
+    crossings: std::collections::VecDeque<(f64, RegionIndex)>,
 }
+
+/// How many levels cut before [`Emitter`] keeps for crossing between paths.
+const CROSSINGS: usize = 8;
 
 impl<'s, S: MotionSink> Emitter<'s, S> {
     pub fn new(
@@ -122,6 +146,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
             }),
             pos: None,
             stats: Stats::default(),
+            crossings: std::collections::VecDeque::new(),
         }
     }
 
@@ -204,27 +229,156 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
     pub fn layer(&mut self, plan: &LayerPlan) -> Result<(), ToolpathError<S::Error>> {
         self.send(Motion::Marker(Marker::Layer { index: Some(plan.index as i64), z: Some(plan.z) }))?;
         let index = plan.free.index();
+        let roughed = plan.roughed.as_ref().map(Region2::index);
         let tol = 1e-7 * self.tool.radius();
         let z = plan.z;
-        for path in plan.contour.iter().chain(&plan.clearing) {
-            let Some(s) = path.start() else { continue };
-            let here = self.pos.filter(|p| (p.z - z).abs() <= tol);
-            let stay = here.is_some_and(|p| {
-                let a = Point2::new(p.x, p.y);
-                (s - a).norm() <= self.p.max_link && (a == s || index.segment_inside(&a, &s, tol))
-            });
-            if stay {
-                self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
-            } else {
-                self.retract()?;
-                let top = (plan.z_above + self.p.gap).min(self.p.clear_z);
-                self.rapid(Point3::new(s.x, s.y, self.p.clear_z))?;
-                self.rapid(Point3::new(s.x, s.y, top))?;
-                self.enter(path, &index, plan, top)?;
+        let top = (plan.z_above + self.p.gap).min(self.p.clear_z);
+        let contours = plan.contour.len();
+        let mut split: Vec<Polyline2> = Vec::new();
+        for (k, path) in plan.contour.iter().chain(&plan.clearing).enumerate() {
+            // A clearing pass (whose direction is the strategy's to choose, unlike a
+            // contour's climb) that starts in material but reaches air (the stock's edge, a
+            // region cleared before) or the roughing level's cut is entered there: its part
+            // up to that point is cut backwards from it, then the rest from it, the tool
+            // going down in air both times and feeding in from the side, with no ramp.
+            let from_air = self.p.enter_from_air && k >= contours && !path.closed;
+            // Where the tool can go down without a ramp: in air, or beside the roughing
+            // level's cut ([`Self::lead_in`]).
+            let easy = |q: &Point2| {
+                self.in_air(q, z, top)
+                    || roughed.as_ref().is_some_and(|done| self.lead_in(q, done, &index, tol).is_some())
+            };
+            let at = from_air
+                .then(|| {
+                    let s = path.start()?;
+                    if easy(&s) {
+                        return None;
+                    }
+                    path.points.iter().position(easy)
+                })
+                .flatten();
+            let pieces: Vec<&Polyline2> = match at {
+                Some(i) => {
+                    split.clear();
+                    let mut head = Polyline2::open(path.points[..=i].to_vec());
+                    head.reverse();
+                    split.push(head);
+                    if i + 1 < path.points.len() {
+                        split.push(Polyline2::open(path.points[i..].to_vec()));
+                    }
+                    split.iter().collect()
+                }
+                None => vec![path],
+            };
+            for path in pieces {
+                self.pass(path, plan, &index, roughed.as_ref(), tol, top)?;
             }
-            self.along(path, z, plan)?;
+        }
+        if self.p.local_retract {
+            if self.crossings.len() == CROSSINGS {
+                self.crossings.pop_front();
+            }
+            self.crossings.push_back((top, index));
         }
         Ok(())
+    }
+
+    /// One path of `plan`'s level: linked from where the tool is (staying down when the
+    /// link is short and inside the free region `index`), or entered anew (from the side
+    /// where [`Self::lead_in`] finds a way, else by [`Self::enter`]), then cut.
+    fn pass(
+        &mut self,
+        path: &Polyline2,
+        plan: &LayerPlan,
+        index: &RegionIndex,
+        roughed: Option<&RegionIndex>,
+        tol: f64,
+        top: f64,
+    ) -> Result<(), ToolpathError<S::Error>> {
+        let z = plan.z;
+        let Some(s) = path.start() else { return Ok(()) };
+        let here = self.pos.filter(|p| (p.z - z).abs() <= tol);
+        let stay = here.is_some_and(|p| {
+            let a = Point2::new(p.x, p.y);
+            (s - a).norm() <= self.p.max_link && (a == s || index.segment_inside(&a, &s, tol))
+        });
+        if stay {
+            self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
+        } else {
+            let side = roughed.and_then(|done| self.lead_in(&s, done, index, tol));
+            let q = side.unwrap_or(s);
+            // From this level's free region to another point of it, along a segment inside
+            // it, the tool may cross at the height its descents stop at: above that height
+            // every tool centre of the region has cleared the material (the invariant that
+            // makes the descent to it safe, see the module docs).
+            // The same holds for every level cut before (material only goes): the tool
+            // rises in its own column, crosses at the lowest such height whose level's free
+            // region holds the segment, and comes down in this level's region.
+            let low = self.pos.filter(|_| self.p.local_retract).and_then(|p| {
+                let a = Point2::new(p.x, p.y);
+                let here = (top, index);
+                std::iter::once((here.0, here.1))
+                    .chain(self.crossings.iter().map(|(h, i)| (*h, i)))
+                    .filter(|(_, i)| i.segment_inside(&a, &q, tol))
+                    .map(|(h, _)| h)
+                    .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.min(h))))
+                    .map(|h| (p, h.max(p.z)))
+            });
+            let top = match low {
+                Some((p, h)) => {
+                    self.stats.low_retracts += 1;
+                    self.rapid(Point3::new(p.x, p.y, h))?;
+                    self.rapid(Point3::new(q.x, q.y, h))?;
+                    self.rapid(Point3::new(q.x, q.y, h.min(top)))?;
+                    h.min(top)
+                }
+                None => {
+                    self.retract()?;
+                    self.rapid(Point3::new(q.x, q.y, self.p.clear_z))?;
+                    self.rapid(Point3::new(q.x, q.y, top))?;
+                    top
+                }
+            };
+            if side.is_some() {
+                // Down by rapid in the roughing cut's air, then across into the step.
+                self.stats.lead_in += 1;
+                self.rapid(Point3::new(q.x, q.y, z))?;
+                self.feed(Point3::new(s.x, s.y, z), self.tool.feed)?;
+            } else {
+                self.enter(path, index, plan, top)?;
+            }
+        }
+        self.along(path, z, plan)
+    }
+
+    /// Whether the tool standing at `s` between heights `z` and `top` meets no material:
+    /// outside the stock, or where the remaining material reports none.
+    fn in_air(&self, s: &Point2, z: f64, top: f64) -> bool {
+        self.outside_stock(s)
+            || self.rest.is_some_and(|rest| {
+                let r = self.tool.radius();
+                !rest.any_in_box(&Point3::new(s.x - r, s.y - r, z), &Point3::new(s.x + r, s.y + r, top))
+            })
+    }
+
+    /// Where a path starting at `s` on a finer level may be entered from the side: `s`
+    /// itself where it lies in `roughed` (the roughing level's free region, whose cut
+    /// removed the material its tool centres reach up to this level), else a point just
+    /// inside `roughed` within a tool radius of `s` from which the straight feed to `s`
+    /// stays in this level's free region (`free`); `None` where there is none.
+    fn lead_in(&self, s: &Point2, roughed: &RegionIndex, free: &RegionIndex, tol: f64) -> Option<Point2> {
+        if roughed.contains(s) {
+            return Some(*s);
+        }
+        let r = self.tool.radius();
+        let b = roughed.nearest_boundary_point(s, r)?;
+        let d = b - s;
+        let l = d.norm();
+        if !(l > 0.0) {
+            return None;
+        }
+        let q = b + d * (0.02 * r / l);
+        (roughed.contains(&q) && free.segment_inside(&q, s, tol)).then_some(q)
     }
 
     /// Feeds along `path` at level `z` from its start (where the tool is): through every
@@ -293,11 +447,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         let z = plan.z;
         let depth = top - z;
         let plunge = self.tool.plunge_feed;
-        let air = self.outside_stock(&s)
-            || self.rest.is_some_and(|rest| {
-                let r = self.tool.radius();
-                !rest.any_in_box(&Point3::new(s.x - r, s.y - r, z), &Point3::new(s.x + r, s.y + r, top))
-            });
+        let air = self.in_air(&s, z, top);
         if depth <= 0.0 || air {
             if !air {
                 self.stats.plunge += 1;

@@ -119,6 +119,16 @@ pub struct PlanOptions {
     /// query per half tool radius of path, which for a small tool on fine layers costs more
     /// than planning. Default false.
     pub measure_air_cut: bool,
+    /// Enter a finer level's path (one above a roughing level, see
+    /// [`roughing_depth`](Self::roughing_depth)) from the side where it can: the tool goes
+    /// down in the roughing level's free region next to the path's start, where that
+    /// level's cut has already removed the material, and feeds across to the start, rather
+    /// than ramping down into the step beside the wall; a clearing pass that starts in
+    /// material but reaches air is entered there; and between two paths of a level whose
+    /// link lies in its free region the tool crosses just above the level before, where
+    /// its descents stop, rather than at the clearance plane. Default false (the paper's
+    /// entries and retracts).
+    pub lead_in: bool,
     /// Write the passes with G2/G3 arcs (and runs that a line fits as one line) within this
     /// tolerance, `None` (default): straight moves through every planned point. The walls
     /// keep the tolerance as allowance (the tool centre keep-out grows by it), and every
@@ -168,6 +178,7 @@ impl Default for PlanOptions {
             roughing_depth: None,
             sliver_width: None,
             measure_air_cut: false,
+            lead_in: false,
             arc_tolerance: None,
             fit_arcs: true,
             nest_levels: false,

@@ -39,12 +39,18 @@ pub struct PlanSummary {
     pub air_cut_fraction: Option<f64>,
     /// Retracts to the clearance plane.
     pub retracts: usize,
+    /// Crossings between two paths of one level just above the level before it
+    /// ([`PlanOptions::lead_in`]), instead of retracts.
+    pub low_retracts: usize,
     /// Entries by helix, by ramp and by straight plunge (in material or in air).
     pub helix_entries: usize,
     /// Entries by zigzag ramp.
     pub ramp_entries: usize,
     /// Straight plunges.
     pub plunge_entries: usize,
+    /// Entries from the side ([`PlanOptions::lead_in`]): down in air beside the path's
+    /// start, then across to it.
+    pub lead_in_entries: usize,
     /// The stock box used (setup frame).
     pub stock: Option<Aabb>,
 }
@@ -541,6 +547,7 @@ impl Ctx<'_> {
                 }
             }
         }
+        let roughed = roughed.filter(|_| self.opts.lead_in).map(|(done, _)| done.clone());
         LayerPlan {
             index,
             z,
@@ -550,6 +557,7 @@ impl Ctx<'_> {
             contour,
             clearing,
             cut_air,
+            roughed,
             keepout: keepout.clone(),
         }
     }
@@ -791,6 +799,8 @@ pub fn plan_setup_watched<S: MotionSink>(
         gap: opts.retract_gap.unwrap_or(0.5 * opts.layer_height),
         max_link: opts.max_stay_down_link.unwrap_or(2.0 * tool.diameter()),
         stock,
+        enter_from_air: opts.lead_in,
+        local_retract: opts.lead_in,
     };
     let mut em = Emitter::new(sink, tool, opts, params, rest);
     em.begin(setup, &ctx.start, opts.strategy.name())?;
@@ -854,6 +864,8 @@ pub fn plan_setup_watched<S: MotionSink>(
     summary.helix_entries = st.helix;
     summary.ramp_entries = st.ramp;
     summary.plunge_entries = st.plunge;
+    summary.lead_in_entries = st.lead_in;
+    summary.low_retracts = st.low_retracts;
     summary.air_cut_fraction = rest
         .filter(|_| opts.measure_air_cut)
         .map(|_| if cut > 0.0 { (air / cut).clamp(0.0, 1.0) } else { 0.0 });

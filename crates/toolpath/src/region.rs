@@ -642,6 +642,27 @@ impl RegionIndex {
         best
     }
 
+    /// The nearest boundary point to `p` within `max` of it, if any.
+    pub fn nearest_boundary_point(&self, p: &Point2, max: f64) -> Option<Point2> {
+        if !(max > 0.0) || self.edges.is_empty() {
+            return None;
+        }
+        let mut best: Option<(f64, Point2)> = None;
+        for e in self.edge_ids_around(p, max) {
+            let [ax, ay, bx, by] = self.edges[e as usize];
+            let (a, b) = (Point2::new(ax, ay), Point2::new(bx, by));
+            let ab = b - a;
+            let l2 = ab.norm_squared();
+            let t = if l2 > 0.0 { ((p - a).dot(&ab) / l2).clamp(0.0, 1.0) } else { 0.0 };
+            let q = a + ab * t;
+            let d = (p - q).norm();
+            if d <= max && best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, q));
+            }
+        }
+        best.map(|(_, q)| q)
+    }
+
     /// Whether a boundary edge comes nearer `p` than `d`: `boundary_distance(p, d) < d`,
     /// answered at the first such edge, with edges whose box lies `d` or more away skipped
     /// and squared distances compared (no division or root for most edges).

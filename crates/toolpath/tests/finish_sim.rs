@@ -8,7 +8,8 @@ use s2g_gcode::{Coolant, Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup};
 use s2g_toolpath::Tool;
 use s2g_toolpath::finish::{
-    FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline, finish_setup_opt,
+    Crossed, FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline,
+    finish_setup_opt,
 };
 use s2g_voxsim::{HeightField, HeightFieldOptions, ToolTable, surface_deviation};
 
@@ -128,8 +129,13 @@ fn sphere_and_cylinder_scallops_match_the_analytic_cusp() {
     let strategy = Parallel { tolerance: 1e-4, ..Parallel::default() };
     let s = strategy.stepover(&Cutter::ball(r, 30.0), target).unwrap();
     assert!((s - 2.0 * (2.0 * r * target - target * target).sqrt()).abs() < 1e-12);
-    let opts =
-        FinishOptions { scallop: target, region: Some([[-8.0, -10.0], [8.0, 10.0]]), ..Default::default() };
+    // The passes are raised by the strategy's chord tolerance, not the default's 0.002.
+    let opts = FinishOptions {
+        scallop: target,
+        region: Some([[-8.0, -10.0], [8.0, 10.0]]),
+        pass_lift: strategy.tolerance,
+        ..Default::default()
+    };
     for (name, mesh) in [("sphere", sphere(big, 720, 360)), ("cylinder", cylinder_x(big, 60.0, 1440))] {
         let index = MeshIndex::new(&mesh).unwrap();
         let (rec, _) = finish(&index, &tool, &strategy, &opts);
@@ -276,6 +282,107 @@ fn waterline_and_steep_shallow_meet_the_scallop_on_a_sphere() {
     }
 }
 
+/// Crossed parallel finishing over a hemisphere: up to 75 degrees of slope, in every
+/// direction, the machined surface stays within twice the scallop target of the part (a
+/// wall facing halfway between the two rasters sees passes `sqrt 2` stepovers apart), and
+/// well under what one raster leaves on the walls along it; no gouge.
+#[test]
+fn crossed_rasters_keep_the_scallop_on_steep_walls_one_raster_does_not() {
+    let (big, target) = (15.0, 0.05);
+    let mesh = sphere(big, 360, 180);
+    let index = MeshIndex::new(&mesh).unwrap();
+    let tool = Tool::ball(2.0);
+    let mut worst_of = Vec::new();
+    let crossed = Crossed::default();
+    let strategies: [&dyn FinishingStrategy; 2] = [&Parallel::default(), &crossed];
+    for st in strategies {
+        let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
+        let (rec, _) = finish(&index, &tool, st, &opts);
+        let mut field = HeightField::new(
+            [-12.0, -12.0],
+            [12.0, 12.0],
+            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
+        )
+        .unwrap();
+        replay(&rec, &mut field);
+        let d = surface_deviation(&field, &index);
+        assert!(d.gouge_depth <= 1e-4, "{}: {d:?}", st.name());
+        let hi = big * 75f64.to_radians().sin();
+        let (nx, ny) = field.dims();
+        let mut worst = (0.0f64, 0usize, Point3::origin());
+        for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+            let [x, y] = field.column(i, j);
+            if x.hypot(y) <= hi {
+                let p = Point3::new(x, y, field.top(i, j).unwrap());
+                let e = index.closest_point(&p).distance;
+                if e > worst.0 {
+                    worst = (e, worst.1, p);
+                }
+                worst.1 += 1;
+            }
+        }
+        assert!(worst.1 > 50_000, "{}: {worst:?}", st.name());
+        worst_of.push(worst.0);
+    }
+    let (parallel, crossed) = (worst_of[0], worst_of[1]);
+    println!("worst over 75 degrees: parallel {parallel}, crossed {crossed}");
+    assert!(crossed <= 2.1 * target, "crossed leaves {crossed}");
+    assert!(parallel > 1.3 * crossed, "parallel leaves {parallel}, crossed {crossed}");
+}
+
+/// With the stock the roughing left ([`FinishOptions::stock_left`]), the finisher moves by
+/// rapid only where the cutter is that far from the part (the grown cutter's drop-cutter
+/// height over every rapid's ends and middle, plus the stock, is under it), beside the
+/// steep sides of a box as over its top, and crosses between passes below the clearance
+/// plane where it can.
+#[test]
+fn rapids_keep_the_stock_left_away_from_the_part() {
+    let block =
+        Mesh::cuboid(&s2g_geom::Aabb::new(Point3::new(-10.0, -6.0, 0.0), Point3::new(10.0, 6.0, 12.0)))
+            .unwrap();
+    let index = MeshIndex::new(&block).unwrap();
+    let tool = Tool::ball(2.0);
+    let t = 1.5;
+    let grown = Cutter::ball(2.0 + t, 30.0);
+    let dc = DropCutter::new(&index, &grown).unwrap();
+    let crossed = Crossed::default();
+    let strategies: [&dyn FinishingStrategy; 2] = [&crossed, &SteepShallow::default()];
+    for st in strategies {
+        let opts =
+            FinishOptions { scallop: 0.05, floor: Some(1.0), stock_left: Some(t), ..Default::default() };
+        let mut rec = MotionRecorder::default();
+        let sum = match finish_setup_opt(&index, &Setup::top(), &tool, st, &opts, &mut rec) {
+            Ok(sum) => sum,
+            Err(e) => {
+                panic!("{}: {e} ({:?})", st.name(), std::error::Error::source(&e).map(|s| s.to_string()))
+            }
+        };
+        let mut pos: Option<Point3> = None;
+        let mut low = 0;
+        for (_, m) in &rec.motions {
+            if let Motion::Rapid { to } = m
+                && let Some(p) = pos
+            {
+                for q in [p, p + (to - p) * 0.5, *to] {
+                    if let Some(h) = dc.height(q.x, q.y) {
+                        assert!(
+                            q.z >= h + t - 1e-6,
+                            "{}: rapid {p} -> {to} at {q}: safe {}",
+                            st.name(),
+                            h + t
+                        );
+                    }
+                }
+                if (to.xy() - p.xy()).norm() > 1e-9 && to.z < sum.clear_z {
+                    low += 1;
+                }
+            }
+            pos = m.end_point().or(pos);
+        }
+        assert!(low > 0, "{}: no crossing below the clearance plane", st.name());
+    }
+}
+
 /// Options out of range are errors, not panics.
 #[test]
 fn bad_finishing_options_are_errors() {
@@ -286,6 +393,8 @@ fn bad_finishing_options_are_errors() {
         FinishOptions { clearance: f64::NAN, ..Default::default() },
         FinishOptions { region: Some([[1.0, 0.0], [0.0, 1.0]]), ..Default::default() },
         FinishOptions { floor: Some(f64::INFINITY), ..Default::default() },
+        FinishOptions { stock_left: Some(-1.0), ..Default::default() },
+        FinishOptions { pass_lift: f64::NAN, ..Default::default() },
     ];
     for o in bad {
         let mut rec = MotionRecorder::default();

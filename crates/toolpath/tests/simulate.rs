@@ -532,3 +532,72 @@ fn arc_fitted_program_cuts_what_the_straight_one_cuts() {
     let (arcs, saved) = fewer[1];
     assert!(arcs >= 20 && saved >= arcs, "0.02 mm: {arcs} arcs save {saved} lines");
 }
+
+/// The shop's entries and crossings ([`PlanOptions::lead_in`]): on the bunny and
+/// example001 with roughing groups, against the paper's entries the finer levels go down
+/// beside their roughing level's cut instead of ramping, clearing passes start where they
+/// reach air, and the tool crosses between paths just above a level cut before; the part
+/// comes out the same (within 0.2 % of the removed voxels), with no gouge and no rapid
+/// through material, in less time.
+#[test]
+fn side_entries_and_low_crossings_cut_the_same_part_faster_and_safely() {
+    let bunny = {
+        let p = format!("{}/../../assets/stanford_bunny.stl", env!("CARGO_MANIFEST_DIR"));
+        let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
+        s2g_geom::normalize_unit_cube(&m).expect("normalise").0
+    };
+    for (name, part) in [("bunny", bunny), ("example001", openscad("openscad_Old_example001.stl"))] {
+        let bb = part.bbox().expect("bbox");
+        let e = bb.extent().max();
+        let h = e / 96.0;
+        let ext = bb.extent();
+        let grow = [0, 1, 2].map(|a| ((ext[a] / h).ceil() * h - ext[a]) * 0.5 + h);
+        let g = nalgebra::Vector3::new(grow[0], grow[1], grow[2]);
+        let stock = Aabb::new(bb.min - g, bb.max + g);
+        let spec = grid_over(&stock, h);
+        let target = voxelize(&part, &spec).expect("voxelize");
+        let tool = Tool::flat(0.03 * e);
+        let base = PlanOptions {
+            layer_height: e / 48.0,
+            stock: Some(stock),
+            roughing_depth: Some(tool.diameter()),
+            ..Default::default()
+        };
+        let run = |opts: &PlanOptions| {
+            simulate(VoxelGrid::full(spec), &target, &tool, |sim| {
+                plan_setup(&part, &Setup::top(), &tool, opts, sim).expect("plan")
+            })
+        };
+        let (paper, paper_report, paper_residual) = run(&base);
+        let (shop, report, residual) = run(&PlanOptions { lead_in: true, ..base.clone() });
+        assert_eq!(report.gouge_voxels, 0, "{name}: gouges, first at line {:?}", report.first_gouge_line);
+        assert_eq!(report.rapid_collision_voxels, 0, "{name}: rapids through material");
+        let mut differ = residual.clone();
+        differ.xor(&paper_residual).expect("same grid");
+        let differ = differ.count();
+        println!(
+            "{name}: {} side entries, {} low crossings, ramps and helices {} (paper {}), retracts {} (paper {}), \
+             time {:.1} (paper {:.1}), {differ} voxels differ",
+            shop.lead_in_entries,
+            shop.low_retracts,
+            shop.ramp_entries + shop.helix_entries,
+            paper.ramp_entries + paper.helix_entries,
+            shop.retracts,
+            paper.retracts,
+            shop.estimated_time_s,
+            paper.estimated_time_s
+        );
+        assert!(
+            (differ as f64) <= 0.002 * paper_report.removed_voxels as f64,
+            "{name}: {differ} voxels differ"
+        );
+        assert!(shop.lead_in_entries > 0 && shop.low_retracts > 0, "{name}: {shop:?}");
+        assert!(shop.ramp_entries + shop.helix_entries < paper.ramp_entries + paper.helix_entries, "{name}");
+        assert!(shop.estimated_time_s < paper.estimated_time_s, "{name}");
+        assert_eq!(
+            (paper.lead_in_entries, paper.low_retracts),
+            (0, 0),
+            "{name}: the paper's entries changed"
+        );
+    }
+}

@@ -79,7 +79,7 @@ pub use crate::sim::{
     simulate_str,
 };
 pub use crate::surface::{
-    DeviationOptions, HeightField, HeightFieldOptions, SurfaceDeviation, surface_deviation,
-    surface_deviation_opt,
+    DeviationOptions, HeightField, HeightFieldOptions, SurfaceDeviation, deviation_at, surface_deviation,
+    surface_deviation_opt, surface_deviation_where,
 };
 pub use crate::tool::{BeadProfile, Cutter, CutterShape, Holder, ToolTable};

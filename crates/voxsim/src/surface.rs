@@ -15,7 +15,7 @@
 
 use rayon::prelude::*;
 use s2g_gcode::{ArcSpec, Motion, MotionSink};
-use s2g_geom::{Isometry3, MeshIndex, Point3, Solids, Vector3};
+use s2g_geom::{Cutter, DropCutter, Isometry3, MeshIndex, Point3, Solids, Vector3};
 
 use crate::engine::ToolPrims;
 use crate::error::{Result, SimError};
@@ -269,12 +269,16 @@ pub struct DeviationOptions {
     pub on_surface: f64,
     /// Count a column only where a ball of this radius can touch the part's surface
     /// straight below it: the ball resting on that point along its normal is clear of the
-    /// part to within 0.1 % of its radius. A concave corner tighter than the finishing
-    /// ball is not a region it reaches. `None` (default): every column within `reach`.
+    /// part and lowered along the axis it stops there (the drop-cutter height over its
+    /// centre is its tip's, to 0.1 % of its radius). A concave corner tighter than the
+    /// finishing ball, or a point under an overhang, is not a region it reaches.
+    /// `None` (default): every column within `reach`.
     pub ball_radius: Option<f64>,
-    /// Count a column only where the part's surface straight below it is at or above
-    /// this height: the lowest point a finisher went to (a tool that reaches only so deep
-    /// below the stock's top finishes nothing lower). `None` (default): any height.
+    /// Count a column only where the finisher can touch the part's surface straight below
+    /// it with its tip at or above this height: the lowest tip height a finisher went to (a
+    /// tool that reaches only so deep below the stock's top finishes nothing lower); with
+    /// [`ball_radius`](Self::ball_radius), the tip of the ball resting on that point along
+    /// its normal, else the point itself. `None` (default): any height.
     pub floor: Option<f64>,
 }
 
@@ -314,7 +318,21 @@ pub fn surface_deviation_opt(
     part: &MeshIndex,
     o: &DeviationOptions,
 ) -> SurfaceDeviation {
+    surface_deviation_where(field, part, o, &|_: &Point3, _: &Vector3| true)
+}
+
+/// [`surface_deviation_opt`] over the columns whose part surface straight below (point and
+/// outward normal, in the field's frame) `counts` accepts as well: a setup that finishes
+/// only part of what it sees (rest finishing, where earlier setups finished the rest)
+/// is measured where it finishes.
+pub fn surface_deviation_where(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+    counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
+) -> SurfaceDeviation {
     let down = Vector3::new(0.0, 0.0, -1.0);
+    let drop = o.ball_radius.and_then(|r| DropCutter::new(part, &Cutter::ball(r, 4.0 * r)).ok());
     let per_row: Vec<(f64, f64, f64, usize)> = (0..field.ny)
         .into_par_iter()
         .map(|j| {
@@ -337,10 +355,21 @@ pub fn surface_deviation_opt(
                 let Some(hit) = part.cast_ray(&Point3::new(x, y, t + lift), &down, f64::INFINITY) else {
                     continue;
                 };
-                let touches =
-                    |r: f64| part.signed_distance(&(hit.point + hit.normal * r)) >= r * (1.0 - 1e-3);
-                let above_floor = o.floor.is_none_or(|z| hit.point.z >= z);
-                if hit.distance - lift <= o.reach && above_floor && o.ball_radius.is_none_or(touches) {
+                // The ball resting on the point along its normal is where a ball lowered along
+                // the axis over its centre stops: clear of the part, and nothing above it.
+                let touches = |r: f64| {
+                    let c = hit.point + hit.normal * r;
+                    drop.as_ref()
+                        .is_some_and(|dc| dc.height(c.x, c.y).is_some_and(|h| h <= c.z - r + 1e-3 * r))
+                };
+                // A ball touches this point with its tip at the centre's height less its radius.
+                let r = o.ball_radius.unwrap_or(0.0);
+                let above_floor = o.floor.is_none_or(|z| (hit.point + hit.normal * r).z - r >= z);
+                if hit.distance - lift <= o.reach
+                    && above_floor
+                    && o.ball_radius.is_none_or(touches)
+                    && counts(&hit.point, &hit.normal)
+                {
                     max = max.max(d);
                     sum += d;
                     n += 1;
@@ -353,4 +382,81 @@ pub fn surface_deviation_opt(
         .into_iter()
         .fold((0.0f64, 0.0, 0.0f64, 0), |a, r| (a.0.max(r.0), a.1 + r.1, a.2.max(r.2), a.3 + r.3));
     SurfaceDeviation { max, mean: if n > 0 { sum / n as f64 } else { 0.0 }, gouge_depth: gouge, columns: n }
+}
+
+/// The height `field` was cut to at `(x, y)`: bilinear between the four nearest columns;
+/// where some of them were never cut (beside a wall of the part, whose columns over the
+/// part the cutter never crossed), the highest of the others; `+inf` where none was cut,
+/// or outside the grid.
+fn cut_height(field: &HeightField, x: f64, y: f64) -> f64 {
+    let fx = (x - field.min[0]) / field.spacing;
+    let fy = (y - field.min[1]) / field.spacing;
+    if !(fx >= 0.0 && fy >= 0.0) {
+        return f64::INFINITY;
+    }
+    let (i, j) = (fx.floor() as usize, fy.floor() as usize);
+    if i + 1 >= field.nx || j + 1 >= field.ny {
+        return f64::INFINITY;
+    }
+    let (u, v) = (fx - i as f64, fy - j as f64);
+    let t = |a: usize, b: usize| field.top[b * field.nx + a];
+    let c = [t(i, j), t(i + 1, j), t(i, j + 1), t(i + 1, j + 1)];
+    if c.iter().all(|h| h.is_finite()) {
+        return (1.0 - v) * ((1.0 - u) * c[0] + u * c[1]) + v * ((1.0 - u) * c[2] + u * c[3]);
+    }
+    c.into_iter()
+        .filter(|h| h.is_finite())
+        .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.max(h))))
+        .unwrap_or(f64::INFINITY)
+}
+
+/// How far `field`'s cut lies from the part at surface points `points` (each a point and
+/// its outward unit normal, in the field's frame; `part` indexed in that frame): the
+/// thickness of the material left along the normal, from the point out to where the cut
+/// surface (the columns' heights, bilinear between them) passes, to within 0.001. `None`
+/// where the point is not reached: more than [`DeviationOptions::reach`] is left, or,
+/// with [`DeviationOptions::ball_radius`], no ball of that radius lowered along the axis
+/// rests on the point with its tip at or above [`DeviationOptions::floor`]. Material cut
+/// below the point counts as none. The same whatever the number of threads. A part
+/// finished in several setups is finished at a point where any one of them finished it:
+/// its deviation there is the least of theirs.
+pub fn deviation_at(
+    field: &HeightField,
+    part: &MeshIndex,
+    points: &[(Point3, Vector3)],
+    o: &DeviationOptions,
+) -> Vec<Option<f64>> {
+    let drop = o.ball_radius.and_then(|r| DropCutter::new(part, &Cutter::ball(r, 4.0 * r)).ok());
+    let step = 0.01;
+    points
+        .par_iter()
+        .with_min_len(256)
+        .map(|(q, n)| {
+            if let Some(r) = o.ball_radius {
+                let c = q + n * r;
+                let rests = drop.as_ref()?.height(c.x, c.y).is_some_and(|h| h <= c.z - r + 1e-3 * r);
+                if !rests || o.floor.is_some_and(|z| c.z - r < z) {
+                    return None;
+                }
+            } else if o.floor.is_some_and(|z| q.z < z) {
+                return None;
+            }
+            // Material at `q + s n` while it lies below the cut.
+            let left = |s: f64| {
+                let p = q + n * s;
+                p.z < cut_height(field, p.x, p.y) - 1e-9
+            };
+            if !left(0.0) {
+                return Some(0.0);
+            }
+            let steps = (o.reach / step).ceil() as usize;
+            let k = (1..=steps).find(|&k| !left(k as f64 * step))?;
+            let (mut lo, mut hi) = ((k - 1) as f64 * step, k as f64 * step);
+            while hi - lo > 0.001 {
+                let mid = 0.5 * (lo + hi);
+                if left(mid) { lo = mid } else { hi = mid }
+            }
+            Some(hi)
+        })
+        .collect()
 }

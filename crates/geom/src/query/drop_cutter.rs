@@ -104,6 +104,23 @@ impl<'a> DropCutter<'a> {
         self.profile.radius
     }
 
+    /// The mesh's outward unit normal where a ball cutter with its tip at `(x, y, z)`
+    /// touches it: the direction from the mesh's nearest point to the ball's centre,
+    /// which at a contact is the surface's normal there (at an edge or a vertex, the
+    /// normal of the ball's contact). `None` for other end shapes, non-finite input, or a
+    /// centre on the mesh.
+    pub fn contact_normal(&self, x: f64, y: f64, z: f64) -> Option<[f64; 3]> {
+        let r = self.profile.radius;
+        if self.profile.flat > 1e-12 * r || !(x.is_finite() && y.is_finite() && z.is_finite()) {
+            return None;
+        }
+        let c = [x, y, z + r];
+        let (d2, q, _) = self.bvh.closest(self.bvh.to_local(c), f64::INFINITY)?;
+        let d = d2.sqrt();
+        let q = [q[0] + self.bvh.center[0], q[1] + self.bvh.center[1], q[2] + self.bvh.center[2]];
+        (d > 1e-12 * r).then(|| [(c[0] - q[0]) / d, (c[1] - q[1]) / d, (c[2] - q[2]) / d])
+    }
+
     /// The mesh's bounding box as `(min, max)` corners (conservative: possibly a little
     /// larger, never smaller).
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {

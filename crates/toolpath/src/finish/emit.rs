@@ -49,10 +49,34 @@ pub struct FinishOptions {
     pub link_check_step: f64,
     /// A link point may dip this far below the drop-cutter height. Default `1e-4`.
     pub link_tolerance: f64,
+    /// Every pass point is raised this far above the drop-cutter height: the strategies
+    /// sample the cutter-location surface to a chord tolerance (0.002 by default), and on
+    /// a convex surface a chord between two points lies up to that far below it, which
+    /// would cut into the part (or, checked, make the chord a lift over it). Raised by the
+    /// chord tolerance, the chords stay above the surface and the finish leaves at most
+    /// twice that on the part, far under a scallop. Default `0.002`.
+    pub pass_lift: f64,
     /// Rapid rate for the time estimate (units per minute). Default `5000`.
     pub rapid_feed: f64,
     /// Flood coolant on during finishing. Default `true`.
     pub coolant: bool,
+    /// The most material the roughing can have left on the part (its allowance and layer
+    /// steps, measured along the surface's normal). With it, the tool moves by rapid only
+    /// where it is at least this far from the part: it rapids down to the height over a
+    /// pass's start where the cutter grown by this much touches the part and plunges from
+    /// there; it leaves a pass by feeding up to that height over its end; and between two
+    /// passes it crosses at the highest such height along the way (sampled every
+    /// [`FinishOptions::hop_step`]) when that is below the clearance plane. `None`
+    /// (default): rapids down to [`FinishOptions::approach`] above a pass's start and
+    /// retracts to the clearance plane, which is safe where the passes start and end on
+    /// gentle slopes (beside a steep wall the cutter's side meets the stock left on it).
+    pub stock_left: Option<f64>,
+    /// Sampling step of the crossing height between passes. Default `0.25`.
+    pub hop_step: f64,
+    /// With a filter on the points ([`finish_setup_keep`]), a run of left-out points
+    /// shorter than this (along the pass) between two kept ones is machined anyway.
+    /// Default `20`.
+    pub max_skip_gap: f64,
     /// Fit each pass that lies in the ZX or YZ plane (parallel passes along X or Y) with
     /// G18/G19 arcs and lines within this tolerance above its points; `None` (default):
     /// every point a straight move. A piece is taken only where it lies above the pass
@@ -74,8 +98,12 @@ impl Default for FinishOptions {
             max_link: 2.0,
             link_check_step: 0.05,
             link_tolerance: 1e-4,
+            pass_lift: 0.002,
             rapid_feed: 5000.0,
             coolant: true,
+            max_skip_gap: 20.0,
+            stock_left: None,
+            hop_step: 0.25,
             arc_tolerance: None,
         }
     }
@@ -90,6 +118,8 @@ pub struct FinishSummary {
     pub links: usize,
     /// Retracts to the clearance plane.
     pub retracts: usize,
+    /// Crossings between passes below the clearance plane ([`FinishOptions::stock_left`]).
+    pub hops: usize,
     /// Length of feed moves (passes, links and plunges).
     pub cutting_length: f64,
     /// Length of rapid moves.
@@ -135,6 +165,35 @@ pub fn finish_setup_opt<S: MotionSink>(
     opts: &FinishOptions,
     sink: &mut S,
 ) -> Result<FinishSummary, ToolpathError<S::Error>> {
+    finish_setup_keep(part, setup, tool, strategy, opts, None, sink)
+}
+
+/// Which cutter-location points of a finishing strategy to machine ([`finish_setup_keep`]):
+/// rest finishing leaves out where an earlier setup has finished the surface already.
+pub trait KeepPoint: Sync {
+    /// Whether to machine the tool-tip position `tip` (setup frame).
+    fn keep(&self, tip: &Point3) -> bool;
+}
+
+impl<F: Fn(&Point3) -> bool + Sync> KeepPoint for F {
+    fn keep(&self, tip: &Point3) -> bool {
+        self(tip)
+    }
+}
+
+/// [`finish_setup_opt`] machining only the strategy's points that `keep` accepts (all
+/// with `None`): each pass is split where it leaves them, except across gaps shorter than
+/// [`FinishOptions::max_skip_gap`] (cutting on along the finished surface costs less than
+/// a retract and a new entry), and runs shorter than two points are dropped.
+pub fn finish_setup_keep<S: MotionSink>(
+    part: &MeshIndex,
+    setup: &Setup,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    opts: &FinishOptions,
+    keep: Option<&dyn KeepPoint>,
+    sink: &mut S,
+) -> Result<FinishSummary, ToolpathError<S::Error>> {
     tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     check(opts)?;
     let cutter = profile_cutter(&tool.cutter);
@@ -152,9 +211,33 @@ pub fn finish_setup_opt<S: MotionSink>(
         scallop: opts.scallop,
     };
     let paths = strategy.paths(&ctx).map_err(ToolpathError::Finish)?;
+    let paths = match keep {
+        Some(k) => super::strategy::split_par(paths, |p| k.keep(p), opts.max_skip_gap),
+        None => paths,
+    };
+    let paths = super::order::link_order(paths);
+    // The cutter grown by the stock left: where it touches the part, the cutter itself is
+    // that far from it.
+    let grown = opts.stock_left.map(|t| {
+        let (r, corner) = (cutter.radius + t, cutter.corner_radius() + t);
+        let flutes = (cutter.flute_length + t).max(2.0 * r);
+        let c = if corner >= r * (1.0 - 1e-12) {
+            Cutter::ball(r, flutes)
+        } else {
+            Cutter::bull(r, corner, flutes)
+        };
+        (c, t)
+    });
+    let safe = match &grown {
+        Some((c, t)) => {
+            Some((DropCutter::new(part, c).map_err(|e| ToolpathError::InvalidTool(e.to_string()))?, *t))
+        }
+        None => None,
+    };
     let mut em = Emitter {
         sink,
         dc: &dc,
+        safe: safe.as_ref(),
         tool,
         opts,
         pos: None,
@@ -190,13 +273,19 @@ fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
         ("approach", o.approach),
         ("link_check_step", o.link_check_step),
         ("rapid_feed", o.rapid_feed),
+        ("hop_step", o.hop_step),
     ];
     for (name, v) in positive {
         if !(v.is_finite() && v > 0.0) {
             return bad(format!("{name} must be finite and > 0, got {v}"));
         }
     }
-    for (name, v) in [("max_link", o.max_link), ("link_tolerance", o.link_tolerance)] {
+    for (name, v) in [
+        ("max_link", o.max_link),
+        ("link_tolerance", o.link_tolerance),
+        ("pass_lift", o.pass_lift),
+        ("max_skip_gap", o.max_skip_gap),
+    ] {
         if !(v.is_finite() && v >= 0.0) {
             return bad(format!("{name} must be finite and >= 0, got {v}"));
         }
@@ -205,6 +294,9 @@ fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
         && !(a.iter().chain(&b).all(|v| v.is_finite()) && a[0] <= b[0] && a[1] <= b[1])
     {
         return bad(format!("region must be finite with min <= max, got {a:?} .. {b:?}"));
+    }
+    if o.stock_left.is_some_and(|t| !(t.is_finite() && t >= 0.0)) {
+        return bad(format!("stock_left must be finite and >= 0, got {:?}", o.stock_left));
     }
     if let Some(t) = o.arc_tolerance
         && !(t.is_finite() && t > 0.0)
@@ -220,6 +312,8 @@ fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
 struct Emitter<'a, S: MotionSink> {
     sink: &'a mut S,
     dc: &'a DropCutter<'a>,
+    /// The grown cutter's drop-cutter and the stock left ([`FinishOptions::stock_left`]).
+    safe: Option<&'a (DropCutter<'a>, f64)>,
     tool: &'a Tool,
     opts: &'a FinishOptions,
     pos: Option<Point3>,
@@ -270,6 +364,7 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     fn end(&mut self) -> Result<(), ToolpathError<S::Error>> {
+        self.rise()?;
         self.retract()?;
         if self.opts.coolant {
             self.send(Motion::Coolant(Coolant::Off))?;
@@ -290,12 +385,12 @@ impl<S: MotionSink> Emitter<'_, S> {
 
     /// Whether the straight feed from `a` to `b` is short and gouge-free.
     fn can_link(&self, a: &Point3, b: &Point3) -> bool {
-        (b - a).xy().norm() <= self.opts.max_link && self.clear(a, b)
+        (b - a).xy().norm() <= self.opts.max_link && self.clear(a, b, self.opts.link_tolerance)
     }
 
-    /// Whether the drop-cutter finds no interference at samples
+    /// Whether the drop-cutter finds no interference deeper than `tolerance` at samples
     /// [`FinishOptions::link_check_step`] apart along `a`-`b`.
-    fn clear(&self, a: &Point3, b: &Point3) -> bool {
+    fn clear(&self, a: &Point3, b: &Point3, tolerance: f64) -> bool {
         let d = b - a;
         // Samples by the 3-D length: a chord that drops steeply (across a jump of the
         // cutter-location surface at a wall) is short in XY but passes the wall's corner.
@@ -306,7 +401,7 @@ impl<S: MotionSink> Emitter<'_, S> {
         let n = n.max(1.0) as usize;
         (0..=n).all(|k| {
             let p = a + d * (k as f64 / n as f64);
-            !self.dc.interferes(p.x, p.y, p.z + self.opts.link_tolerance)
+            !self.dc.interferes(p.x, p.y, p.z + tolerance)
         })
     }
 
@@ -316,7 +411,7 @@ impl<S: MotionSink> Emitter<'_, S> {
     /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
     /// where it jumps at a wall or cuts a corner of a waterline loop).
     fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
-        if self.clear(&a, &b) {
+        if self.clear(&a, &b, self.opts.link_tolerance) {
             return self.feed(b, self.tool.feed);
         }
         // Lift to the highest drop-cutter height along the chord (a small lift across a
@@ -334,7 +429,7 @@ impl<S: MotionSink> Emitter<'_, S> {
             return self.enter(b);
         }
         let (up, over) = (Point3::new(a.x, a.y, top), Point3::new(b.x, b.y, top));
-        if self.clear(&up, &over) {
+        if self.clear(&up, &over, self.opts.link_tolerance) {
             self.feed(up, self.tool.feed)?;
             self.feed(over, self.tool.feed)?;
             return self.feed(b, self.tool.feed);
@@ -342,11 +437,66 @@ impl<S: MotionSink> Emitter<'_, S> {
         self.enter(b)
     }
 
-    /// Retract, rapid over `s` on the clearance plane, down to the approach height, and
-    /// plunge at the plunge feed.
-    fn enter(&mut self, s: Point3) -> Result<(), ToolpathError<S::Error>> {
-        self.retract()?;
+    /// With a stock left, feeds straight up to the safe height over the current position
+    /// ([`Self::safe_height`]), where the cutter may still touch stock; nothing without.
+    fn rise(&mut self) -> Result<(), ToolpathError<S::Error>> {
         let clear = self.sum.clear_z;
+        if let Some(p) = self.pos.filter(|p| p.z < clear)
+            && let Some(up) = self.safe_height(p.x, p.y, p.z).filter(|&h| h > p.z)
+        {
+            self.feed(Point3::new(p.x, p.y, up.min(clear)), self.tool.feed)?;
+        }
+        Ok(())
+    }
+
+    /// The lowest tip height over `(x, y)` at which the cutter is [`FinishOptions::stock_left`]
+    /// from the part (the grown cutter's drop height raised by the stock left), at least
+    /// `z`; `None` without a stock left.
+    fn safe_height(&self, x: f64, y: f64, z: f64) -> Option<f64> {
+        let (dc, t) = self.safe?;
+        Some(dc.height(x, y).map_or(z, |h| (h + t).max(z)))
+    }
+
+    /// The highest safe height ([`Self::safe_height`]) along `a`-`b`, sampled every
+    /// [`FinishOptions::hop_step`] and raised by a margin for what lies between samples.
+    fn hop_height(&self, a: &Point3, b: &Point3) -> Option<f64> {
+        let d = b - a;
+        let n = ((d.xy().norm() / self.opts.hop_step).ceil().min(1e6) as usize).max(1);
+        (0..=n)
+            .try_fold(a.z.max(b.z), |top, k| {
+                let p = a + d * (k as f64 / n as f64);
+                Some(top.max(self.safe_height(p.x, p.y, p.z)?))
+            })
+            .map(|h| h + 0.05)
+    }
+
+    /// Retract, rapid over `s` on the clearance plane, down to the approach height, and
+    /// plunge at the plunge feed. With a stock left: leave the current position by feeding
+    /// up to its safe height, cross at the highest safe height on the way (the clearance
+    /// plane only when that is above it), rapid down to `s`'s safe height and plunge.
+    fn enter(&mut self, s: Point3) -> Result<(), ToolpathError<S::Error>> {
+        let clear = self.sum.clear_z;
+        if let Some(low) = self.safe_height(s.x, s.y, s.z) {
+            self.rise()?;
+            let hop = match self.pos.filter(|p| p.z < clear) {
+                Some(p) => self.hop_height(&p, &s).filter(|&h| h < clear).map(|h| (p, h.max(p.z))),
+                None => None,
+            };
+            match hop {
+                Some((p, h)) => {
+                    self.sum.hops += 1;
+                    self.rapid(Point3::new(p.x, p.y, h))?;
+                    self.rapid(Point3::new(s.x, s.y, h))?;
+                }
+                None => {
+                    self.retract()?;
+                    self.rapid(Point3::new(s.x, s.y, clear))?;
+                }
+            }
+            self.rapid(Point3::new(s.x, s.y, low.min(clear)))?;
+            return self.feed(s, self.tool.plunge_feed);
+        }
+        self.retract()?;
         self.rapid(Point3::new(s.x, s.y, clear))?;
         let top = (s.z + self.opts.approach).min(clear);
         self.rapid(Point3::new(s.x, s.y, top))?;
@@ -354,6 +504,8 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     fn pass(&mut self, path: &[Point3]) -> Result<(), ToolpathError<S::Error>> {
+        let lift = self.opts.pass_lift;
+        let path: Vec<Point3> = path.iter().map(|p| Point3::new(p.x, p.y, p.z + lift)).collect();
         let s = path[0];
         match self.pos {
             Some(p) if p.z < self.sum.clear_z && self.can_link(&p, &s) => {
@@ -363,7 +515,7 @@ impl<S: MotionSink> Emitter<'_, S> {
             _ => self.enter(s)?,
         }
         self.sum.passes += 1;
-        let Some((plane, fit)) = self.arc_fit(path) else {
+        let Some((plane, fit)) = self.arc_fit(&path) else {
             for w in path.windows(2) {
                 self.step(w[0], w[1])?;
             }
@@ -424,7 +576,7 @@ impl<S: MotionSink> Emitter<'_, S> {
     /// Whether the piece from `a` to `b` is clear: the drop-cutter finds no
     /// interference at samples [`FinishOptions::link_check_step`] apart along it.
     fn piece_clear(&self, a: Point3, b: Point3, plane: Plane, piece: &PlanarPiece) -> bool {
-        let Some((c, direction)) = piece.arc else { return self.clear(&a, &b) };
+        let Some((c, direction)) = piece.arc else { return self.clear(&a, &b, self.opts.link_tolerance) };
         let (u, v, _) = plane_axes(plane);
         let mut center = b;
         (center[u], center[v]) = (c[0], c[1]);

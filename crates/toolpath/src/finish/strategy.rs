@@ -71,9 +71,14 @@ impl Parallel {
     }
 
     fn raw_paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        self.raw_paths_at(ctx, self.stepover(ctx.cutter, ctx.scallop)?)
+    }
+
+    /// The passes `stepover` apart, cut below the floor.
+    fn raw_paths_at(&self, ctx: &FinishContext<'_>, stepover: f64) -> Result<Vec<Vec<Point3>>, FinishError> {
         let opts = ParallelFinishOptions {
             angle: self.angle,
-            stepover: self.stepover(ctx.cutter, ctx.scallop)?,
+            stepover,
             sample_step: self.sample_step,
             tolerance: self.tolerance,
             min_step: (0.05 * self.sample_step).min(0.02),
@@ -162,11 +167,18 @@ impl Waterline {
         let (min, max) = (ctx.min, ctx.max);
         let inside = |p: &Point3| p.x >= min[0] && p.x <= max[0] && p.y >= min[1] && p.y <= max[1];
         let mut out = Vec::new();
-        for ring in per_level?.into_iter().flatten() {
-            let mut ring = outward(&ring, 2.0 * self.tolerance);
-            if let Some(&first) = ring.first() {
-                ring.push(first);
-            }
+        let rings: Vec<Vec<Point3>> = per_level?
+            .into_par_iter()
+            .flatten()
+            .map(|ring| {
+                let mut ring = outward(&ring, 2.0 * self.tolerance);
+                if let Some(&first) = ring.first() {
+                    ring.push(first);
+                }
+                clear_chords(ctx.drop_cutter, &ring, 2.0 * self.tolerance)
+            })
+            .collect();
+        for ring in rings {
             out.extend(split_runs(vec![ring], inside));
         }
         Ok(out)
@@ -216,6 +228,106 @@ impl Default for SteepShallow {
     }
 }
 
+/// Crossed parallel finishing: raster passes along several directions (`directions` of
+/// them, evenly spread over 180 degrees from [`Parallel::angle`]), each machined where its
+/// passes lie closest together on the surface. Passes along `d`, `stepover` apart across
+/// it, lie `stepover / sqrt(1 - (n . p)^2)` apart on a surface of unit normal `n` (`p` the
+/// horizontal unit vector across the passes): as tight as on flat ground where the surface
+/// slopes along the passes, however steep, and ever wider where it slopes across them. So
+/// a point goes to the direction whose `|n . p|` is least (to every direction within
+/// [`Crossed::overlap`] of it, so that the regions overlap), except where the first
+/// direction already spaces it within the design slope's factor. The first direction's
+/// stepover is set for [`Parallel::design_slope`] (default 0: flat ground) and the others
+/// share it; with two directions a steep wall facing halfway between them sees passes
+/// `sqrt(2)` times the flat stepover apart (twice the scallop height), with three
+/// `2 / sqrt(3)` times. The normal is a ball's contact normal
+/// (`DropCutter::contact_normal`); for other cutters the drop-cutter surface's, by central
+/// differences [`Crossed::slope_step`] apart, and where a neighbour finds no contact (the
+/// part's outline) the first direction keeps the point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossed {
+    /// The passes of every direction; `angle` is the first direction's.
+    pub parallel: Parallel,
+    /// Number of raster directions, at least 1. Default `2`.
+    pub directions: usize,
+    /// Overlap of the directions' regions, in `|n . p|`. Default `0.05`.
+    pub overlap: f64,
+    /// Finite-difference step of the normal estimate. Default `0.05`.
+    pub slope_step: f64,
+    /// A run of points another direction takes, shorter than this along a pass between
+    /// two this one keeps, is kept too (cut twice rather than entered twice). Default `5`.
+    pub max_gap: f64,
+}
+
+impl Default for Crossed {
+    fn default() -> Self {
+        Self { parallel: Parallel::default(), directions: 2, overlap: 0.05, slope_step: 0.05, max_gap: 5.0 }
+    }
+}
+
+/// The drop-cutter surface's unit normal at `(x, y)` by central differences `e` apart;
+/// `None` where a neighbour is not touched.
+fn cl_normal(dc: &DropCutter<'_>, x: f64, y: f64, e: f64) -> Option<[f64; 3]> {
+    let gx = (dc.height(x + e, y)? - dc.height(x - e, y)?) / (2.0 * e);
+    let gy = (dc.height(x, y + e)? - dc.height(x, y - e)?) / (2.0 * e);
+    let l = (gx * gx + gy * gy + 1.0).sqrt();
+    Some([-gx / l, -gy / l, 1.0 / l])
+}
+
+impl FinishingStrategy for Crossed {
+    fn name(&self) -> &str {
+        "crossed"
+    }
+
+    fn paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
+        let k = self.directions;
+        let (o, e) = (self.overlap, self.slope_step);
+        if !((1..=12).contains(&k) && o.is_finite() && o >= 0.0 && e.is_finite() && e > 0.0) {
+            return Err(FinishError::InvalidOptions(format!(
+                "crossed needs 1 to 12 directions, an overlap >= 0 and a positive slope step, got {k}, {o}, {e}"
+            )));
+        }
+        let d = self.parallel.design_slope;
+        if !(d.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&d)) {
+            return Err(FinishError::InvalidOptions(format!(
+                "design slope must be in [0, 90) degrees, got {d}"
+            )));
+        }
+        let stepover = self.parallel.stepover(ctx.cutter, ctx.scallop)?;
+        // Within this `|n . p|` the first direction spaces the surface within the design.
+        let easy = d.sin();
+        let across: Vec<[f64; 2]> = (0..k)
+            .map(|i| {
+                let a = self.parallel.angle + std::f64::consts::PI * i as f64 / k as f64;
+                [-a.sin(), a.cos()]
+            })
+            .collect();
+        let dc = ctx.drop_cutter;
+        let mut out = Vec::new();
+        for (i, p) in across.iter().enumerate() {
+            let par = Parallel {
+                angle: self.parallel.angle + std::f64::consts::PI * i as f64 / k as f64,
+                ..self.parallel
+            };
+            let keep =
+                |q: &Point3| match dc.contact_normal(q.x, q.y, q.z).or_else(|| cl_normal(dc, q.x, q.y, e)) {
+                    None => i == 0,
+                    Some(n) => {
+                        let dot = |v: &[f64; 2]| (n[0] * v[0] + n[1] * v[1]).abs();
+                        let first = dot(&across[0]);
+                        if first <= easy {
+                            return i == 0;
+                        }
+                        let least = across.iter().map(dot).fold(f64::INFINITY, f64::min);
+                        dot(p) <= least + o
+                    }
+                };
+            out.extend(split_par(par.raw_paths_at(ctx, stepover)?, keep, self.max_gap));
+        }
+        Ok(out)
+    }
+}
+
 /// The slope (radians) of the drop-cutter surface at `(x, y)`; `None` where a neighbour
 /// is not touched (an edge of the part: treated as steep).
 pub fn cl_slope(dc: &DropCutter<'_>, x: f64, y: f64, e: f64) -> Option<f64> {
@@ -239,12 +351,88 @@ impl FinishingStrategy for SteepShallow {
         let dc = ctx.drop_cutter;
         let wl = Waterline { min_slope: t - o, ..self.waterline };
         let steep = |p: &Point3| cl_slope(dc, p.x, p.y, e).is_none_or(|a| a >= t - o);
-        let mut out = split_par(wl.loops(ctx)?, steep);
+        let mut out = split_par(wl.loops(ctx)?, steep, 0.0);
         let par = Parallel { design_slope: t + o, ..self.parallel };
         let shallow = |p: &Point3| cl_slope(dc, p.x, p.y, e).is_some_and(|a| a <= t + o);
-        out.extend(split_par(par.raw_paths(ctx)?, shallow));
+        out.extend(split_par(par.raw_paths(ctx)?, shallow, 0.0));
         Ok(out)
     }
+}
+
+/// Spacing of the interference checks along a loop's chords.
+const CHORD_CHECK: f64 = 0.05;
+
+/// Whether the cutter with its tip anywhere on the chord `a`-`b` (one height) is clear of
+/// the part, checked at points [`CHORD_CHECK`] apart.
+fn chord_clear(dc: &DropCutter<'_>, a: &Point3, b: &Point3) -> bool {
+    let d = b - a;
+    let n = ((d.norm() / CHORD_CHECK).ceil().min(1e6) as usize).max(1);
+    (1..n).all(|k| {
+        let p = a + d * (k as f64 / n as f64);
+        !dc.interferes(p.x, p.y, p.z)
+    })
+}
+
+/// The point of the loop's contour beside the chord `a`-`b` at its middle: the midpoint
+/// moved to its right (out of the cutter's interference region, the cutter cutting on
+/// its left) just far enough to be clear, by bisection, plus `margin`; `None` where no
+/// clear point lies within a cutter radius.
+fn contour_beside(dc: &DropCutter<'_>, a: &Point3, b: &Point3, margin: f64) -> Option<Point3> {
+    let t = (b - a).xy();
+    let l = t.norm();
+    if !(l > 0.0) {
+        return None;
+    }
+    let n = [t.y / l, -t.x / l];
+    let m = a + (b - a) * 0.5;
+    let at = |s: f64| Point3::new(m.x + s * n[0], m.y + s * n[1], m.z);
+    let blocked = |s: f64| {
+        let p = at(s);
+        dc.interferes(p.x, p.y, p.z)
+    };
+    let (mut lo, mut hi) = (0.0, margin.max(1e-6));
+    while blocked(hi) {
+        lo = hi;
+        hi *= 2.0;
+        if hi > dc.radius() {
+            return None;
+        }
+    }
+    for _ in 0..40 {
+        if hi - lo <= 0.25 * margin {
+            break;
+        }
+        let mid = 0.5 * (lo + hi);
+        if blocked(mid) { lo = mid } else { hi = mid }
+    }
+    Some(at(hi + margin))
+}
+
+/// `ring` (a closed waterline loop, first point repeated at the end) with points of the
+/// contour inserted where a chord between two of its points would cut into the part (on
+/// a convex bend of the contour the chord runs inside it, by its sagitta; across a kink
+/// the grid smoothed, by more): each such chord is split at the contour point beside its
+/// middle, to a depth of eight halvings, so that the emitter can feed along the loop
+/// instead of lifting over, or retracting at, every such chord.
+fn clear_chords(dc: &DropCutter<'_>, ring: &[Point3], margin: f64) -> Vec<Point3> {
+    fn split(dc: &DropCutter<'_>, a: Point3, b: Point3, margin: f64, depth: u32, out: &mut Vec<Point3>) {
+        if depth == 0 || chord_clear(dc, &a, &b) {
+            return;
+        }
+        let Some(m) = contour_beside(dc, &a, &b, margin) else { return };
+        split(dc, a, m, margin, depth - 1, out);
+        out.push(m);
+        split(dc, m, b, margin, depth - 1, out);
+    }
+    let mut out = Vec::with_capacity(ring.len());
+    for w in ring.windows(2) {
+        out.push(w[0]);
+        split(dc, w[0], w[1], margin, 8, &mut out);
+    }
+    if let Some(&last) = ring.last() {
+        out.push(last);
+    }
+    out
 }
 
 /// A closed loop (the cutter cuts on its left) moved `d` to its right, out of the
@@ -267,12 +455,25 @@ fn outward(ring: &[Point3], d: f64) -> Vec<Point3> {
         .collect()
 }
 
-/// [`split_runs`] with the predicate evaluated in parallel.
-fn split_par(paths: Vec<Vec<Point3>>, keep: impl Fn(&Point3) -> bool + Sync) -> Vec<Vec<Point3>> {
+/// [`split_runs`] with the predicate evaluated in parallel, every accepted point's
+/// neighbours accepted with it; a run of rejected points shorter than `gap` (along the
+/// path) between accepted ones is accepted too.
+pub(super) fn split_par(
+    paths: Vec<Vec<Point3>>,
+    keep: impl Fn(&Point3) -> bool + Sync,
+    gap: f64,
+) -> Vec<Vec<Point3>> {
     paths
         .into_par_iter()
         .map(|p| {
             let flags: Vec<bool> = p.iter().map(&keep).collect();
+            // Each kept point takes its neighbours along: the chords to them run over the
+            // surface it stands for (a narrow region a pass crosses in one point is cut,
+            // and neighbouring regions overlap by a chord).
+            let mut flags: Vec<bool> = (0..flags.len())
+                .map(|i| flags[i] || (i > 0 && flags[i - 1]) || flags.get(i + 1).copied().unwrap_or(false))
+                .collect();
+            fill_gaps(&p, &mut flags, gap);
             let mut k = flags.into_iter();
             split_runs(vec![p], |_| k.next().unwrap_or(false))
         })
@@ -280,6 +481,32 @@ fn split_par(paths: Vec<Vec<Point3>>, keep: impl Fn(&Point3) -> bool + Sync) -> 
         .into_iter()
         .flatten()
         .collect()
+}
+
+/// Sets the flags of every run of cleared flags shorter than `gap` along `path` that has
+/// set flags on both sides.
+fn fill_gaps(path: &[Point3], flags: &mut [bool], gap: f64) {
+    if !(gap > 0.0) {
+        return;
+    }
+    let mut i = 0;
+    while i < flags.len() {
+        if flags[i] {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < flags.len() && !flags[i] {
+            i += 1;
+        }
+        // Points start..i are rejected; the gap runs from start - 1 to i.
+        if start > 0 && i < flags.len() {
+            let len: f64 = path[start - 1..=i].windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+            if len < gap {
+                flags[start..i].iter_mut().for_each(|f| *f = true);
+            }
+        }
+    }
 }
 
 /// The runs of consecutive points that `keep` accepts, each of at least two points.
