@@ -118,8 +118,13 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
             "planar_overhang_fraction": planar.map(|(_, ps)| ps.overhang_fraction),
             "planar_iou": planar.map(|(_, ps)| ps.iou),
             "planar_collisions": planar.map(|(pp, _)| pp.collisions),
+            "planar_support_volume": run.planar_support.volume,
+            "planar_support_area": run.planar_support.area,
             "collisions": p.collisions,
             "poses_checked": p.poses_checked,
+            "travel_collisions": p.travel_collisions,
+            "turned_axes": p.turned_axes,
+            "unclear_points": p.unclear_points,
             "spacing_within_25": sp.within_25,
             "spacing_median_ratio": sp.median_ratio,
             "extruded_mm": p.extruded_length,
@@ -149,6 +154,10 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
                 pp.collisions
             );
         }
+        println!(
+            "a planar slicer's support: {:.0} mm3 under {:.0} mm2",
+            run.planar_support.volume, run.planar_support.area
+        );
         println!(
             "optimise {:.1} s, extract {:.1} s, program {:.1} s, rebuild {:.1} s; wrote {} in {:.1} s",
             t.optimise,

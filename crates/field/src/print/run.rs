@@ -6,9 +6,9 @@ use std::time::Instant;
 use s2g_geom::Mesh;
 
 use super::{
-    LayerField, NeuralLayers, PlanarLayers, PrintPathOptions, PrintPlan, PrintProgram, PrintProgramOptions,
-    PrintScore, ScoreOptions, SpacingStats, bead_spacing, extract_print, print_program, read_beads,
-    score_print,
+    LayerField, NeuralLayers, PlanarLayers, PlanarSupport, PrintPathOptions, PrintPlan, PrintProgram,
+    PrintProgramOptions, PrintScore, ScoreOptions, SpacingStats, bead_spacing, extract_print, planar_support,
+    print_program, read_beads, score_print,
 };
 use crate::additive::{PrintOptions, PrintProblem, optimize_print_layers, pretrain_planar_print};
 use crate::error::{FieldError, Result};
@@ -107,6 +107,9 @@ pub struct PrintRun {
     pub spacing: SpacingStats,
     /// Planar slicing of the same part: its program's statistics and its score.
     pub planar: Option<(PrintProgram, PrintScore)>,
+    /// The support a planar slicer would need under the part (at the self-supporting
+    /// angle of the optimisation, on a grid of the score's voxel).
+    pub planar_support: PlanarSupport,
     /// Seconds per stage (the planar baseline not included).
     pub seconds: StageSeconds,
 }
@@ -195,5 +198,8 @@ pub fn print_mesh(
     } else {
         None
     };
-    Ok(PrintRun { plan, program, score, spacing, planar, seconds })
+    let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
+    let planar_support =
+        planar_support(mesh, options.optimisation.constants.max_overhang_deg, bbox.min.z, options.voxel)?;
+    Ok(PrintRun { plan, program, score, spacing, planar, planar_support, seconds })
 }
