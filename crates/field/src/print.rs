@@ -30,7 +30,9 @@ pub use emit::{PrintProgram, PrintProgramOptions};
 pub use extract::{PathKind, PrintLayer, PrintPath, PrintPathOptions};
 pub use parts::{arch_mesh, bracket_mesh};
 pub use rebuild::{Bead, PrintScore, ScoreOptions, deposit, overhang_fraction, read_beads, score_print};
-pub use run::{PrintMeshOptions, PrintObjective, PrintRun, PrintStage, StageSeconds, print_mesh};
+pub use run::{
+    AlignDirection, PrintMeshOptions, PrintObjective, PrintRun, PrintStage, StageSeconds, print_mesh,
+};
 pub use spacing::{SpacingStats, bead_spacing};
 pub use support::{PlanarSupport, planar_support};
 
