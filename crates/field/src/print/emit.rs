@@ -492,16 +492,22 @@ impl Emitter<'_> {
             while k < ways.len() && !skip[k] {
                 k += 1;
             }
-            // A run whose travel collides whatever the way starts one segment later.
-            let mut travel = self.travel_way(&states[first]);
-            while self.opts.skip_unclear && travel.hits > 0 && first < k {
+            // A run whose travel collides whatever the way (first its start pose with the
+            // tip, a quick test) starts one segment later.
+            let mut travel = None;
+            while first < k {
+                let s = &states[first];
+                if !(self.opts.skip_unclear && self.collides(&s.tip, &self.axis(s), true)) {
+                    let t = self.travel_way(s);
+                    if t.hits == 0 || !self.opts.skip_unclear {
+                        travel = Some(t);
+                        break;
+                    }
+                }
                 self.report.unprintable_length += (states[first + 1].tip - states[first].tip).norm();
                 first += 1;
-                travel = self.travel_way(&states[first]);
             }
-            if first == k {
-                continue;
-            }
+            let Some(travel) = travel else { continue };
             self.travel(travel)?;
             self.report.paths += 1;
             for j in first..k {
