@@ -198,3 +198,20 @@ fn support_free_arm_overhangs_less_than_planar() {
         print_mesh(&mesh, &PrintMeshOptions { planar_baseline: false, ..options }, &mut |_| {}).unwrap();
     assert!(again.program.text == run.program.text, "same seed, another program");
 }
+
+/// Aligned layers (Eq. 38) along the bent arm's axis, optimised briefly, print end to end
+/// through `print_mesh`: the program parses back into beads whose axes follow the layers
+/// (some tilted), no pose collides, and the rebuilt print covers the part.
+#[test]
+fn aligned_arm_prints_end_to_end() {
+    let mut o = fast_options();
+    o.objective = PrintObjective::Aligned;
+    o.planar_baseline = false;
+    (o.dac.pretrain_steps, o.dac.steps) = (150, 60);
+    let run = print_mesh(&arm(), &o, &mut |_| {}).unwrap();
+    let p = &run.program;
+    assert_eq!(p.collisions, 0);
+    let beads = read_beads(&p.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+    assert!(beads.iter().any(|b| b.axis.z < 0.95), "no bead tilts");
+    assert!(run.score.iou > 0.8, "IoU {}, {} mm unprintable", run.score.iou, p.unprintable_length);
+}
