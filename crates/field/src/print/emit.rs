@@ -296,8 +296,7 @@ impl<'a> Emitter<'a> {
     }
 
     /// Colliding poses along the moves through `states` (from the current state).
-    /// With `stop`, it stops at the first colliding pose.
-    fn count_way(&self, from: &State, states: &[State], with_tip: bool, stop: bool) -> (usize, usize) {
+    fn count_way(&self, from: &State, states: &[State], with_tip: bool) -> (usize, usize) {
         let (mut checked, mut hits) = (0, 0);
         let mut prev = *from;
         for s in states {
@@ -305,9 +304,6 @@ impl<'a> Emitter<'a> {
                 for (tip, axis) in self.block_poses(&prev, &piece) {
                     checked += 1;
                     hits += self.collides(&tip, &axis, with_tip) as usize;
-                    if stop && hits > 0 {
-                        return (checked, hits);
-                    }
                 }
                 prev = piece;
             }
@@ -411,14 +407,12 @@ impl Emitter<'_> {
     }
 
     /// The way of a travel to `start` (module docs): the first way whose poses are all
-    /// clear, else the one with the fewest colliding (with
-    /// [`PrintProgramOptions::skip_unclear`], which leaves such a travel out, each way's
-    /// count stops at its first colliding pose).
+    /// clear, else the one with the fewest colliding.
     fn travel_way(&self, start: &State) -> Travel {
         let Some(cur) = self.state else {
             let high = *self.opts.hops.last().unwrap_or(&0.0);
             let above = State { tip: start.tip + self.axis(start) * high, ..*start };
-            let (checked, hits) = self.count_way(&above, &[*start], true, self.opts.skip_unclear);
+            let (checked, hits) = self.count_way(&above, &[*start], true);
             return Travel { checked, hits, raised: false, way: vec![above, *start] };
         };
         let mut best: Option<Travel> = None;
@@ -429,7 +423,7 @@ impl Emitter<'_> {
             let lift = State { tip: cur.tip + dc * h, ..cur };
             let above = State { tip: start.tip + ds * h, ..*start };
             let way = vec![lift, above, *start];
-            let (checked, hits) = self.count_way(&cur, &way, true, self.opts.skip_unclear);
+            let (checked, hits) = self.count_way(&cur, &way, true);
             if best.as_ref().is_none_or(|b| hits < b.hits) {
                 best = Some(Travel { checked, hits, raised: i > 0, way });
             }
@@ -484,7 +478,7 @@ impl Emitter<'_> {
         // Per segment k (from point k to k + 1): its poses checked and colliding (those
         // after point k), and whether it is left out (a collision, or point k unclear).
         let ways: Vec<(usize, usize)> =
-            states.windows(2).map(|w| self.count_way(&w[0], &w[1..], false, false)).collect();
+            states.windows(2).map(|w| self.count_way(&w[0], &w[1..], false)).collect();
         let skip: Vec<bool> =
             ways.iter().zip(unclear).map(|(w, u)| self.opts.skip_unclear && (w.1 > 0 || *u)).collect();
         let mut k = 0;
@@ -498,22 +492,19 @@ impl Emitter<'_> {
             while k < ways.len() && !skip[k] {
                 k += 1;
             }
-            // A run whose travel collides whatever the way (first its start pose with the
-            // tip, a quick test) starts one segment later.
-            let mut travel = None;
-            while first < k {
+            // A run whose start pose collides with its tip (the lowering onto it would)
+            // starts one segment later.
+            while self.opts.skip_unclear && first < k && {
                 let s = &states[first];
-                if !(self.opts.skip_unclear && self.collides(&s.tip, &self.axis(s), true)) {
-                    let t = self.travel_way(s);
-                    if t.hits == 0 || !self.opts.skip_unclear {
-                        travel = Some(t);
-                        break;
-                    }
-                }
+                self.collides(&s.tip, &self.axis(s), true)
+            } {
                 self.report.unprintable_length += (states[first + 1].tip - states[first].tip).norm();
                 first += 1;
             }
-            let Some(travel) = travel else { continue };
+            if first == k {
+                continue;
+            }
+            let travel = self.travel_way(&states[first]);
             self.travel(travel)?;
             self.report.paths += 1;
             for j in first..k {
