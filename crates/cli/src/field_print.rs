@@ -1,5 +1,5 @@
-//! `s2g field print (MESH | --part arm|arch|bracket) --objective support-free|planar
-//! -o PROGRAM [--layers L.ply] [--paths P.ply] [--json]`: multi-axis printing end to end
+//! `s2g field print (MESH | --part arm|arch|bracket)
+//! --objective support-free|planar|aligned[:DIRECTIONS]|coopt[:DIRECTIONS] -o PROGRAM [--layers L.ply] [--paths P.ply] [--json]`: multi-axis printing end to end
 //! (seed 002's layers and toolpaths, closed with seed 004's reconstruction). Progress and
 //! per-stage time go to stderr; the report to stdout.
 
@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use s2g_field::{
-    PrintMeshOptions, PrintObjective, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh, print_mesh,
+    AlignDirection, PrintMeshOptions, PrintObjective, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh,
+    print_mesh,
 };
 use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
 
@@ -22,8 +23,11 @@ pub struct PrintArgs {
     /// A built-in part instead of a mesh: the bent arm, the arch or the bracket with a tip.
     #[arg(long, value_parser = ["arm", "arch", "bracket"])]
     part: Option<String>,
-    /// Which layers: `support-free` (Eq. 37) or `planar`; `aligned[:DIRS]` and `coopt`
-    /// (Eq. 38, 39) are not yet printed end to end.
+    /// Which layers: `support-free` (Eq. 37), `planar`, `aligned[:DIRECTIONS]` (layers
+    /// along a direction field, Eq. 38) or `coopt[:DIRECTIONS]` (layers and toolpaths
+    /// co-optimised along it, Eq. 39, the toolpaths the path field's iso-curves).
+    /// DIRECTIONS: `X,Y,Z` (one direction everywhere) or `arm` (the bent arm's axis, the
+    /// default with `--part arm`).
     #[arg(long, default_value = "support-free")]
     objective: String,
     /// Adam steps on the layer loss (the library's default when absent).
@@ -60,6 +64,30 @@ fn built_in(name: &str) -> anyhow::Result<Mesh> {
     })
 }
 
+/// The direction field of `aligned[:DIRECTIONS]`: `X,Y,Z`, or `arm` (the default for the
+/// built-in arm).
+fn direction(directions: Option<&str>, part: Option<&str>) -> anyhow::Result<AlignDirection> {
+    let arm = AlignDirection::BentArm { column: 12.0, bend_radius: 16.0, bend_deg: 60.0 };
+    match directions {
+        None if part == Some("arm") => Ok(arm),
+        None => bail!("aligned and coopt need directions (aligned:X,Y,Z) except on --part arm"),
+        Some("arm") => Ok(arm),
+        Some(text) => {
+            let v: Vec<f64> = text
+                .split(',')
+                .map(|c| c.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("directions {text}: X,Y,Z or arm"))?;
+            match v.as_slice() {
+                [x, y, z] if v.iter().all(|c| c.is_finite()) && v.iter().any(|c| *c != 0.0) => {
+                    Ok(AlignDirection::Constant(shape2gcode::geom::Vector3::new(*x, *y, *z)))
+                }
+                _ => bail!("directions {text}: three finite numbers, not all zero, or arm"),
+            }
+        }
+    }
+}
+
 /// Runs `s2g field print`.
 pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
@@ -71,20 +99,35 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
         (None, Some(p)) => (p.clone(), built_in(p).with_context(|| format!("building the {p}"))?),
         (None, None) => bail!("give a mesh or --part"),
     };
-    let objective = match args.objective.split(':').next().unwrap_or_default() {
+    let (kind, directions) = match args.objective.split_once(':') {
+        Some((k, d)) => (k, Some(d)),
+        None => (args.objective.as_str(), None),
+    };
+    let objective = match kind {
         "support-free" => PrintObjective::SupportFree,
         "planar" => PrintObjective::Planar,
-        "aligned" | "coopt" => {
-            bail!("--objective {}: not yet printed end to end (support-free or planar)", args.objective)
-        }
-        other => bail!("unknown objective {other} (support-free, planar)"),
+        "aligned" => PrintObjective::Aligned,
+        "coopt" => PrintObjective::Coopt,
+        other => bail!("unknown objective {other} (support-free, planar, aligned, coopt)"),
     };
     let mut options = PrintMeshOptions { objective, ..PrintMeshOptions::default() };
+    if matches!(objective, PrintObjective::Aligned | PrintObjective::Coopt) {
+        options.direction = direction(directions, args.part.as_deref())?;
+    } else if directions.is_some() {
+        bail!("--objective {}: only aligned and coopt take directions", args.objective);
+    }
     if let Some(s) = args.steps {
         options.optimisation.steps = s;
+        options.dac.steps = s;
+        options.tgc.steps = s;
     }
     options.optimisation.seed = args.seed;
     options.optimisation.network.seed = args.seed;
+    options.dac.seed = args.seed;
+    options.dac.network.seed = args.seed;
+    options.tgc.seed = args.seed;
+    options.tgc.layer_network.seed = args.seed;
+    options.tgc.path_network.seed = args.seed.wrapping_add(1);
     options.paths.layer_height = args.layer_height;
     options.paths.bead_width = args.bead_width;
     let json = args.json;
@@ -118,8 +161,14 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
             "planar_overhang_fraction": planar.map(|(_, ps)| ps.overhang_fraction),
             "planar_iou": planar.map(|(_, ps)| ps.iou),
             "planar_collisions": planar.map(|(pp, _)| pp.collisions),
+            "planar_support_volume": run.planar_support.volume,
+            "planar_support_area": run.planar_support.area,
             "collisions": p.collisions,
             "poses_checked": p.poses_checked,
+            "travel_collisions": p.travel_collisions,
+            "turned_axes": p.turned_axes,
+            "unclear_points": p.unclear_points,
+            "unprintable_length": p.unprintable_length,
             "spacing_within_25": sp.within_25,
             "spacing_median_ratio": sp.median_ratio,
             "extruded_mm": p.extruded_length,
@@ -134,11 +183,12 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
             p.layers, p.paths, p.blocks, p.extruded_length, p.travel_length
         );
         println!(
-            "rebuilt print: IoU {:.3}, overhang {:.2} %, {} of {} poses colliding; spacing within ±25 % on {:.1} % of the paths",
+            "rebuilt print: IoU {:.3}, overhang {:.2} %, {} of {} poses colliding, {:.0} mm of path unprintable; spacing within ±25 % on {:.1} % of the paths",
             s.iou,
             100.0 * s.overhang_fraction,
             p.collisions,
             p.poses_checked,
+            p.unprintable_length,
             100.0 * sp.within_25
         );
         if let Some((pp, ps)) = planar {
@@ -149,6 +199,10 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
                 pp.collisions
             );
         }
+        println!(
+            "a planar slicer's support: {:.0} mm3 under {:.0} mm2",
+            run.planar_support.volume, run.planar_support.area
+        );
         println!(
             "optimise {:.1} s, extract {:.1} s, program {:.1} s, rebuild {:.1} s; wrote {} in {:.1} s",
             t.optimise,

@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,arch,bracket,bunny
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG]
 //! ```
 //!
 //! The parts, standing on `z = 0`: the bent arm of `support_free` (radius 6, column 12,
@@ -56,13 +56,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--layer" => options.paths.layer_height = value.parse()?,
             "--bead" => options.paths.bead_width = value.parse()?,
             "--lattice" => options.paths.lattice = value.parse()?,
+            "--margin" => options.optimisation.constants.overhang_margin_deg = value.parse()?,
             _ => return Err(format!("unknown flag {flag}").into()),
         }
     }
     println!(
-        "| part | layers | iou | overhang | collisions / poses | spacing ±25 % | planar iou | planar overhang | planar collisions | optimise s | extract s | program s | rebuild s |"
+        "| part | layers | iou | overhang | collisions / poses | unprintable mm | spacing ±25 % | planar iou | planar overhang | planar collisions | planar support mm³ | optimise s | extract s | program s | rebuild s |"
     );
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
     let mut lines = Vec::new();
     for name in parts.split(',') {
         let mesh = part(name)?;
@@ -70,16 +71,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (p, s, sp, t) = (&run.program, &run.score, &run.spacing, &run.seconds);
         let (pp, ps) = run.planar.as_ref().ok_or("no planar baseline")?;
         println!(
-            "| {name} | {} | {:.3} | {:.4} | {} / {} | {:.3} | {:.3} | {:.4} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            "| {name} | {} | {:.3} | {:.4} | {} / {} | {:.1} | {:.3} | {:.3} | {:.4} | {} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} |",
             p.layers,
             s.iou,
             s.overhang_fraction,
             p.collisions,
             p.poses_checked,
+            p.unprintable_length,
             sp.within_25,
             ps.iou,
             ps.overhang_fraction,
             pp.collisions,
+            run.planar_support.volume,
             t.optimise,
             t.extract,
             t.program,
@@ -89,7 +92,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "{{\"part\":\"{name}\",\"layers\":{},\"paths\":{},\"iou\":{:.4},\"overhang_fraction\":{:.5},\"planar_iou\":{:.4},\
              \"planar_overhang_fraction\":{:.5},\"collisions\":{},\"poses_checked\":{},\"planar_collisions\":{},\
              \"spacing_within_25\":{:.4},\"spacing_median\":{:.3},\"lone_length\":{:.1},\"measured_length\":{:.1},\
-             \"volume_ratio\":{:.3},\"blocks\":{},\"seconds\":{{\"optimise\":{:.1},\"extract\":{:.1},\"program\":{:.1},\"rebuild\":{:.1}}}}}",
+             \"volume_ratio\":{:.3},\"blocks\":{},\"travel_collisions\":{},\"turned_axes\":{},\"unclear_points\":{},\"unprintable_length\":{:.1},\"planar_support_volume\":{:.1},\"planar_support_area\":{:.1},\"part_volume\":{:.1},\"seconds\":{{\"optimise\":{:.1},\"extract\":{:.1},\"program\":{:.1},\"rebuild\":{:.1}}}}}",
             p.layers,
             p.paths,
             s.iou,
@@ -105,6 +108,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             sp.measured_length,
             s.volume_ratio,
             p.blocks,
+            p.travel_collisions,
+            p.turned_axes,
+            p.unclear_points,
+            p.unprintable_length,
+            run.planar_support.volume,
+            run.planar_support.area,
+            mesh.signed_volume(),
             t.optimise,
             t.extract,
             t.program,

@@ -113,10 +113,11 @@ pub use path::{
     path_spacing, path_spacing_loss, path_stats, path_tangent, projected_path_gradient,
 };
 pub use print::{
-    Bead, LayerField, NeuralLayers, PathKind, PlanarLayers, PrintLayer, PrintMeshOptions, PrintObjective,
-    PrintPath, PrintPathOptions, PrintPlan, PrintProgram, PrintProgramOptions, PrintRun, PrintScore,
-    PrintStage, ScoreOptions, SpacingStats, StageSeconds, arch_mesh, bead_spacing, bracket_mesh, deposit,
-    extract_print, overhang_fraction, print_mesh, print_program, read_beads, score_print,
+    AlignDirection, Bead, LayerField, NeuralLayers, PathKind, PlanarLayers, PlanarSupport, PrintLayer,
+    PrintMeshOptions, PrintObjective, PrintPath, PrintPathOptions, PrintPlan, PrintProgram,
+    PrintProgramOptions, PrintRun, PrintScore, PrintStage, ScoreOptions, SpacingStats, StageSeconds,
+    arch_mesh, bead_spacing, bracket_mesh, deposit, extract_print, overhang_fraction, planar_support,
+    print_mesh, print_program, read_beads, score_print,
 };
 pub use program::{
     ContourPaths, MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh,

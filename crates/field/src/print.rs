@@ -19,6 +19,7 @@ mod parts;
 mod rebuild;
 mod run;
 mod spacing;
+mod support;
 
 use s2g_geom::{Aabb, Mesh, Normalization, Point3, SignedDistance, SweepOptions, Vector3, sweep_profile};
 
@@ -29,8 +30,11 @@ pub use emit::{PrintProgram, PrintProgramOptions};
 pub use extract::{PathKind, PrintLayer, PrintPath, PrintPathOptions};
 pub use parts::{arch_mesh, bracket_mesh};
 pub use rebuild::{Bead, PrintScore, ScoreOptions, deposit, overhang_fraction, read_beads, score_print};
-pub use run::{PrintMeshOptions, PrintObjective, PrintRun, PrintStage, StageSeconds, print_mesh};
+pub use run::{
+    AlignDirection, PrintMeshOptions, PrintObjective, PrintRun, PrintStage, StageSeconds, print_mesh,
+};
 pub use spacing::{SpacingStats, bead_spacing};
+pub use support::{PlanarSupport, planar_support};
 
 /// A scalar field whose level sets are layers, in the part's units.
 ///

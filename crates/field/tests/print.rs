@@ -2,11 +2,11 @@
 //! program, the print rebuilt from the program text and scored.
 
 use s2g_field::{
-    MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions, PrintProgramOptions,
-    arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print, print_mesh, print_program,
-    read_beads,
+    LayerField, MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions,
+    PrintProgramOptions, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print, planar_support,
+    print_mesh, print_program, read_beads,
 };
-use s2g_geom::Mesh;
+use s2g_geom::{Aabb, Mesh, Point3, Vector3};
 
 fn arm() -> Mesh {
     bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12).unwrap()
@@ -19,6 +19,34 @@ fn fast_options() -> PrintMeshOptions {
     o.grid = 3.0;
     o.surface_samples = 1500;
     o
+}
+
+/// The support a planar slicer needs: none under a box on the platform, the whole gap under
+/// a box held above it, and under the arch the columns below its intrados within `90° - α`
+/// of the crown (`x0 = r_i cos α`: `depth ∫ (pillar + √(r_i² - x²)) dx` over `|x| < x0`).
+#[test]
+fn planar_support_is_the_gap_under_steep_undersides() {
+    let cube =
+        |z: f64| Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, z), Point3::new(4.0, 3.0, z + 2.0))).unwrap();
+    let on = planar_support(&cube(0.0), 45.0, 0.0, 0.25).unwrap();
+    assert_eq!((on.volume, on.area), (0.0, 0.0));
+    let above = planar_support(&cube(5.0), 45.0, 0.0, 0.25).unwrap();
+    assert!((above.volume - 60.0).abs() < 0.05 * 60.0, "floating box: {above:?}");
+    assert!((above.area - 12.0).abs() < 0.05 * 12.0, "floating box: {above:?}");
+    let arch = arch_mesh(14.0, 6.0, 10.0, 10.0, 48).unwrap();
+    let (ri, pillar, depth) = (11.0f64, 10.0, 10.0);
+    for alpha in [45.0f64, 30.0] {
+        let x0 = ri * alpha.to_radians().cos();
+        let exact =
+            depth * (2.0 * pillar * x0 + x0 * (ri * ri - x0 * x0).sqrt() + ri * ri * (x0 / ri).asin());
+        let s = planar_support(&arch, alpha, 0.0, 0.25).unwrap();
+        assert!(
+            (s.volume - exact).abs() < 0.01 * exact,
+            "arch support at {alpha}°: {} against {exact}",
+            s.volume
+        );
+    }
+    assert!(planar_support(&arch, 45.0, 0.0, 0.0).is_err());
 }
 
 /// The band parts are closed and have the volume of their profile times their depth.
@@ -76,6 +104,46 @@ fn planar_arm_prints_rebuilds_and_repeats() {
     assert!(again.text == program.text, "the program changed between two runs");
 }
 
+/// Layers tilted 56° off the platform (`G = z + 1.5 x`): near the platform no nozzle axis
+/// clears both the platform and the layers printed beside the tip, so those path points are
+/// left out and reported as unprintable; no printing move collides (a travel may). Printing
+/// through them instead collides ten times as often at least.
+#[test]
+fn unclear_points_are_left_out_not_printed_through() {
+    struct Tilted;
+    impl LayerField for Tilted {
+        fn value_gradient(&self, p: &Point3) -> (f64, Vector3) {
+            (p.z + 1.5 * p.x, Vector3::new(1.5, 0.0, 1.0))
+        }
+    }
+    let mesh = Mesh::cuboid(&Aabb::new(Point3::origin(), Point3::new(12.0, 8.0, 8.0))).unwrap();
+    let part = MeshSdf::new(&mesh).unwrap();
+    let bbox = mesh.bbox().unwrap();
+    let plan = extract_print(&Tilted, &part, &bbox, None, &PrintPathOptions::default()).unwrap();
+    let skipping = print_program(&plan, 0.0, &PrintProgramOptions::default()).unwrap();
+    let path_collisions = skipping.collisions - skipping.travel_collisions;
+    assert_eq!(path_collisions, 0, "{} of {} poses", skipping.collisions, skipping.poses_checked);
+    assert!(skipping.unclear_points > 0 && skipping.unprintable_length > 0.0);
+    let total: f64 = plan.layers.iter().flat_map(|l| &l.paths).map(|p| p.length()).sum();
+    let printed = skipping.extruded_length + skipping.unprintable_length;
+    assert!((printed - total).abs() < 1e-6 * total, "{printed} of {total}");
+    let through = print_program(
+        &plan,
+        0.0,
+        &PrintProgramOptions { skip_unclear: false, ..PrintProgramOptions::default() },
+    )
+    .unwrap();
+    assert!(
+        through.collisions > 10 * skipping.collisions.max(1),
+        "{} against {}",
+        through.collisions,
+        skipping.collisions
+    );
+    assert_eq!(through.unprintable_length, 0.0);
+    let beads = read_beads(&skipping.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+    assert!(beads.iter().all(|b| b.start.z >= -1e-9 && b.end.z >= -1e-9));
+}
+
 /// Planar slicing of the arch and the bracket, whose layers have sharp corners, thin
 /// walls and regions of every width: the rings (rounded outside the innermost), the infill
 /// fitted to each region and the trimming keep the bead spacing within ±25 % over 95 % of
@@ -131,4 +199,21 @@ fn support_free_arm_overhangs_less_than_planar() {
     let again =
         print_mesh(&mesh, &PrintMeshOptions { planar_baseline: false, ..options }, &mut |_| {}).unwrap();
     assert!(again.program.text == run.program.text, "same seed, another program");
+}
+
+/// Aligned layers (Eq. 38) along the bent arm's axis, optimised briefly, print end to end
+/// through `print_mesh`: the program parses back into beads whose axes follow the layers
+/// (some tilted), no pose collides, and the rebuilt print covers the part.
+#[test]
+fn aligned_arm_prints_end_to_end() {
+    let mut o = fast_options();
+    o.objective = PrintObjective::Aligned;
+    o.planar_baseline = false;
+    (o.dac.pretrain_steps, o.dac.steps) = (150, 60);
+    let run = print_mesh(&arm(), &o, &mut |_| {}).unwrap();
+    let p = &run.program;
+    assert_eq!(p.collisions, 0);
+    let beads = read_beads(&p.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+    assert!(beads.iter().any(|b| b.axis.z < 0.95), "no bead tilts");
+    assert!(run.score.iou > 0.8, "IoU {}, {} mm unprintable", run.score.iou, p.unprintable_length);
 }

@@ -6,7 +6,8 @@
 //!   thickness `t`, length `L`, filament diameter `d`), relative (`M83`).
 //! - **Travel**: retract the filament, lift the nozzle along its axis by the first hop of
 //!   [`PrintProgramOptions::hops`] whose whole way is clear (lift, traverse over to the
-//!   next start lifted along its axis, lower), traverse, unretract.
+//!   next start lifted along its axis, lower), else straight up by the first such hop,
+//!   else the way with the fewest colliding poses; unretract.
 //! - **Collisions**: every pose the machine passes through (each block sampled as the
 //!   simulator interpolates it: program point linear, rotation slerp, at most
 //!   [`PrintProgramOptions::check_step`] of tip travel apart) is tested with the sampled
@@ -14,9 +15,13 @@
 //!   platform, or inside the part on a layer already printed (`G(q) < g_k - ¼ Δg`), is a
 //!   collision. The tip itself is tested on travel moves only (on an extruding move it
 //!   sits on its own bead). Before a path is written, each of its points whose pose
-//!   collides gets the first clear axis of: turned toward vertical by ¼, ½, ¾ or all of
-//!   the way, then 15°, 30°, 45° off its own in eight directions (the layer field's
-//!   optimisation samples the nozzle only; the carriage above it is wider).
+//!   collides gets the clear axis nearest its own among axes on cones 5°, 10°, ..., 90°
+//!   around it, about 5° apart on each (toward vertical first), keeping `+Z` above the
+//!   platform's plane (the layer field's optimisation samples the nozzle only; the
+//!   carriage above it is wider). With [`PrintProgramOptions::skip_unclear`] the segments
+//!   along which a pose still collides (a point no axis clears, or the way between two
+//!   clear poses) are left out and their length reported as unprintable; the rest of the
+//!   path is printed in runs, each after its own travel.
 //! - Moves are split so that no block turns a rotary axis by more than
 //!   [`PrintProgramOptions::max_angle_step_deg`]; each rotary block is merged into the move
 //!   after it, as in the milling program.
@@ -55,6 +60,11 @@ pub struct PrintProgramOptions {
     pub check_step: f64,
     /// Largest change of a rotary angle per block, degrees. Default `2.0`.
     pub max_angle_step_deg: f64,
+    /// Leave out the path segments along which a pose collides whatever the axis (no clear
+    /// axis at a point, or the way between two clear poses colliding), counted in
+    /// [`PrintProgram::unprintable_length`], instead of printing through them. Default
+    /// `true`.
+    pub skip_unclear: bool,
 }
 
 impl Default for PrintProgramOptions {
@@ -76,6 +86,7 @@ impl Default for PrintProgramOptions {
             hops: vec![1.0, 3.0, 10.0, 30.0, 60.0],
             check_step: 1.0,
             max_angle_step_deg: 2.0,
+            skip_unclear: true,
         }
     }
 }
@@ -123,6 +134,56 @@ pub struct PrintProgram {
     pub raised_hops: usize,
     /// Motion blocks written.
     pub blocks: usize,
+    /// Path points whose axis was turned off the layer normal to clear the nozzle.
+    pub turned_axes: usize,
+    /// Path points with no clear axis (kept on the layer normal).
+    pub unclear_points: usize,
+    /// Length of the path segments left out as unprintable (a pose along them collides
+    /// whatever the axis), with [`PrintProgramOptions::skip_unclear`].
+    pub unprintable_length: f64,
+}
+
+/// Angular step of the axes tried for a colliding point, degrees.
+const AXIS_STEP_DEG: f64 = 5.0;
+
+/// Unit directions around `+Z` (the third coordinate) in rings `step, 2 step, ..., 90°`
+/// off it, about `step` apart on each ring, in order of the angle off `+Z` and, on a ring,
+/// of the angle from `+X` (`0, +1, -1, +2, ...` steps): `+X` stands for "toward vertical".
+fn cone(step_deg: f64) -> Vec<[f64; 3]> {
+    let rings = (90.0 / step_deg).round() as usize;
+    let mut out = Vec::new();
+    for i in 1..=rings {
+        let theta = (i as f64 * step_deg).to_radians();
+        let n = ((360.0 * theta.sin() / step_deg).round() as usize).max(4);
+        let (s, c) = theta.sin_cos();
+        for k in 0..n {
+            let j = k.div_ceil(2);
+            let phi = std::f64::consts::TAU * j as f64 / n as f64 * if k % 2 == 1 { 1.0 } else { -1.0 };
+            out.push([s * phi.cos(), s * phi.sin(), c]);
+        }
+    }
+    out
+}
+
+/// The directions of `cone` turned onto the axis `a`: `+Z` onto `a`, `+X` onto the way
+/// from `a` toward vertical (`+X` projected off `a` where `a` is vertical).
+fn axis_candidates<'c>(a: &Vector3, cone: &'c [[f64; 3]]) -> impl Iterator<Item = Vector3> + 'c {
+    let a = *a;
+    let e1 = (Vector3::z() - a * a.z)
+        .try_normalize(1e-6)
+        .or_else(|| (Vector3::x() - a * a.x).try_normalize(1e-6))
+        .unwrap_or_else(Vector3::y);
+    let e2 = a.cross(&e1);
+    cone.iter().map(move |q| (e1 * q[0] + e2 * q[1] + a * q[2]).normalize())
+}
+
+/// A travel's way (ending at its start) and its poses checked and colliding.
+struct Travel {
+    checked: usize,
+    hits: usize,
+    /// Whether it is not the first way tried.
+    raised: bool,
+    way: Vec<State>,
 }
 
 pub(crate) struct Emitter<'a> {
@@ -130,6 +191,8 @@ pub(crate) struct Emitter<'a> {
     lattice: &'a Lattice,
     platform: f64,
     local: Vec<[f64; 3]>,
+    /// [`cone`] of [`AXIS_STEP_DEG`].
+    cone: Vec<[f64; 3]>,
     writer: GcodeWriter<Vec<u8>>,
     state: Option<State>,
     angles: Option<(f64, f64)>,
@@ -160,6 +223,7 @@ impl<'a> Emitter<'a> {
             lattice,
             platform,
             local: opts.nozzle.points(0.0),
+            cone: cone(AXIS_STEP_DEG),
             writer: GcodeWriter::new(Vec::new(), Dialect::Marlin, wopts),
             state: None,
             angles: None,
@@ -178,6 +242,9 @@ impl<'a> Emitter<'a> {
                 travel_collisions: 0,
                 raised_hops: 0,
                 blocks: 0,
+                turned_axes: 0,
+                unclear_points: 0,
+                unprintable_length: 0.0,
             },
         })
     }
@@ -314,84 +381,74 @@ impl Emitter<'_> {
     }
 
     /// `path` with each point whose nozzle or carriage would hit printed material given
-    /// the first clear axis of: the axis turned toward vertical by ¼, ½, ¾ and the whole
-    /// way, then axes 15°, 30° and 45° off it in eight directions (the axis kept where
-    /// none is clear).
-    fn clear_axes(&self, path: &PrintPath) -> PrintPath {
+    /// the clear axis nearest its own among [`axis_candidates`] (the axis kept where none
+    /// is clear), how many points were turned, and which points stayed unclear.
+    fn clear_axes(&self, path: &PrintPath) -> (PrintPath, usize, Vec<bool>) {
         let mut out = path.clone();
-        for (p, a) in out.points.iter().zip(out.axes.iter_mut()) {
+        let mut turned = 0;
+        let mut unclear = vec![false; path.points.len()];
+        for ((p, a), u) in out.points.iter().zip(out.axes.iter_mut()).zip(&mut unclear) {
             if !self.collides(p, a, false) {
                 continue;
             }
-            let axis = *a;
-            let toward = [0.25, 0.5, 0.75, 1.0].map(|f| {
-                (axis * (1.0 - f) + Vector3::z() * f).try_normalize(1e-9).unwrap_or_else(Vector3::z)
-            });
-            let e1 = a
-                .cross(&Vector3::x())
-                .try_normalize(1e-6)
-                .unwrap_or_else(|| a.cross(&Vector3::y()).normalize());
-            let e2 = a.cross(&e1);
-            let around = [15.0f64, 30.0, 45.0].into_iter().flat_map(|deg| {
-                let (s, c) = deg.to_radians().sin_cos();
-                (0..8).map(move |k| {
-                    let phi = k as f64 * std::f64::consts::FRAC_PI_4;
-                    (axis * c + (e1 * phi.cos() + e2 * phi.sin()) * s).normalize()
-                })
-            });
-            if let Some(b) =
-                toward.into_iter().chain(around).find(|b| b.z > 0.0 && !self.collides(p, b, false))
-            {
-                *a = b;
+            match axis_candidates(a, &self.cone).find(|b| b.z > 0.0 && !self.collides(p, b, false)) {
+                Some(b) => {
+                    *a = b;
+                    turned += 1;
+                }
+                None => *u = true,
             }
         }
-        out
+        (out, turned, unclear)
     }
 
     fn axis(&self, s: &State) -> Vector3 {
         self.frame(s).rotation * Vector3::z()
     }
 
-    /// Retract, travel to `start` over the first clear hop, unretract.
-    fn travel(&mut self, start: State) -> Result<()> {
+    /// The way of a travel to `start` (module docs): the first way whose poses are all
+    /// clear, else the one with the fewest colliding.
+    fn travel_way(&self, start: &State) -> Travel {
         let Some(cur) = self.state else {
             let high = *self.opts.hops.last().unwrap_or(&0.0);
-            let above = State { tip: start.tip + self.axis(&start) * high, ..start };
-            let (checked, hits) = self.count_way(&above, &[start], true);
-            self.report.poses_checked += checked;
-            self.report.collisions += hits;
-            self.report.travel_collisions += hits;
-            return self.go(&[above, start], None);
+            let above = State { tip: start.tip + self.axis(start) * high, ..*start };
+            let (checked, hits) = self.count_way(&above, &[*start], true);
+            return Travel { checked, hits, raised: false, way: vec![above, *start] };
         };
-        let here = self.frame(&cur).inverse() * cur.tip;
-        if self.opts.retract > 0.0 {
-            self.push(Motion::Linear { to: here, feed: self.opts.feed, extrude: Some(-self.opts.retract) })?;
-            self.report.filament -= self.opts.retract;
-        }
-        let mut best: Option<(usize, usize, [State; 3])> = None;
-        for (i, &h) in self.opts.hops.iter().enumerate() {
-            let lift = State { tip: cur.tip + self.axis(&cur) * h, ..cur };
-            let above = State { tip: start.tip + self.axis(&start) * h, ..start };
-            let way = [lift, above, start];
+        let mut best: Option<Travel> = None;
+        // Lifts along the nozzle axes first, then straight up.
+        let dirs = [(self.axis(&cur), self.axis(start)), (Vector3::z(), Vector3::z())];
+        let tries = dirs.iter().flat_map(|d| self.opts.hops.iter().map(move |h| (*d, *h)));
+        for (i, ((dc, ds), h)) in tries.enumerate() {
+            let lift = State { tip: cur.tip + dc * h, ..cur };
+            let above = State { tip: start.tip + ds * h, ..*start };
+            let way = vec![lift, above, *start];
             let (checked, hits) = self.count_way(&cur, &way, true);
-            if best.as_ref().is_none_or(|b| hits < b.1) {
-                best = Some((checked, hits, way));
-                if i > 0 && hits == 0 {
-                    self.report.raised_hops += 1;
-                }
+            if best.as_ref().is_none_or(|b| hits < b.hits) {
+                best = Some(Travel { checked, hits, raised: i > 0, way });
             }
             if hits == 0 {
                 break;
             }
         }
-        if let Some((checked, hits, way)) = best {
-            self.report.poses_checked += checked;
-            self.report.collisions += hits;
-            self.report.travel_collisions += hits;
-            self.go(&way, None)?;
-        }
+        best.unwrap_or(Travel { checked: 0, hits: 0, raised: false, way: vec![*start] })
+    }
+
+    /// Retract, go along `travel`'s way, unretract.
+    fn travel(&mut self, travel: Travel) -> Result<()> {
+        self.report.poses_checked += travel.checked;
+        self.report.collisions += travel.hits;
+        self.report.travel_collisions += travel.hits;
+        self.report.raised_hops += (travel.raised && travel.hits == 0) as usize;
+        let Some(cur) = self.state else { return self.go(&travel.way, None) };
+        let here = self.frame(&cur).inverse() * cur.tip;
         if self.opts.retract > 0.0 {
-            let to = self.frame(&start).inverse() * start.tip;
+            self.push(Motion::Linear { to: here, feed: self.opts.feed, extrude: Some(-self.opts.retract) })?;
+            self.report.filament -= self.opts.retract;
+        }
+        self.go(&travel.way, None)?;
+        if let Some(start) = travel.way.last().filter(|_| self.opts.retract > 0.0) {
+            let to = self.frame(start).inverse() * start.tip;
             self.push(Motion::Linear { to, feed: self.opts.feed, extrude: Some(self.opts.retract) })?;
             self.report.filament += self.opts.retract;
         }
@@ -406,17 +463,54 @@ impl Emitter<'_> {
         self.report.layers += 1;
         self.printed_below = layer.level - 0.25 * step;
         for path in &layer.paths {
-            let path = &self.clear_axes(path);
-            let states = self.path_states(path);
-            self.travel(states[0])?;
+            let (path, turned, unclear) = self.clear_axes(path);
+            self.report.turned_axes += turned;
+            self.report.unclear_points += unclear.iter().filter(|u| **u).count();
+            self.print_path(&path, &unclear)?;
+        }
+        Ok(())
+    }
+
+    /// Prints `path` (its axes cleared); with [`PrintProgramOptions::skip_unclear`], only
+    /// its runs of segments along which no pose collides, each after its own travel.
+    fn print_path(&mut self, path: &PrintPath, unclear: &[bool]) -> Result<()> {
+        let states = self.path_states(path);
+        // Per segment k (from point k to k + 1): its poses checked and colliding (those
+        // after point k), and whether it is left out (a collision, or point k unclear).
+        let ways: Vec<(usize, usize)> =
+            states.windows(2).map(|w| self.count_way(&w[0], &w[1..], false)).collect();
+        let skip: Vec<bool> =
+            ways.iter().zip(unclear).map(|(w, u)| self.opts.skip_unclear && (w.1 > 0 || *u)).collect();
+        let mut k = 0;
+        while k < ways.len() {
+            if skip[k] {
+                self.report.unprintable_length += (states[k + 1].tip - states[k].tip).norm();
+                k += 1;
+                continue;
+            }
+            let mut first = k;
+            while k < ways.len() && !skip[k] {
+                k += 1;
+            }
+            // A run whose start pose collides with its tip (the lowering onto it would)
+            // starts one segment later.
+            while self.opts.skip_unclear && first < k && {
+                let s = &states[first];
+                self.collides(&s.tip, &self.axis(s), true)
+            } {
+                self.report.unprintable_length += (states[first + 1].tip - states[first].tip).norm();
+                first += 1;
+            }
+            if first == k {
+                continue;
+            }
+            let travel = self.travel_way(&states[first]);
+            self.travel(travel)?;
             self.report.paths += 1;
-            let mut prev = states[0];
-            for (k, s) in states.iter().enumerate().skip(1) {
-                let (checked, hits) = self.count_way(&prev, std::slice::from_ref(s), false);
-                self.report.poses_checked += checked;
-                self.report.collisions += hits;
-                self.go(std::slice::from_ref(s), Some((path.thickness[k - 1], path.thickness[k])))?;
-                prev = *s;
+            for j in first..k {
+                self.report.poses_checked += ways[j].0;
+                self.report.collisions += ways[j].1;
+                self.go(&states[j + 1..j + 2], Some((path.thickness[j], path.thickness[j + 1])))?;
             }
         }
         Ok(())
