@@ -108,12 +108,8 @@ pub(super) fn machine_setup(
     }
     let copy = ctx.outputs.map(|open| open(i)).transpose();
     let copy = copy.map_err(|e| MillError::program(i + 1, "opening the program's output", e))?;
-    // A finished setup's roughing cuts all the material that remains, the skin earlier
-    // setups left within the finisher's allowance included: the link's safety argument
-    // (a rapid down or across where the levels above cut everything their tool centres
-    // reach) holds only if the levels above cut that skin too. Leaving it to the finisher
-    // saved little time (example006 the same, example002 7 % less) and put rapids
-    // through it (12 and 1 at 128^3).
+    // A finished setup's roughing cuts all that remains, the finisher's skin too: the
+    // link's rapids rest on the levels above having cut it (ARCHITECTURE.md, finishing).
     let watch = PlanProgress::default();
     let mut tee = Tee::new(tee.first.watching(&mut *progress, &watch, i + 1, setups), tee.second);
     let (planned, parsed, waited) = std::thread::scope(|scope| {

@@ -140,13 +140,8 @@ mod tests {
     /// The exact distances agree with dense sampling of both curves.
     #[test]
     fn arc_segment_distance_matches_sampling() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut unit = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = s2g_geom::SplitMix64(0x9e37_79b9_7f4a_7c15);
+        let mut unit = move || rng.unit();
         for _ in 0..300 {
             let c = Point2::new(unit() * 4.0 - 2.0, unit() * 4.0 - 2.0);
             let r = 0.5 + 2.0 * unit();

@@ -6,7 +6,7 @@ use s2g_gcode::{ArcDirection, Motion, MotionRecorder, MotionSink, Plane};
 use s2g_geom::{Aabb, Point3, Setup};
 use s2g_toolpath::{PlanOptions, Tool, plan_setup, strategies};
 
-use common::HeightField;
+use common::{HeightField, sphere};
 
 /// A move: start, end and, for an XY arc, its centre and direction.
 type Move = (Point3, Point3, Option<(Point3, ArcDirection)>);
@@ -94,32 +94,6 @@ fn a_square_contour_turns_each_corner_on_one_arc_about_it() {
     let (n_fit, n_straight) =
         (fitted.iter().filter(on_contour).count(), straight.iter().filter(on_contour).count());
     assert!(n_straight >= 30 && n_fit <= 20, "contour: {n_fit} moves fitted, {n_straight} straight");
-}
-
-/// A UV sphere of radius `r` about the origin, `nu` segments around and `nv` from pole to
-/// pole, outward wound.
-fn sphere(r: f64, nu: usize, nv: usize) -> s2g_geom::Mesh {
-    let mut v = vec![Point3::new(0.0, 0.0, r)];
-    for j in 1..nv {
-        let t = std::f64::consts::PI * j as f64 / nv as f64;
-        for i in 0..nu {
-            let p = std::f64::consts::TAU * i as f64 / nu as f64;
-            v.push(Point3::new(r * t.sin() * p.cos(), r * t.sin() * p.sin(), r * t.cos()));
-        }
-    }
-    v.push(Point3::new(0.0, 0.0, -r));
-    let south = (v.len() - 1) as u32;
-    let at = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
-    let mut t = Vec::new();
-    for i in 0..nu {
-        t.push([0, at(1, i), at(1, i + 1)]);
-        t.push([south, at(nv - 1, i + 1), at(nv - 1, i)]);
-        for j in 1..nv - 1 {
-            t.push([at(j, i), at(j + 1, i), at(j + 1, i + 1)]);
-            t.push([at(j, i), at(j + 1, i + 1), at(j, i + 1)]);
-        }
-    }
-    s2g_geom::Mesh::new(v, t).expect("sphere")
 }
 
 /// Parallel finishing over a faceted sphere with arcs at 0.005 mm: the passes (along X)

@@ -4,6 +4,9 @@
 //! emitted motions against the drop-cutter (no gouge), the clearance plane and their own
 //! summary; waterline and steep-and-shallow against the scallop target.
 
+mod common;
+
+use common::sphere;
 use s2g_gcode::{Coolant, Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup};
 use s2g_toolpath::Tool;
@@ -12,32 +15,6 @@ use s2g_toolpath::finish::{
     finish_setup_opt,
 };
 use s2g_voxsim::{HeightField, HeightFieldOptions, ToolTable, surface_deviation};
-
-/// A UV sphere of radius `r` about the origin, `nu` segments around and `nv` from pole to
-/// pole, outward wound, its vertices on the sphere.
-fn sphere(r: f64, nu: usize, nv: usize) -> Mesh {
-    let mut v = vec![Point3::new(0.0, 0.0, r)];
-    for j in 1..nv {
-        let t = std::f64::consts::PI * j as f64 / nv as f64;
-        for i in 0..nu {
-            let p = std::f64::consts::TAU * i as f64 / nu as f64;
-            v.push(Point3::new(r * t.sin() * p.cos(), r * t.sin() * p.sin(), r * t.cos()));
-        }
-    }
-    v.push(Point3::new(0.0, 0.0, -r));
-    let south = (v.len() - 1) as u32;
-    let at = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
-    let mut t = Vec::new();
-    for i in 0..nu {
-        t.push([0, at(1, i), at(1, i + 1)]);
-        t.push([south, at(nv - 1, i + 1), at(nv - 1, i)]);
-        for j in 1..nv - 1 {
-            t.push([at(j, i), at(j + 1, i), at(j + 1, i + 1)]);
-            t.push([at(j, i), at(j + 1, i + 1), at(j, i + 1)]);
-        }
-    }
-    Mesh::new(v, t).unwrap()
-}
 
 /// A closed cylinder of radius `r` along X from `-l/2` to `l/2`, `n` segments around.
 fn cylinder_x(r: f64, l: f64, n: usize) -> Mesh {

@@ -75,6 +75,36 @@ fn stepped_block_with_pocket_machines_without_gouges_to_iou_099() {
     }
 }
 
+/// The bundled bunny and OpenSCAD's example001, each normalised into the unit cube.
+fn bunny_and_example001() -> [(&'static str, Mesh); 2] {
+    let p = format!("{}/../../assets/stanford_bunny.stl", env!("CARGO_MANIFEST_DIR"));
+    let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
+    let bunny = s2g_geom::normalize_unit_cube(&m).expect("normalise").0;
+    [("bunny", bunny), ("example001", openscad("openscad_Old_example001.stl"))]
+}
+
+/// A part's box stock, a voxel larger than the part on every side and whole voxels of 1/96
+/// of its longest side (`e`), its grid and the part's voxels.
+struct Stocked {
+    e: f64,
+    stock: Aabb,
+    spec: GridSpec,
+    target: VoxelGrid,
+}
+
+fn stocked(part: &Mesh) -> Stocked {
+    let bb = part.bbox().expect("bbox");
+    let e = bb.extent().max();
+    let h = e / 96.0;
+    let ext = bb.extent();
+    let grow = [0, 1, 2].map(|a| ((ext[a] / h).ceil() * h - ext[a]) * 0.5 + h);
+    let g = nalgebra::Vector3::new(grow[0], grow[1], grow[2]);
+    let stock = Aabb::new(bb.min - g, bb.max + g);
+    let spec = grid_over(&stock, h);
+    let target = voxelize(part, &spec).expect("voxelize");
+    Stocked { e, stock, spec, target }
+}
+
 fn openscad(name: &str) -> Mesh {
     let p = format!("{}/../../tests/data/meshes/openscad/{name}", env!("CARGO_MANIFEST_DIR"));
     let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
@@ -313,21 +343,8 @@ fn strategy_comparison_table() {
 /// rapids through material, with much less cutting.
 #[test]
 fn roughing_groups_leave_the_same_part_with_less_cutting() {
-    let bunny = {
-        let p = format!("{}/../../assets/stanford_bunny.stl", env!("CARGO_MANIFEST_DIR"));
-        let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
-        s2g_geom::normalize_unit_cube(&m).expect("normalise").0
-    };
-    for (name, part) in [("bunny", bunny), ("example001", openscad("openscad_Old_example001.stl"))] {
-        let bb = part.bbox().expect("bbox");
-        let e = bb.extent().max();
-        let h = e / 96.0;
-        let ext = bb.extent();
-        let grow = [0, 1, 2].map(|a| ((ext[a] / h).ceil() * h - ext[a]) * 0.5 + h);
-        let g = nalgebra::Vector3::new(grow[0], grow[1], grow[2]);
-        let stock = Aabb::new(bb.min - g, bb.max + g);
-        let spec = grid_over(&stock, h);
-        let target = voxelize(&part, &spec).expect("voxelize");
+    for (name, part) in bunny_and_example001() {
+        let Stocked { e, stock, spec, target } = stocked(&part);
         let tool = Tool::flat(0.03 * e);
         let base = PlanOptions { layer_height: e / 96.0, stock: Some(stock), ..Default::default() };
         let run = |opts: &PlanOptions| {
@@ -541,21 +558,8 @@ fn arc_fitted_program_cuts_what_the_straight_one_cuts() {
 /// through material, in less time.
 #[test]
 fn side_entries_and_low_crossings_cut_the_same_part_faster_and_safely() {
-    let bunny = {
-        let p = format!("{}/../../assets/stanford_bunny.stl", env!("CARGO_MANIFEST_DIR"));
-        let m = s2g_geom::load_mesh(&p).unwrap_or_else(|e| panic!("{p}: {e}"));
-        s2g_geom::normalize_unit_cube(&m).expect("normalise").0
-    };
-    for (name, part) in [("bunny", bunny), ("example001", openscad("openscad_Old_example001.stl"))] {
-        let bb = part.bbox().expect("bbox");
-        let e = bb.extent().max();
-        let h = e / 96.0;
-        let ext = bb.extent();
-        let grow = [0, 1, 2].map(|a| ((ext[a] / h).ceil() * h - ext[a]) * 0.5 + h);
-        let g = nalgebra::Vector3::new(grow[0], grow[1], grow[2]);
-        let stock = Aabb::new(bb.min - g, bb.max + g);
-        let spec = grid_over(&stock, h);
-        let target = voxelize(&part, &spec).expect("voxelize");
+    for (name, part) in bunny_and_example001() {
+        let Stocked { e, stock, spec, target } = stocked(&part);
         let tool = Tool::flat(0.03 * e);
         let base = PlanOptions {
             layer_height: e / 48.0,

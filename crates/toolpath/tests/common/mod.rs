@@ -501,3 +501,29 @@ pub fn check_program(
     }
     counts
 }
+
+/// A UV sphere of radius `r` about the origin, `nu` segments around and `nv` from pole to
+/// pole, outward wound, its vertices on the sphere.
+pub fn sphere(r: f64, nu: usize, nv: usize) -> Mesh {
+    let mut v = vec![Point3::new(0.0, 0.0, r)];
+    for j in 1..nv {
+        let t = std::f64::consts::PI * j as f64 / nv as f64;
+        for i in 0..nu {
+            let p = std::f64::consts::TAU * i as f64 / nu as f64;
+            v.push(Point3::new(r * t.sin() * p.cos(), r * t.sin() * p.sin(), r * t.cos()));
+        }
+    }
+    v.push(Point3::new(0.0, 0.0, -r));
+    let south = (v.len() - 1) as u32;
+    let at = |j: usize, i: usize| (1 + (j - 1) * nu + i % nu) as u32;
+    let mut t = Vec::new();
+    for i in 0..nu {
+        t.push([0, at(1, i), at(1, i + 1)]);
+        t.push([south, at(nv - 1, i + 1), at(nv - 1, i)]);
+        for j in 1..nv - 1 {
+            t.push([at(j, i), at(j + 1, i), at(j + 1, i + 1)]);
+            t.push([at(j, i), at(j + 1, i + 1), at(j, i + 1)]);
+        }
+    }
+    Mesh::new(v, t).expect("sphere")
+}
