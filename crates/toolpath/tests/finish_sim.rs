@@ -211,6 +211,40 @@ fn finish_setup_motions_are_safe_and_summed() {
     }
 }
 
+/// The surface `st` finishes on `index` with `tool` under `opts`, cut into a height field
+/// over [-12, 12]^2 by the tool's ball (30 mm of flute).
+fn machined(index: &MeshIndex, tool: &Tool, st: &dyn FinishingStrategy, opts: &FinishOptions) -> HeightField {
+    let (rec, _) = finish(index, tool, st, opts);
+    let mut field =
+        HeightField::new([-12.0, -12.0], [12.0, 12.0], ToolTable::single(Cutter::ball(tool.radius(), 30.0)))
+            .unwrap();
+    replay(&rec, &mut field);
+    field
+}
+
+/// Over the columns of `field` whose distance from the Z axis lies in `radii`: the largest
+/// distance of the machined surface from the part, how many columns, and where the largest is.
+fn worst_between(
+    field: &HeightField,
+    index: &MeshIndex,
+    radii: std::ops::RangeInclusive<f64>,
+) -> (f64, usize, Point3) {
+    let (nx, ny) = field.dims();
+    let mut worst = (0.0f64, 0usize, Point3::origin());
+    for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+        let [x, y] = field.column(i, j);
+        if radii.contains(&x.hypot(y)) {
+            let p = Point3::new(x, y, field.top(i, j).unwrap());
+            let e = index.closest_point(&p).distance;
+            if e > worst.0 {
+                worst = (e, worst.1, p);
+            }
+            worst.1 += 1;
+        }
+    }
+    worst
+}
+
 /// Waterline and steep-and-shallow over a hemisphere: the machined surface stays within
 /// the scallop target (plus the loops' chord sagitta and the tessellation) of the part, over
 /// every column steep-and-shallow reaches and over the columns where the sphere is 45 to 75
@@ -228,33 +262,14 @@ fn waterline_and_steep_shallow_meet_the_scallop_on_a_sphere() {
     let strategies: [&dyn FinishingStrategy; 2] = [&wl, &ss];
     for st in strategies {
         let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
-        let (rec, _) = finish(&index, &tool, st, &opts);
-        let mut field = HeightField::new(
-            [-12.0, -12.0],
-            [12.0, 12.0],
-            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
-        )
-        .unwrap();
-        replay(&rec, &mut field);
+        let field = machined(&index, &tool, st, &opts);
         let d = surface_deviation(&field, &index);
         assert!(d.gouge_depth <= 2.5e-3, "{}: {d:?}", st.name());
         // Waterline alone is checked where the sphere is 45 to 75 degrees steep,
         // steep-and-shallow up to 75 degrees (below, the floor at z = 2 stops both).
         let lo = if st.name() == "waterline" { big * 45f64.to_radians().sin() } else { 0.0 };
         let hi = big * 75f64.to_radians().sin();
-        let (nx, ny) = field.dims();
-        let mut worst = (0.0f64, 0usize, Point3::origin());
-        for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
-            let [x, y] = field.column(i, j);
-            if (lo..=hi).contains(&x.hypot(y)) {
-                let p = Point3::new(x, y, field.top(i, j).unwrap());
-                let e = index.closest_point(&p).distance;
-                if e > worst.0 {
-                    worst = (e, worst.1, p);
-                }
-                worst.1 += 1;
-            }
-        }
+        let worst = worst_between(&field, &index, lo..=hi);
         assert!(worst.1 > 50_000 && worst.0 <= 1.15 * target, "{}: {worst:?}", st.name());
     }
 }
@@ -274,30 +289,11 @@ fn crossed_rasters_keep_the_scallop_on_steep_walls_one_raster_does_not() {
     let strategies: [&dyn FinishingStrategy; 2] = [&Parallel::default(), &crossed];
     for st in strategies {
         let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
-        let (rec, _) = finish(&index, &tool, st, &opts);
-        let mut field = HeightField::new(
-            [-12.0, -12.0],
-            [12.0, 12.0],
-            ToolTable::single(Cutter::ball(tool.radius(), 30.0)),
-        )
-        .unwrap();
-        replay(&rec, &mut field);
+        let field = machined(&index, &tool, st, &opts);
         let d = surface_deviation(&field, &index);
         assert!(d.gouge_depth <= 1e-4, "{}: {d:?}", st.name());
         let hi = big * 75f64.to_radians().sin();
-        let (nx, ny) = field.dims();
-        let mut worst = (0.0f64, 0usize, Point3::origin());
-        for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
-            let [x, y] = field.column(i, j);
-            if x.hypot(y) <= hi {
-                let p = Point3::new(x, y, field.top(i, j).unwrap());
-                let e = index.closest_point(&p).distance;
-                if e > worst.0 {
-                    worst = (e, worst.1, p);
-                }
-                worst.1 += 1;
-            }
-        }
+        let worst = worst_between(&field, &index, 0.0..=hi);
         assert!(worst.1 > 50_000, "{}: {worst:?}", st.name());
         worst_of.push(worst.0);
     }
