@@ -578,13 +578,7 @@ mod tests {
 
     #[test]
     fn numbers_match_the_standard_library() {
-        let mut state = 0x1234_5678_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = crate::xorshift(0x1234_5678_u64);
         let mut p = Params::default();
         for case in 0..200_000 {
             let int_digits = (next() % 14) as usize;
@@ -598,7 +592,7 @@ mod tests {
             for _ in 0..int_digits {
                 t.push((b'0' + (next() % 10) as u8) as char);
             }
-            if frac_digits > 0 || next() % 3 == 0 {
+            if frac_digits > 0 || next().is_multiple_of(3) {
                 t.push('.');
             }
             for _ in 0..frac_digits {

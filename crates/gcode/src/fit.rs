@@ -415,13 +415,8 @@ mod tests {
     /// checked densely on wavy runs of chords of circles of several radii, both ways round.
     #[test]
     fn pieces_stay_on_their_side_within_the_tolerance() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut unit = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::xorshift(0x2545_f491_4f6c_dd1d);
+        let mut unit = move || (next() >> 11) as f64 / (1u64 << 53) as f64;
         let mut arcs = 0;
         for case in 0..60 {
             // A polyline along a slowly turning curve with jitter.

@@ -23,6 +23,17 @@ mod spine;
 mod stats;
 mod writer;
 
+/// The xorshift64 generator the crate's tests draw from: the same sequence per seed.
+#[cfg(test)]
+pub(crate) fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    }
+}
+
 pub use crate::arc::{
     ArcError, ArcFitOptions, ArcFitter, ArcSpec, MAX_ARC_SEGMENTS, arc_length, linearize_arc, plane_axes,
     sweep_angle,

@@ -304,13 +304,7 @@ mod tests {
 
     #[test]
     fn plain_codes_agree_with_the_number_reader() {
-        let mut state = 0x9E37_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = crate::xorshift(0x9E37_u64);
         let alphabet = b"0123456789.  X-";
         let mut taken = 0;
         for case in 0..100_000 {
