@@ -10,6 +10,10 @@
   (or `super::m`, `self::m` from a folder module) in A naming B's module path. Cycles
   through the crate root are ignored (it re-exports), and `pub use` re-exports are not
   imports of code.
+- error variants that repeat their cause: a `thiserror` variant whose source is marked
+  (`#[source]`, `#[from]`, or a field named `source`) and whose `#[error(...)]` message
+  also prints it (`{0}` or `{source}`); the CLI prints the chain, so the cause would show
+  twice (ARCHITECTURE.md, "Errors keep their cause").
 
 Exit status 1 when anything is found.
 """
@@ -149,6 +153,28 @@ def import_cycles():
     return found
 
 
+ERROR_VARIANT = re.compile(
+    r"#\[error\((?P<msg>.*?)\)\]\s*(?:///.*\n\s*|#\[.*?\]\s*)*(?P<name>\w+)\s*(?P<body>\((?:[^()]|\([^()]*\))*\)|\{.*?\n\s*\})",
+    re.S,
+)
+
+
+def repeated_causes():
+    """Error variants whose message prints the source they also hold."""
+    found = []
+    for f in rust_files():
+        text = open(f, encoding="utf-8").read()
+        if "thiserror" not in text:
+            continue
+        for m in ERROR_VARIANT.finditer(text):
+            body, msg = m.group("body"), m.group("msg")
+            has_source = "#[from]" in body or "#[source]" in body or re.search(r"\bsource\s*:", body)
+            if has_source and ("{0}" in msg or "{source}" in msg):
+                line = text[: m.start()].count("\n") + 1
+                found.append((os.path.relpath(f, ROOT), line, m.group("name")))
+    return found
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--max-fn", type=int, default=150)
@@ -171,6 +197,9 @@ def main():
                 bad += 1
     for src, cyc in import_cycles():
         print(f"import cycle in {src}: {cyc}")
+        bad += 1
+    for f, line, name in repeated_causes():
+        print(f"error variant {name} at {f}:{line}: prints the source it holds")
         bad += 1
     print(f"{bad} finding(s)", file=sys.stderr)
     sys.exit(1 if bad else 0)

@@ -260,7 +260,7 @@ pub enum FdmError {
     #[error("{0}")]
     Gcode(String),
     /// Reading the file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,
@@ -285,10 +285,10 @@ pub enum FdmError {
         limit: u64,
     },
     /// The deposition failed.
-    #[error("deposition: {0}")]
+    #[error("deposition")]
     Sim(#[from] crate::voxsim::SimError),
     /// A geometry operation failed.
-    #[error("geometry: {0}")]
+    #[error("geometry")]
     Geom(#[from] crate::geom::GeomError),
 }
 

@@ -56,7 +56,7 @@ use serde::Deserialize;
 #[non_exhaustive]
 pub enum FeatureError {
     /// The job file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,
@@ -75,7 +75,7 @@ pub enum FeatureError {
     #[error(transparent)]
     Job(#[from] s2g_toolpath::features::FeatureError),
     /// The G-code writer failed.
-    #[error("writing the program: {0}")]
+    #[error("writing the program")]
     Write(#[from] WriteError),
     /// The voxel check's options are impossible.
     #[error("voxel check: {0}")]

@@ -291,7 +291,7 @@ pub enum MillError {
     #[error(transparent)]
     Geom(#[from] crate::geom::GeomError),
     /// Orientation selection failed.
-    #[error("orientation selection: {0}")]
+    #[error("orientation selection")]
     Orient(#[from] crate::orient::OrientError),
     /// Planning a setup failed.
     #[error("planning setup {setup}")]

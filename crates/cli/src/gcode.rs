@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use serde_json::json;
 use shape2gcode::gcode::{
-    ArcDirection, Marker, Motion, MotionSink, ParseDialect, ParseError, ParseOptions, ParseSummary, Stats,
-    StatsOptions, parse_file,
+    ArcDirection, Marker, Motion, MotionSink, ParseDialect, ParseOptions, ParseSummary, Stats, StatsOptions,
+    parse_file,
 };
 use shape2gcode::geom::Point3;
 
@@ -84,9 +84,9 @@ fn parse_into<S: MotionSink>(file: &Path, opts: &ParseOptions, sink: &mut S) -> 
 where
     S::Error: std::fmt::Display,
 {
-    parse_file(file, opts, sink).map_err(|e| match e {
-        ParseError::Sink(e) => anyhow::anyhow!("{}: {e}", file.display()),
-        other => anyhow::anyhow!("{other}"),
+    parse_file(file, opts, sink).map_err(|e| match e.into_sink() {
+        Ok(e) => anyhow::anyhow!("{}: {e}", file.display()),
+        Err(other) => anyhow::Error::new(other),
     })
 }
 

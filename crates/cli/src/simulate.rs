@@ -226,7 +226,10 @@ fn simulate_with(
 ) -> anyhow::Result<shape2gcode::voxsim::Simulation> {
     let popts = shape2gcode::gcode::ParseOptions { stop_at_first_error: true, ..Default::default() };
     shape2gcode::gcode::parse_file(program, &popts, &mut sim)
-        .map_err(|e| anyhow::anyhow!("{e}"))
+        .map_err(|e| match e.into_sink() {
+            Ok(e) => anyhow::Error::new(e),
+            Err(other) => anyhow::Error::new(other),
+        })
         .with_context(|| format!("simulating {}", program.display()))?;
     Ok(sim.into_simulation()?)
 }

@@ -51,4 +51,9 @@ fn a_broken_file_is_one_line_on_stderr_and_a_failure() {
     assert!(err.contains("fourVertices.ascii.stl:2: facet has 4 vertices"), "{err}");
     let out = s2g().args(["inspect", "/nonexistent/mesh.stl"]).output().unwrap();
     assert!(!out.status.success());
+    // The system's reason appears once: the message does not repeat the cause it chains.
+    let cause = std::fs::File::open("/nonexistent/mesh.stl").unwrap_err().to_string();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert_eq!(err.matches(&cause).count(), 1, "{cause:?} in {err}");
 }

@@ -202,5 +202,10 @@ fn malformed_programs_and_bad_options_fail_with_one_line() {
     let out =
         s2g().arg("simulate").arg(&slot).args(["--stock", "box:0,0,0,40", "--res", "40"]).output().unwrap();
     one_line_failure(&out, "six numbers");
-    one_line_failure(&simulate(&dir.path().join("missing.ngc"), &["--res", "40"]), "missing.ngc");
+    // A file that cannot be opened: its name and the system's reason, once.
+    let missing = dir.path().join("missing.ngc");
+    let cause = std::fs::File::open(&missing).unwrap_err().to_string();
+    let out = simulate(&missing, &["--res", "40"]);
+    one_line_failure(&out, "missing.ngc");
+    assert_eq!(String::from_utf8_lossy(&out.stderr).matches(&cause).count(), 1, "{cause}");
 }

@@ -44,7 +44,7 @@ pub enum FieldError {
     #[error("geometry")]
     Geometry(#[source] s2g_geom::GeomError),
     /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -63,9 +63,15 @@ pub enum FieldError {
     /// The tensor backend reported a failure (reading data back, applying a record).
     #[error("tensor backend: {0}")]
     Backend(String),
-    /// Writing, parsing or simulating a milling program failed (`s2g-gcode`, `s2g-voxsim`).
-    #[error("milling program: {0}")]
+    /// A written program does not parse back (the parser's first error).
+    #[error("reading the program back: {0}")]
     Program(String),
+    /// The G-code writer failed (an arc it could not linearise, a number not finite).
+    #[error("writing the program")]
+    Write(#[source] s2g_gcode::WriteError),
+    /// Simulating a milling program failed (its parse or the simulator stopped it).
+    #[error("simulating the program")]
+    Simulation(#[source] s2g_voxsim::SimError),
 }
 
 impl FieldError {

@@ -138,7 +138,7 @@ pub fn extract_print(
 /// Writes the program of `plan` for a platform at `z = platform`; see
 /// [`PrintProgramOptions`].
 ///
-/// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Program`] if the
+/// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Write`] if the
 /// writer fails.
 pub fn print_program(plan: &PrintPlan, platform: f64, opts: &PrintProgramOptions) -> Result<PrintProgram> {
     let mut e = emit::Emitter::new(opts, &plan.lattice, platform, plan.bead_width)?;

@@ -244,7 +244,7 @@ fn axis_of(axes: RotaryAxes, s: &State) -> Vector3 {
 /// over `problem`'s poses, with nearest-neighbour toolpaths on each layer.
 ///
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::InvalidArgument`]
-/// when no pose passes the clearance proof, [`FieldError::Program`] if the writer fails.
+/// when no pose passes the clearance proof, [`FieldError::Write`] if the writer fails.
 pub fn mill_program(
     g: &SirenF64,
     problem: &MillingProblem<'_>,
@@ -363,7 +363,7 @@ impl Emitter {
     }
 
     fn push(&mut self, m: Motion<'_>) -> Result<()> {
-        self.writer.motion(&m).map_err(|e| FieldError::Program(e.to_string()))
+        self.writer.motion(&m).map_err(FieldError::Write)
     }
 
     /// A setup block for `s`'s angles, unless they are the last setup's.
@@ -434,7 +434,7 @@ impl Emitter {
 
     /// Finishes the writer and merges each rotary setup block into the move after it.
     fn finish(mut self) -> Result<String> {
-        self.writer.finish().map_err(|e| FieldError::Program(e.to_string()))?;
+        self.writer.finish().map_err(FieldError::Write)?;
         let raw = String::from_utf8_lossy(&self.writer.into_inner()).into_owned();
         Ok(merge_rotary_blocks(&raw, self.axes))
     }
@@ -571,7 +571,7 @@ pub struct ProgramSimulation {
 /// ([`Tool::cutter`]: flutes, shank and holder).
 ///
 /// Errors: [`FieldError::InvalidArgument`] for a bad voxel size or block,
-/// [`FieldError::Program`] for a program the parser or the simulator rejects.
+/// [`FieldError::Simulation`] for a program the parser or the simulator rejects.
 pub fn simulate_program(
     program: &str,
     mesh: &Mesh,
@@ -594,15 +594,13 @@ pub fn simulate_program(
     let stock = VoxelGrid::full(spec);
     let target = voxelize(mesh, &spec).map_err(FieldError::geom)?;
     let removable = stock.count().saturating_sub(target.count());
-    let prog_err = |e: String| FieldError::Program(e);
-    let sim = Simulator::new(stock, ToolTable::single(tool.cutter), SimOptions::default())
+    let mut sim = Simulator::new(stock, ToolTable::single(tool.cutter), SimOptions::default())
         .and_then(|s| s.with_target(&target))
-        .map_err(|e| prog_err(e.to_string()))?;
-    let mut sim = sim;
+        .map_err(FieldError::Simulation)?;
     let popts =
         ParseOptions { stop_at_first_error: true, rotary: Some(options.rotary), ..Default::default() };
-    s2g_gcode::parse_str(program, &popts, &mut sim).map_err(|e| prog_err(e.to_string()))?;
-    let sim = sim.into_simulation().map_err(|e| prog_err(e.to_string()))?;
+    s2g_gcode::parse_str(program, &popts, &mut sim).map_err(|e| FieldError::Simulation(e.into()))?;
+    let sim = sim.into_simulation().map_err(FieldError::Simulation)?;
     let r = sim.report();
     Ok(ProgramSimulation {
         gouge_voxels: r.gouge_voxels,

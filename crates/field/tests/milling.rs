@@ -239,7 +239,7 @@ fn optimised_cup_layers_have_no_colliding_poses_and_mill_without_gouges() {
     ));
     assert!(matches!(
         simulate_program("G1 X1 Y2 Z3 F100\nG2 X10 Y0 I0 J0\n", &cup, &block, &tool, 2.0, &popts),
-        Err(FieldError::Program(_))
+        Err(FieldError::Simulation(_))
     ));
     assert!(matches!(layer_mesh(&g, &problem, 6.0, 0.0), Err(FieldError::InvalidArgument(_))));
     let empty = s2g_geom::Mesh::new(vec![], vec![]).unwrap();

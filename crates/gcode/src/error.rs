@@ -142,7 +142,7 @@ pub enum ParseError<E> {
     #[error("{0}")]
     Gcode(GcodeError),
     /// Reading the input failed.
-    #[error("{path}: read error: {source}")]
+    #[error("{path}: read error")]
     Io {
         /// The file (`<input>` for a reader).
         path: String,

@@ -69,7 +69,7 @@ pub enum RlError {
     #[error("environment error")]
     Env(#[source] Box<dyn std::error::Error + Send + Sync + 'static>),
     /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file.
         path: PathBuf,

@@ -26,8 +26,8 @@ pub enum SimError {
     #[error(transparent)]
     Geom(#[from] s2g_geom::GeomError),
     /// Reading the program failed: its first G-code error (with its line and column) or an
-    /// I/O error (whose message names its cause).
-    #[error("{0}")]
+    /// I/O error (its cause as the source).
+    #[error(transparent)]
     Parse(s2g_gcode::ParseError<std::convert::Infallible>),
     /// The simulator refused a motion of the program; parsing stopped there.
     #[error("simulation stopped")]

@@ -250,7 +250,7 @@ impl<'a> Emitter<'a> {
     }
 
     fn push(&mut self, m: Motion<'_>) -> Result<()> {
-        self.writer.motion(&m).map_err(|e| FieldError::Program(e.to_string()))
+        self.writer.motion(&m).map_err(FieldError::Write)
     }
 
     fn frame(&self, s: &State) -> Isometry3 {
@@ -518,7 +518,7 @@ impl Emitter<'_> {
 
     /// Finishes the program: the footer, and each rotary block merged into its move.
     pub(crate) fn finish(mut self) -> Result<PrintProgram> {
-        self.writer.finish().map_err(|e| FieldError::Program(e.to_string()))?;
+        self.writer.finish().map_err(FieldError::Write)?;
         let raw = String::from_utf8_lossy(&self.writer.into_inner()).into_owned();
         self.report.text = merge_rotary_blocks(&raw, self.opts.rotary);
         Ok(self.report)

@@ -170,7 +170,7 @@ impl Default for WriterOptions {
 #[non_exhaustive]
 pub enum WriteError {
     /// The output failed.
-    #[error("writing G-code: {0}")]
+    #[error("writing G-code")]
     Io(#[from] std::io::Error),
     /// A coordinate, feed or other number is NaN or infinite.
     #[error("motion {index}: {what} is not finite ({value})")]
@@ -183,7 +183,7 @@ pub enum WriteError {
         value: f64,
     },
     /// An arc could not be linearised.
-    #[error("motion {index}: {source}")]
+    #[error("motion {index}")]
     Arc {
         /// 0-based index of the motion in the input.
         index: u64,

@@ -29,7 +29,7 @@ pub use self::fctb::read_fctb;
 #[non_exhaustive]
 pub enum LibraryError {
     /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: PathBuf,
