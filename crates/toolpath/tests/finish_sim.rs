@@ -11,8 +11,8 @@ use s2g_gcode::{Coolant, Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup};
 use s2g_toolpath::Tool;
 use s2g_toolpath::finish::{
-    Crossed, FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline,
-    finish_setup_opt,
+    Crossed, FinishContext, FinishOptions, FinishingStrategy, KeepPoint, Parallel, SteepShallow, Waterline,
+    finish_setup_keep, finish_setup_opt, stepover_for_scallop,
 };
 use s2g_voxsim::{
     DeviationOptions, HeightField, HeightFieldOptions, ToolTable, surface_deviation, surface_deviation_opt,
@@ -437,4 +437,85 @@ fn links_along_the_surface_replace_entries_without_gouging() {
     assert!(on.time_s < off.time_s, "{} s with surface links, {} s without", on.time_s, off.time_s);
     assert!(dev_on.gouge_depth < 1e-3, "{dev_on:?}");
     assert!(dev_on.max <= dev_off.max + 1e-4 && dev_on.columns >= dev_off.columns, "{dev_on:?} {dev_off:?}");
+}
+
+/// Parallel passes stop at the floor, not a sampling step above it: on a sphere whose
+/// cutter-location surface crosses the floor steeply (about 73 degrees), every run ends
+/// where the surface meets the floor (within 1e-3 above it; the drop-cutter there is at
+/// or above it), so the wall is finished down to the floor.
+#[test]
+fn parallel_runs_end_at_the_floor() {
+    let index = MeshIndex::new(&sphere(15.0, 96, 48)).unwrap();
+    let cutter = Cutter::ball(2.0, 30.0);
+    let dc = DropCutter::new(&index, &cutter).unwrap();
+    let floor = 3.0;
+    let ctx = FinishContext {
+        drop_cutter: &dc,
+        cutter: &cutter,
+        min: [-17.0, -10.0],
+        max: [17.0, 10.0],
+        z_range: [floor, 20.0],
+        scallop: 0.05,
+    };
+    let runs = Parallel::default().paths(&ctx).unwrap();
+    assert!(runs.len() > 20, "{} runs", runs.len());
+    let mut ends = 0;
+    for run in &runs {
+        assert!(run.iter().all(|p| p.z >= floor), "a point below the floor");
+        for p in [run[0], run[run.len() - 1]] {
+            assert!(p.z - floor < 1e-3, "a run ends at {p}, {} above the floor", p.z - floor);
+            assert!(dc.height(p.x, p.y).unwrap() >= floor - 1e-9);
+            ends += 1;
+        }
+    }
+    assert_eq!(ends, 2 * runs.len());
+}
+
+/// Where a filter leaves part of the surface out (rest finishing: an earlier setup finished
+/// it), the edge of what is kept is cut by the passes on both sides of it: on a flat top
+/// finished by passes along X with every point beyond y = 0 left out, the machined surface
+/// up to y = 0 keeps the scallop height (one pass cutting the edge alone would leave about
+/// four times it there), and the passes reach past the edge by about a stepover.
+#[test]
+fn the_edge_of_a_kept_region_keeps_the_scallop() {
+    let block =
+        Mesh::cuboid(&s2g_geom::Aabb::new(Point3::new(-10.0, -10.0, 0.0), Point3::new(10.0, 10.0, 12.0)))
+            .unwrap();
+    let index = MeshIndex::new(&block).unwrap();
+    let tool = Tool::ball(2.0);
+    let scallop = 0.02;
+    let opts = FinishOptions {
+        scallop,
+        floor: Some(11.0),
+        region: Some([[-8.0, -8.0], [8.0, 8.0]]),
+        ..Default::default()
+    };
+    let keep = |p: &Point3| p.y <= 0.0;
+    let mut rec = MotionRecorder::default();
+    let keep: &dyn KeepPoint = &keep;
+    finish_setup_keep(&index, &Setup::top(), &tool, &Parallel::default(), &opts, Some(keep), &mut rec)
+        .unwrap();
+    let mut field = HeightField::new_opt(
+        [-6.0, -6.0],
+        [6.0, 3.0],
+        ToolTable::single(Cutter::ball(2.0, 30.0)),
+        &Default::default(),
+    )
+    .unwrap();
+    replay(&rec, &mut field);
+    let (nx, ny) = field.dims();
+    let (mut worst, mut beyond) = (0.0f64, f64::NEG_INFINITY);
+    for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+        let [x, y] = field.column(i, j);
+        let top = field.top(i, j).unwrap();
+        if (-5.0..=0.0).contains(&y) && x.abs() <= 5.0 {
+            worst = worst.max(top - 12.0);
+        }
+        if top <= 12.0 + scallop {
+            beyond = beyond.max(y);
+        }
+    }
+    let step = stepover_for_scallop(&Cutter::ball(2.0, 30.0), scallop, 0.0).unwrap();
+    assert!(worst <= 1.05 * scallop + 2e-3, "{worst} left by y = 0 (scallop {scallop})");
+    assert!(beyond > 0.5 * step, "the passes reach only {beyond} past the edge (stepover {step})");
 }

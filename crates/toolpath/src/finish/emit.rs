@@ -220,7 +220,13 @@ pub fn finish_setup_keep<S: MotionSink>(
     };
     let paths = strategy.paths(&ctx).map_err(ToolpathError::Finish)?;
     let paths = match keep {
-        Some(k) => super::strategy::split_par(paths, |p| k.keep(p), opts.max_skip_gap),
+        // Grown by one and a half flat stepovers, so that the edge of what is left out is
+        // cut by the passes on both sides of it.
+        Some(k) => {
+            let grow = 1.5
+                * super::stepover_for_scallop(&cutter, opts.scallop, 0.0).map_err(ToolpathError::Finish)?;
+            super::strategy::split_par(paths, |p| k.keep(p), opts.max_skip_gap, grow)
+        }
         None => paths,
     };
     let paths = super::order::link_order(paths);
@@ -418,13 +424,21 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
-    /// up to the highest drop-cutter height along it (when that is at most
+    /// along the surface between them when halving the chord makes it so; else up to the highest drop-cutter height along it (when that is at most
     /// [`FinishOptions::approach`] above both ends), across and down when that is; else by a
     /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
     /// where it jumps at a wall or cuts a corner of a waterline loop).
     fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
         if self.clear(&a, &b, self.opts.link_tolerance) {
             return self.feed(b, self.tool.feed);
+        }
+        // Where the chord sags into the surface (a bend sharper than the sampling saw),
+        // follow the surface between its ends, halving the chord up to eight times.
+        if let Some(route) = self.along_surface(&a, &b, 1, 8) {
+            for q in route {
+                self.feed(q, self.tool.feed)?;
+            }
+            return Ok(());
         }
         // Lift to the highest drop-cutter height along the chord (a small lift across a
         // waterline corner, the wall's top where the surface jumps), if within the approach.
@@ -496,46 +510,53 @@ impl<S: MotionSink> Emitter<'_, S> {
         if !(l < budget) {
             return None;
         }
-        let lift = self.opts.pass_lift;
+        // Chords a quarter of the first sampling step long, halved where one is not clear.
+        let out = self.along_surface(a, b, ((l / 0.125).ceil() as usize).max(1), 6)?;
+        let length: f64 = std::iter::once(a).chain(&out).zip(&out).map(|(p, q)| (q - p).norm()).sum();
+        (length < budget).then_some(out)
+    }
+
+    /// The points after `a` of a feed from `a` to `b` along the drop-cutter surface over
+    /// the straight line between them, raised by the pass lift and above the floor: `n`
+    /// chords, each halved (to `depth` halvings) where it is not clear; `None` where that
+    /// does not make every chord clear or the surface drops below the floor.
+    fn along_surface(&self, a: &Point3, b: &Point3, n: usize, depth: u32) -> Option<Vec<Point3>> {
+        let d = b - a;
         let at = |t: f64| {
             let (x, y) = (a.x + d.x * t, a.y + d.y * t);
             let z = self.dc.height(x, y)?;
-            (z >= self.floor).then(|| Point3::new(x, y, z + lift))
+            (z >= self.floor).then(|| Point3::new(x, y, z + self.opts.pass_lift))
         };
-        // Chords a quarter of the first sampling step long, halved (to a depth of six)
-        // where one is not clear.
-        fn refine<F: Fn(f64) -> Option<Point3>>(
-            em: &impl Fn(&Point3, &Point3) -> bool,
-            at: &F,
+        let clear = |p: &Point3, q: &Point3| self.clear(p, q, self.opts.link_tolerance);
+        fn refine(
+            clear: &impl Fn(&Point3, &Point3) -> bool,
+            at: &impl Fn(f64) -> Option<Point3>,
             (t0, p0): (f64, Point3),
             (t1, p1): (f64, Point3),
             depth: u32,
             out: &mut Vec<Point3>,
         ) -> Option<()> {
-            if !em(&p0, &p1) {
+            if !clear(&p0, &p1) {
                 if depth == 0 {
                     return None;
                 }
                 let tm = 0.5 * (t0 + t1);
                 let pm = at(tm)?;
-                refine(em, at, (t0, p0), (tm, pm), depth - 1, out)?;
-                return refine(em, at, (tm, pm), (t1, p1), depth - 1, out);
+                refine(clear, at, (t0, p0), (tm, pm), depth - 1, out)?;
+                return refine(clear, at, (tm, pm), (t1, p1), depth - 1, out);
             }
             out.push(p1);
             Some(())
         }
-        let clear = |p: &Point3, q: &Point3| self.clear(p, q, self.opts.link_tolerance);
-        let n = ((l / 0.125).ceil() as usize).max(1);
         let mut out = Vec::with_capacity(n + 1);
         let mut prev = (0.0, *a);
         for k in 1..=n {
             let t = k as f64 / n as f64;
             let p = if k == n { *b } else { at(t)? };
-            refine(&clear, &at, prev, (t, p), 6, &mut out)?;
+            refine(&clear, &at, prev, (t, p), depth, &mut out)?;
             prev = (t, p);
         }
-        let length: f64 = std::iter::once(a).chain(&out).zip(&out).map(|(p, q)| (q - p).norm()).sum();
-        (length < budget).then_some(out)
+        Some(out)
     }
 
     /// The time (s) that leaving the tool's position `a` and entering a pass at `s`
