@@ -473,9 +473,10 @@ fn parallel_runs_end_at_the_floor() {
 
 /// Where a filter leaves part of the surface out (rest finishing: an earlier setup finished
 /// it), the edge of what is kept is cut by the passes on both sides of it: on a flat top
-/// finished by passes along X with every point beyond y = 0 left out, the machined surface
-/// up to y = 0 keeps the scallop height (one pass cutting the edge alone would leave about
-/// four times it there), and the passes reach past the edge by about a stepover.
+/// finished by passes along X with every point beyond y = e left out (e at three places
+/// between two passes), the machined surface up to y = e keeps the scallop height (one pass
+/// cutting the edge alone leaves up to about four times it there), and the passes reach
+/// past the edge by more than half a stepover.
 #[test]
 fn the_edge_of_a_kept_region_keeps_the_scallop() {
     let block =
@@ -484,38 +485,39 @@ fn the_edge_of_a_kept_region_keeps_the_scallop() {
     let index = MeshIndex::new(&block).unwrap();
     let tool = Tool::ball(2.0);
     let scallop = 0.02;
+    let step = stepover_for_scallop(&Cutter::ball(2.0, 30.0), scallop, 0.0).unwrap();
     let opts = FinishOptions {
         scallop,
         floor: Some(11.0),
         region: Some([[-8.0, -8.0], [8.0, 8.0]]),
         ..Default::default()
     };
-    let keep = |p: &Point3| p.y <= 0.0;
-    let mut rec = MotionRecorder::default();
-    let keep: &dyn KeepPoint = &keep;
-    finish_setup_keep(&index, &Setup::top(), &tool, &Parallel::default(), &opts, Some(keep), &mut rec)
-        .unwrap();
-    let mut field = HeightField::new_opt(
-        [-6.0, -6.0],
-        [6.0, 3.0],
-        ToolTable::single(Cutter::ball(2.0, 30.0)),
-        &Default::default(),
-    )
-    .unwrap();
-    replay(&rec, &mut field);
-    let (nx, ny) = field.dims();
-    let (mut worst, mut beyond) = (0.0f64, f64::NEG_INFINITY);
-    for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
-        let [x, y] = field.column(i, j);
-        let top = field.top(i, j).unwrap();
-        if (-5.0..=0.0).contains(&y) && x.abs() <= 5.0 {
-            worst = worst.max(top - 12.0);
+    for k in 0..3 {
+        let edge = step * k as f64 / 3.0;
+        let keep = move |p: &Point3| p.y <= edge;
+        let keep: &dyn KeepPoint = &keep;
+        let mut rec = MotionRecorder::default();
+        finish_setup_keep(&index, &Setup::top(), &tool, &Parallel::default(), &opts, Some(keep), &mut rec)
+            .unwrap();
+        let ball = ToolTable::single(Cutter::ball(2.0, 30.0));
+        let mut field = HeightField::new_opt([-6.0, -6.0], [6.0, 3.0], ball, &Default::default()).unwrap();
+        replay(&rec, &mut field);
+        let (nx, ny) = field.dims();
+        let (mut worst, mut beyond) = (0.0f64, f64::NEG_INFINITY);
+        for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+            let [x, y] = field.column(i, j);
+            let top = field.top(i, j).unwrap();
+            if (-5.0..=edge).contains(&y) && x.abs() <= 5.0 {
+                worst = worst.max(top - 12.0);
+            }
+            if top <= 12.0 + scallop {
+                beyond = beyond.max(y);
+            }
         }
-        if top <= 12.0 + scallop {
-            beyond = beyond.max(y);
-        }
+        assert!(worst <= 1.05 * scallop + 2e-3, "edge {edge}: {worst} left (scallop {scallop})");
+        assert!(
+            beyond > edge + 0.5 * step,
+            "edge {edge}: the passes reach only to {beyond} (stepover {step})"
+        );
     }
-    let step = stepover_for_scallop(&Cutter::ball(2.0, 30.0), scallop, 0.0).unwrap();
-    assert!(worst <= 1.05 * scallop + 2e-3, "{worst} left by y = 0 (scallop {scallop})");
-    assert!(beyond > 0.5 * step, "the passes reach only {beyond} past the edge (stepover {step})");
 }
