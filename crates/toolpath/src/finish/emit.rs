@@ -424,7 +424,8 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
-    /// along the surface between them when halving the chord makes it so; else up to the highest drop-cutter height along it (when that is at most
+    /// along the surface between them when halving the chord makes it so; else up to the
+    /// highest drop-cutter height along it (when that is at most
     /// [`FinishOptions::approach`] above both ends), across and down when that is; else by a
     /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
     /// where it jumps at a wall or cuts a corner of a waterline loop).
