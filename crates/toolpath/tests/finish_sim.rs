@@ -11,10 +11,12 @@ use s2g_gcode::{Coolant, Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup};
 use s2g_toolpath::Tool;
 use s2g_toolpath::finish::{
-    Crossed, FinishContext, FinishOptions, FinishingStrategy, Parallel, SteepShallow, Waterline,
-    finish_setup_opt,
+    Crossed, FinishContext, FinishOptions, FinishingStrategy, KeepPoint, Parallel, SteepShallow, Waterline,
+    finish_setup_keep, finish_setup_opt, stepover_for_scallop,
 };
-use s2g_voxsim::{HeightField, HeightFieldOptions, ToolTable, surface_deviation};
+use s2g_voxsim::{
+    DeviationOptions, HeightField, HeightFieldOptions, ToolTable, surface_deviation, surface_deviation_opt,
+};
 
 /// A closed cylinder of radius `r` along X from `-l/2` to `l/2`, `n` segments around.
 fn cylinder_x(r: f64, l: f64, n: usize) -> Mesh {
@@ -393,4 +395,129 @@ fn bad_finishing_options_are_errors() {
         )
         .is_err()
     );
+}
+
+/// Links along the surface ([`FinishOptions::max_surface_link`]): on a sphere finished by
+/// crossed rasters with a stock left (whose passes end and start on either side of the
+/// sphere's bulge, so that straight links are not clear), feeding from pass to pass along
+/// the surface replaces entries (a rise, a crossing and a plunge at the plunge feed) and
+/// takes less time, every fed point stays gouge-free by the drop-cutter, and the machined
+/// surface is the same within the scallop: no deeper cut, no more material left.
+#[test]
+fn links_along_the_surface_replace_entries_without_gouging() {
+    let mesh = sphere(15.0, 96, 48);
+    let index = MeshIndex::new(&mesh).unwrap();
+    let tool = Tool::ball(2.0);
+    let dc = DropCutter::new(&index, &Cutter::ball(2.0, 30.0)).unwrap();
+    let base = FinishOptions { scallop: 0.05, floor: Some(4.0), stock_left: Some(1.5), ..Default::default() };
+    let run = |max_surface_link: f64| {
+        let opts = FinishOptions { max_surface_link, ..base };
+        let (rec, sum) = finish(&index, &tool, &Crossed::default(), &opts);
+        for (_, m) in &rec.motions {
+            if let Motion::Linear { to, .. } = m {
+                assert!(!dc.interferes(to.x, to.y, to.z + 1e-9), "gouge at {to} (links {max_surface_link})");
+            }
+        }
+        let mut field = HeightField::new_opt(
+            [-12.0, -12.0],
+            [12.0, 12.0],
+            ToolTable::single(Cutter::ball(2.0, 30.0)),
+            &HeightFieldOptions { spacing: 0.1, ..Default::default() },
+        )
+        .unwrap();
+        replay(&rec, &mut field);
+        let reached = DeviationOptions { ball_radius: Some(2.0), floor: Some(4.0), ..Default::default() };
+        (sum, surface_deviation_opt(&field, &index, &reached))
+    };
+    let (off, dev_off) = run(0.0);
+    let (on, dev_on) = run(FinishOptions::default().max_surface_link);
+    println!("without: {off:?} {dev_off:?}\nwith: {on:?} {dev_on:?}");
+    assert!(on.hops + on.retracts < off.hops + off.retracts, "{on:?} against {off:?}");
+    assert!(on.links > off.links && on.passes == off.passes, "{on:?} against {off:?}");
+    assert!(on.time_s < off.time_s, "{} s with surface links, {} s without", on.time_s, off.time_s);
+    assert!(dev_on.gouge_depth < 1e-3, "{dev_on:?}");
+    assert!(dev_on.max <= dev_off.max + 1e-4 && dev_on.columns >= dev_off.columns, "{dev_on:?} {dev_off:?}");
+}
+
+/// Parallel passes stop at the floor, not a sampling step above it: on a sphere whose
+/// cutter-location surface crosses the floor steeply (about 73 degrees), every run ends
+/// where the surface meets the floor (within 1e-3 above it; the drop-cutter there is at
+/// or above it), so the wall is finished down to the floor.
+#[test]
+fn parallel_runs_end_at_the_floor() {
+    let index = MeshIndex::new(&sphere(15.0, 96, 48)).unwrap();
+    let cutter = Cutter::ball(2.0, 30.0);
+    let dc = DropCutter::new(&index, &cutter).unwrap();
+    let floor = 3.0;
+    let ctx = FinishContext {
+        drop_cutter: &dc,
+        cutter: &cutter,
+        min: [-17.0, -10.0],
+        max: [17.0, 10.0],
+        z_range: [floor, 20.0],
+        scallop: 0.05,
+    };
+    let runs = Parallel::default().paths(&ctx).unwrap();
+    assert!(runs.len() > 20, "{} runs", runs.len());
+    let mut ends = 0;
+    for run in &runs {
+        assert!(run.iter().all(|p| p.z >= floor), "a point below the floor");
+        for p in [run[0], run[run.len() - 1]] {
+            assert!(p.z - floor < 1e-3, "a run ends at {p}, {} above the floor", p.z - floor);
+            assert!(dc.height(p.x, p.y).unwrap() >= floor - 1e-9);
+            ends += 1;
+        }
+    }
+    assert_eq!(ends, 2 * runs.len());
+}
+
+/// Where a filter leaves part of the surface out (rest finishing: an earlier setup finished
+/// it), the edge of what is kept is cut by the passes on both sides of it: on a flat top
+/// finished by passes along X with every point beyond y = e left out (e at three places
+/// between two passes), the machined surface up to y = e keeps the scallop height (one pass
+/// cutting the edge alone leaves up to about four times it there), and the passes reach
+/// past the edge by more than half a stepover.
+#[test]
+fn the_edge_of_a_kept_region_keeps_the_scallop() {
+    let block =
+        Mesh::cuboid(&s2g_geom::Aabb::new(Point3::new(-10.0, -10.0, 0.0), Point3::new(10.0, 10.0, 12.0)))
+            .unwrap();
+    let index = MeshIndex::new(&block).unwrap();
+    let tool = Tool::ball(2.0);
+    let scallop = 0.02;
+    let step = stepover_for_scallop(&Cutter::ball(2.0, 30.0), scallop, 0.0).unwrap();
+    let opts = FinishOptions {
+        scallop,
+        floor: Some(11.0),
+        region: Some([[-8.0, -8.0], [8.0, 8.0]]),
+        ..Default::default()
+    };
+    for k in 0..3 {
+        let edge = step * k as f64 / 3.0;
+        let keep = move |p: &Point3| p.y <= edge;
+        let keep: &dyn KeepPoint = &keep;
+        let mut rec = MotionRecorder::default();
+        finish_setup_keep(&index, &Setup::top(), &tool, &Parallel::default(), &opts, Some(keep), &mut rec)
+            .unwrap();
+        let ball = ToolTable::single(Cutter::ball(2.0, 30.0));
+        let mut field = HeightField::new_opt([-6.0, -6.0], [6.0, 3.0], ball, &Default::default()).unwrap();
+        replay(&rec, &mut field);
+        let (nx, ny) = field.dims();
+        let (mut worst, mut beyond) = (0.0f64, f64::NEG_INFINITY);
+        for (i, j) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+            let [x, y] = field.column(i, j);
+            let top = field.top(i, j).unwrap();
+            if (-5.0..=edge).contains(&y) && x.abs() <= 5.0 {
+                worst = worst.max(top - 12.0);
+            }
+            if top <= 12.0 + scallop {
+                beyond = beyond.max(y);
+            }
+        }
+        assert!(worst <= 1.05 * scallop + 2e-3, "edge {edge}: {worst} left (scallop {scallop})");
+        assert!(
+            beyond > edge + 0.5 * step,
+            "edge {edge}: the passes reach only to {beyond} (stepover {step})"
+        );
+    }
 }

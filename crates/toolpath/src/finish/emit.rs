@@ -47,6 +47,13 @@ pub struct FinishOptions {
     pub max_link: f64,
     /// Spacing of the drop-cutter checks along such a link. Default `0.05`.
     pub link_check_step: f64,
+    /// Longest link between passes (in XY) that may follow the part's surface: where the
+    /// straight link is too long or not clear, the tool feeds from one pass to the next
+    /// along the drop-cutter surface over the straight line between them (a short pass of
+    /// its own, every chord checked as a pass's is), when that takes less time than
+    /// leaving and entering again (a rise, a crossing and a plunge at the plunge feed).
+    /// `0`: never. Default `25`.
+    pub max_surface_link: f64,
     /// A link point may dip this far below the drop-cutter height. Default `1e-4`.
     pub link_tolerance: f64,
     /// Every pass point is raised this far above the drop-cutter height: the strategies
@@ -97,6 +104,7 @@ impl Default for FinishOptions {
             approach: 1.0,
             max_link: 2.0,
             link_check_step: 0.05,
+            max_surface_link: 25.0,
             link_tolerance: 1e-4,
             pass_lift: 0.002,
             rapid_feed: 5000.0,
@@ -212,7 +220,13 @@ pub fn finish_setup_keep<S: MotionSink>(
     };
     let paths = strategy.paths(&ctx).map_err(ToolpathError::Finish)?;
     let paths = match keep {
-        Some(k) => super::strategy::split_par(paths, |p| k.keep(p), opts.max_skip_gap),
+        // Grown by one and a half flat stepovers, so that the edge of what is left out is
+        // cut by the passes on both sides of it.
+        Some(k) => {
+            let grow = 1.5
+                * super::stepover_for_scallop(&cutter, opts.scallop, 0.0).map_err(ToolpathError::Finish)?;
+            super::strategy::split_par(paths, |p| k.keep(p), opts.max_skip_gap, grow)
+        }
         None => paths,
     };
     let paths = super::order::link_order(paths);
@@ -240,6 +254,7 @@ pub fn finish_setup_keep<S: MotionSink>(
         safe: safe.as_ref(),
         tool,
         opts,
+        floor,
         pos: None,
         sum: FinishSummary { clear_z: hi[2] + opts.clearance, ..Default::default() },
     };
@@ -282,6 +297,7 @@ fn check<E>(o: &FinishOptions) -> Result<(), ToolpathError<E>> {
     }
     for (name, v) in [
         ("max_link", o.max_link),
+        ("max_surface_link", o.max_surface_link),
         ("link_tolerance", o.link_tolerance),
         ("pass_lift", o.pass_lift),
         ("max_skip_gap", o.max_skip_gap),
@@ -316,6 +332,8 @@ struct Emitter<'a, S: MotionSink> {
     safe: Option<&'a (DropCutter<'a>, f64)>,
     tool: &'a Tool,
     opts: &'a FinishOptions,
+    /// The lowest tip height finished: a link along the surface stays above it.
+    floor: f64,
     pos: Option<Point3>,
     sum: FinishSummary,
 }
@@ -406,13 +424,22 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
-    /// up to the highest drop-cutter height along it (when that is at most
+    /// along the surface between them when halving the chord makes it so; else up to the
+    /// highest drop-cutter height along it (when that is at most
     /// [`FinishOptions::approach`] above both ends), across and down when that is; else by a
     /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
     /// where it jumps at a wall or cuts a corner of a waterline loop).
     fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
         if self.clear(&a, &b, self.opts.link_tolerance) {
             return self.feed(b, self.tool.feed);
+        }
+        // Where the chord sags into the surface (a bend sharper than the sampling saw),
+        // follow the surface between its ends, halving the chord up to eight times.
+        if let Some(route) = self.along_surface(&a, &b, 1, 8) {
+            for q in route {
+                self.feed(q, self.tool.feed)?;
+            }
+            return Ok(());
         }
         // Lift to the highest drop-cutter height along the chord (a small lift across a
         // waterline corner, the wall's top where the surface jumps), if within the approach.
@@ -470,6 +497,88 @@ impl<S: MotionSink> Emitter<'_, S> {
             .map(|h| h + 0.05)
     }
 
+    /// The points after `a` of a link from `a` to `b` along the drop-cutter surface over
+    /// the straight line between them (raised by the pass lift, above the floor), each
+    /// chord clear as a pass's must be, when its length at the feed takes less time than
+    /// entering `b` anew ([`Self::enter_time`]); `None` otherwise.
+    fn surface_link(&self, a: &Point3, b: &Point3) -> Option<Vec<Point3>> {
+        let d = b - a;
+        let l = d.xy().norm();
+        if !(l <= self.opts.max_surface_link) {
+            return None;
+        }
+        let budget = self.enter_time(a, b) * self.tool.feed / 60.0;
+        if !(l < budget) {
+            return None;
+        }
+        // Chords a quarter of the first sampling step long, halved where one is not clear.
+        let out = self.along_surface(a, b, ((l / 0.125).ceil() as usize).max(1), 6)?;
+        let length: f64 = std::iter::once(a).chain(&out).zip(&out).map(|(p, q)| (q - p).norm()).sum();
+        (length < budget).then_some(out)
+    }
+
+    /// The points after `a` of a feed from `a` to `b` along the drop-cutter surface over
+    /// the straight line between them, raised by the pass lift and above the floor: `n`
+    /// chords, each halved (to `depth` halvings) where it is not clear; `None` where that
+    /// does not make every chord clear or the surface drops below the floor.
+    fn along_surface(&self, a: &Point3, b: &Point3, n: usize, depth: u32) -> Option<Vec<Point3>> {
+        let d = b - a;
+        let at = |t: f64| {
+            let (x, y) = (a.x + d.x * t, a.y + d.y * t);
+            let z = self.dc.height(x, y)?;
+            (z >= self.floor).then(|| Point3::new(x, y, z + self.opts.pass_lift))
+        };
+        let clear = |p: &Point3, q: &Point3| self.clear(p, q, self.opts.link_tolerance);
+        fn refine(
+            clear: &impl Fn(&Point3, &Point3) -> bool,
+            at: &impl Fn(f64) -> Option<Point3>,
+            (t0, p0): (f64, Point3),
+            (t1, p1): (f64, Point3),
+            depth: u32,
+            out: &mut Vec<Point3>,
+        ) -> Option<()> {
+            if !clear(&p0, &p1) {
+                if depth == 0 {
+                    return None;
+                }
+                let tm = 0.5 * (t0 + t1);
+                let pm = at(tm)?;
+                refine(clear, at, (t0, p0), (tm, pm), depth - 1, out)?;
+                return refine(clear, at, (tm, pm), (t1, p1), depth - 1, out);
+            }
+            out.push(p1);
+            Some(())
+        }
+        let mut out = Vec::with_capacity(n + 1);
+        let mut prev = (0.0, *a);
+        for k in 1..=n {
+            let t = k as f64 / n as f64;
+            let p = if k == n { *b } else { at(t)? };
+            refine(&clear, &at, prev, (t, p), depth, &mut out)?;
+            prev = (t, p);
+        }
+        Some(out)
+    }
+
+    /// The time (s) that leaving the tool's position `a` and entering a pass at `s`
+    /// takes ([`Self::enter`]): the rise and the plunge at their feeds and the rapids
+    /// between, on the way through the clearance plane when there is no stock left.
+    fn enter_time(&self, a: &Point3, s: &Point3) -> f64 {
+        let (feed, plunge, rapid) = (self.tool.feed, self.tool.plunge_feed, self.opts.rapid_feed);
+        let clear = self.sum.clear_z;
+        let xy = (s - a).xy().norm();
+        match (self.safe_height(a.x, a.y, a.z), self.safe_height(s.x, s.y, s.z)) {
+            (Some(up), Some(down)) => {
+                let (up, down) = (up.min(clear), down.min(clear));
+                60.0 * ((up - a.z) / feed + (down - s.z) / plunge + xy / rapid)
+            }
+            _ => {
+                let top = (s.z + self.opts.approach).min(clear);
+                60.0 * ((clear - a.z + xy + clear - top) / rapid + (top - s.z) / plunge)
+            }
+        }
+    }
+
     /// Retract, rapid over `s` on the clearance plane, down to the approach height, and
     /// plunge at the plunge feed. With a stock left: leave the current position by feeding
     /// up to its safe height, cross at the highest safe height on the way (the clearance
@@ -512,6 +621,15 @@ impl<S: MotionSink> Emitter<'_, S> {
                 self.sum.links += 1;
                 self.feed(s, self.tool.feed)?;
             }
+            Some(p) if p.z < self.sum.clear_z => match self.surface_link(&p, &s) {
+                Some(route) => {
+                    self.sum.links += 1;
+                    for q in route {
+                        self.feed(q, self.tool.feed)?;
+                    }
+                }
+                None => self.enter(s)?,
+            },
             _ => self.enter(s)?,
         }
         self.sum.passes += 1;

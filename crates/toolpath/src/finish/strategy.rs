@@ -86,7 +86,7 @@ impl Parallel {
             floor: None,
         };
         let runs = parallel_finish_opt(ctx.drop_cutter, ctx.min, ctx.max, &opts)?;
-        Ok(split_runs(runs, |p| p.z >= ctx.z_range[0]))
+        Ok(split_at_floor(ctx.drop_cutter, runs, ctx.z_range[0]))
     }
 }
 
@@ -322,7 +322,7 @@ impl FinishingStrategy for Crossed {
                         dot(p) <= least + o
                     }
                 };
-            out.extend(split_par(par.raw_paths_at(ctx, stepover)?, keep, self.max_gap));
+            out.extend(split_par(par.raw_paths_at(ctx, stepover)?, keep, self.max_gap, 0.0));
         }
         Ok(out)
     }
@@ -351,10 +351,10 @@ impl FinishingStrategy for SteepShallow {
         let dc = ctx.drop_cutter;
         let wl = Waterline { min_slope: t - o, ..self.waterline };
         let steep = |p: &Point3| cl_slope(dc, p.x, p.y, e).is_none_or(|a| a >= t - o);
-        let mut out = split_par(wl.loops(ctx)?, steep, 0.0);
+        let mut out = split_par(wl.loops(ctx)?, steep, 0.0, 0.0);
         let par = Parallel { design_slope: t + o, ..self.parallel };
         let shallow = |p: &Point3| cl_slope(dc, p.x, p.y, e).is_some_and(|a| a <= t + o);
-        out.extend(split_par(par.raw_paths(ctx)?, shallow, 0.0));
+        out.extend(split_par(par.raw_paths(ctx)?, shallow, 0.0, 0.0));
         Ok(out)
     }
 }
@@ -456,17 +456,21 @@ fn outward(ring: &[Point3], d: f64) -> Vec<Point3> {
 }
 
 /// [`split_runs`] with the predicate evaluated in parallel, every accepted point's
-/// neighbours accepted with it; a run of rejected points shorter than `gap` (along the
-/// path) between accepted ones is accepted too.
+/// neighbours accepted with it, and every point within `grow` (in XY) of an accepted
+/// point of any path accepted too (`0`: none); a run of rejected points shorter than
+/// `gap` (along the path) between accepted ones is accepted too.
 pub(super) fn split_par(
     paths: Vec<Vec<Point3>>,
     keep: impl Fn(&Point3) -> bool + Sync,
     gap: f64,
+    grow: f64,
 ) -> Vec<Vec<Point3>> {
+    let flags: Vec<Vec<bool>> = paths.par_iter().map(|p| p.iter().map(&keep).collect()).collect();
+    let flags = grown(&paths, flags, grow);
     paths
         .into_par_iter()
-        .map(|p| {
-            let flags: Vec<bool> = p.iter().map(&keep).collect();
+        .zip(flags)
+        .map(|(p, flags)| {
             // Each kept point takes its neighbours along: the chords to them run over the
             // surface it stands for (a narrow region a pass crosses in one point is cut,
             // and neighbouring regions overlap by a chord).
@@ -481,6 +485,32 @@ pub(super) fn split_par(
         .into_iter()
         .flatten()
         .collect()
+}
+
+/// `flags` (one per point of `paths`) with every point within `r` in XY of a flagged
+/// point flagged as well: a region kept on one pass and left out on the next one is cut
+/// by the passes on both sides of its edge, as inside it, rather than by one (whose
+/// neighbour across, left out, would leave twice the stepover's scallop along the edge).
+fn grown(paths: &[Vec<Point3>], flags: Vec<Vec<bool>>, r: f64) -> Vec<Vec<bool>> {
+    if !(r > 0.0 && r.is_finite()) {
+        return flags;
+    }
+    let cell = |p: &Point3| ((p.x / r).floor() as i64, (p.y / r).floor() as i64);
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<[f64; 2]>> = std::collections::HashMap::new();
+    for (p, f) in paths.iter().zip(&flags) {
+        for (q, _) in p.iter().zip(f).filter(|(_, f)| **f) {
+            grid.entry(cell(q)).or_default().push([q.x, q.y]);
+        }
+    }
+    let near = |q: &Point3| {
+        let (i, j) = cell(q);
+        (i - 1..=i + 1).any(|a| {
+            (j - 1..=j + 1).any(|b| {
+                grid.get(&(a, b)).is_some_and(|v| v.iter().any(|c| (c[0] - q.x).hypot(c[1] - q.y) <= r))
+            })
+        })
+    };
+    paths.par_iter().zip(flags).map(|(p, f)| p.iter().zip(f).map(|(q, f)| f || near(q)).collect()).collect()
 }
 
 /// Sets the flags of every run of cleared flags shorter than `gap` along `path` that has
@@ -507,6 +537,66 @@ fn fill_gaps(path: &[Point3], flags: &mut [bool], gap: f64) {
             }
         }
     }
+}
+
+/// The runs of each pass at or above `floor`, each run carried on to where the
+/// cutter-location surface crosses the floor between its last point and the next one
+/// (by bisection on the drop-cutter over the chord's XY line, to 1e-4 of its length, on
+/// the side at or above the floor), and likewise back from its first point: on a steep
+/// wall points a sampling step apart lie far apart in Z, and a run cut at its last point
+/// above the floor would leave the wall unfinished down to it.
+fn split_at_floor(dc: &DropCutter<'_>, paths: Vec<Vec<Point3>>, floor: f64) -> Vec<Vec<Point3>> {
+    // The point between `above` (at or above the floor) and `below` where the surface
+    // crosses the floor, at or above it; `None` where the drop-cutter finds no contact.
+    let crossing = |above: &Point3, below: &Point3| -> Option<Point3> {
+        let at = |t: f64| {
+            let (x, y) = (above.x + (below.x - above.x) * t, above.y + (below.y - above.y) * t);
+            dc.height(x, y).map(|z| Point3::new(x, y, z))
+        };
+        let (mut lo, mut hi) = (0.0, 1.0);
+        let mut best = *above;
+        while hi - lo > 1e-4 {
+            let mid = 0.5 * (lo + hi);
+            match at(mid) {
+                Some(p) if p.z >= floor => {
+                    (lo, best) = (mid, p);
+                }
+                Some(_) => hi = mid,
+                None => return None,
+            }
+        }
+        (lo > 0.0).then_some(best)
+    };
+    let mut out = Vec::new();
+    for path in paths {
+        let mut run: Vec<Point3> = Vec::new();
+        for (i, p) in path.iter().enumerate() {
+            if p.z >= floor {
+                if run.is_empty()
+                    && i > 0
+                    && let Some(c) = crossing(p, &path[i - 1])
+                {
+                    run.push(c);
+                }
+                run.push(*p);
+                continue;
+            }
+            if let Some(last) = run.last()
+                && let Some(c) = crossing(last, p)
+            {
+                run.push(c);
+            }
+            if run.len() >= 2 {
+                out.push(std::mem::take(&mut run));
+            } else {
+                run.clear();
+            }
+        }
+        if run.len() >= 2 {
+            out.push(run);
+        }
+    }
+    out
 }
 
 /// The runs of consecutive points that `keep` accepts, each of at least two points.
