@@ -515,6 +515,9 @@ pub struct SetupProgram {
     /// Lines of this setup's program where a rapid move removed material (in the rotary
     /// layout: lines of the one program, within this setup's section).
     pub rapid_collision_lines: Vec<u64>,
+    /// Lines of this setup's program where the shank or holder met stock (in the rotary
+    /// layout: lines of the one program, within this setup's section).
+    pub holder_collision_lines: Vec<u64>,
     /// The paper's preservation `R_s` (Eq. 10) after this setup: the fraction of the part's
     /// voxels still there.
     pub preservation: f64,

@@ -6,7 +6,7 @@ use crate::gcode::Coolant;
 use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
 use crate::policy::{Action, ActionSpace, FinishChoice, SetupFeatures};
-use crate::toolpath::finish::FinishOptions;
+use crate::toolpath::finish::{FinishOptions, RoughedStock};
 use crate::toolpath::library::Cutting;
 use crate::toolpath::{PlanOptions, Tool, strategies};
 
@@ -64,6 +64,15 @@ impl Job {
             // Passes along X or Y as G18/G19 arcs above the cutter-location points (the
             // milling dialects all select planes).
             arc_tolerance: self.popts.arc_tolerance.filter(|_| self.popts.fit_arcs),
+            // The shank and holder keep clear of what this setup's roughing left (issue 35).
+            holder_stock: Some(RoughedStock {
+                radial: self.popts.finishing_allowance + self.popts.arc_tolerance.unwrap_or(0.0),
+                axial: self.popts.layer_height
+                    + self.popts.axial_allowance
+                    + self.popts.arc_tolerance.unwrap_or(0.0),
+                tool_radius: self.tool.radius(),
+                top: self.popts.stock.map_or(f64::INFINITY, |s| s.max.z),
+            }),
             ..FinishOptions::default()
         }
     }

@@ -678,6 +678,15 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
                 d.mean,
                 d.gouge_depth
             );
+            if f.summary.guarded_points > 0 {
+                println!(
+                    "    finish left out {} pass points where the shank or holder would meet the roughing's stock",
+                    f.summary.guarded_points
+                );
+            }
+        }
+        if !sp.holder_collision_lines.is_empty() {
+            println!("    holder collisions at lines {:?}", sp.holder_collision_lines);
         }
     }
     if let Some(d) = &milled.surface_deviation {
