@@ -190,24 +190,15 @@ pub(super) fn machine_setup(
     let gouge_voxels = report.gouge_voxels - gouges_before;
     // The simulator keeps one set of lines over all programs; this setup's are the new
     // ones (a line number that already collided in an earlier program is not repeated).
-    let rapid_collision_lines =
-        report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
-    let holder_collision_lines =
-        report.holder_collisions.iter().copied().filter(|l| !holders_before.contains(l)).collect();
+    let rapid_collision_lines = new_lines(&report.rapid_collision_lines, &rapids_before);
+    let holder_collision_lines = new_lines(&report.holder_collisions, &holders_before);
     times.simulation += t.elapsed().saturating_sub(waited).as_secs_f64();
     let machine_time_s = clock.as_mut().map(|c| {
         let Ok(()) = c.finish();
         c.seconds()
     });
-    let finish = finish_result(
-        job,
-        (finished, surface, finishing),
-        split_s,
-        machine_time_s,
-        &plan,
-        ctx.samples,
-        times,
-    );
+    let fin = (finished, surface, finishing);
+    let finish = finish_result(job, fin, split_s, machine_time_s, &plan, ctx.samples, times);
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
@@ -224,6 +215,11 @@ pub(super) fn machine_setup(
         finish,
     };
     Ok((program, remaining))
+}
+
+/// The lines of `now` not in `before`.
+fn new_lines(now: &[u64], before: &BTreeSet<u64>) -> Vec<u64> {
+    now.iter().copied().filter(|l| !before.contains(l)).collect()
 }
 
 /// The simulator's gouge count, rapid-collision and holder-collision lines so far.
