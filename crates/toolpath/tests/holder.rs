@@ -75,7 +75,13 @@ fn mill(holder_stock: Option<RoughedStock>) -> (SimReport, FinishSummary) {
 
 #[test]
 fn the_finishers_shank_keeps_off_the_allowance_on_a_wall_taller_than_its_flutes() {
-    let stock = RoughedStock { radial: 0.3, axial: 2.3, tool_radius: 6.0, top: 51.0 };
+    let stock = RoughedStock {
+        radial: 0.3,
+        axial: 2.3,
+        tool_radius: 6.0,
+        top: 51.0,
+        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
+    };
     let (checked, summary) = mill(Some(stock));
     assert_eq!(checked.gouge_voxels, 0);
     assert!(

@@ -36,6 +36,22 @@ pub struct RoughedStock {
     pub tool_radius: f64,
     /// The stock's top: no stock above it.
     pub top: f64,
+    /// The stock's upward faces in the setup frame, `[nx, ny, nz, d]` with `nz > 0`: no
+    /// stock where `nx x + ny y + nz z > d` (a box on an oblique axis has up to three; an
+    /// unused one is `[0, 0, 1, inf]`). Over a guard's disc of radius `g` about `(x, y)`
+    /// the stock is then no higher than `(d - nx x - ny y + g |(nx, ny)|) / nz` for each.
+    pub faces: [[f64; 4]; 3],
+}
+
+impl RoughedStock {
+    /// The highest the stock can stand over the disc of radius `g` about `(x, y)`.
+    fn top_over(&self, x: f64, y: f64, g: f64) -> f64 {
+        self.faces
+            .iter()
+            .filter(|f| f[2] > 0.0)
+            .map(|f| (f[3] - f[0] * x - f[1] * y + g * f[0].hypot(f[1])) / f[2])
+            .fold(self.top, f64::min)
+    }
 }
 
 /// One guard (the shank or the holder): a flat cutter of the radius the check needs, and
@@ -44,6 +60,8 @@ struct Part<'a> {
     dc: DropCutter<'a>,
     /// The guard's bottom above the tip.
     bottom: f64,
+    /// The guard's radius.
+    radius: f64,
 }
 
 /// The shank and holder of a finishing tool against the stock left around the part
@@ -69,7 +87,7 @@ impl<'a> Guard<'a> {
                 let r = if rt >= g { rt } else { g + rt } + stock.radial;
                 let dc = DropCutter::new(part, &Cutter::flat(r, 1.0))
                     .map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
-                parts.push(Part { dc, bottom });
+                parts.push(Part { dc, bottom, radius: g });
             }
             Ok(())
         };
@@ -87,7 +105,7 @@ impl<'a> Guard<'a> {
         let s = &self.stock;
         self.parts.iter().all(|g| {
             let bottom = p.z + g.bottom;
-            bottom >= s.top || !g.dc.interferes(p.x, p.y, bottom - s.axial)
+            bottom >= s.top_over(p.x, p.y, g.radius) || !g.dc.interferes(p.x, p.y, bottom - s.axial)
         })
     }
 
@@ -97,7 +115,9 @@ impl<'a> Guard<'a> {
         let s = &self.stock;
         self.parts
             .iter()
-            .filter_map(|g| g.dc.height(x, y).map(|h| (h + s.axial).min(s.top) - g.bottom))
+            .filter_map(|g| {
+                g.dc.height(x, y).map(|h| (h + s.axial).min(s.top_over(x, y, g.radius)) - g.bottom)
+            })
             .reduce(f64::max)
     }
 
@@ -165,7 +185,13 @@ mod tests {
     }
 
     /// Roughed with a 12 mm end mill, 0.3 radial allowance, 2.3 of axial stock, top 60.
-    const STOCK: RoughedStock = RoughedStock { radial: 0.3, axial: 2.3, tool_radius: 6.0, top: 60.0 };
+    const STOCK: RoughedStock = RoughedStock {
+        radial: 0.3,
+        axial: 2.3,
+        tool_radius: 6.0,
+        top: 60.0,
+        faces: [[0.0, 0.0, 1.0, f64::INFINITY]; 3],
+    };
 
     fn wall() -> MeshIndex {
         // A block 20 mm wide and 45 mm tall standing on z = 0, its wall at x = 0.
@@ -199,6 +225,16 @@ mod tests {
         let g = Guard::new::<()>(&part, &ball10(), low_top).unwrap().unwrap();
         assert!(g.clear(&Point3::new(10.0, 0.0, -9.5)));
         assert!(!g.clear(&Point3::new(10.0, 0.0, -10.5)));
+        // A stock face sloping down along +X at 45 degrees through (0, 0, 60), as an
+        // oblique setup's: over a disc of 17.5 about x = 40 it stands at most at
+        // 60 - 40 + 17.5; about x = -10 the flat top (60) bounds it.
+        let n = std::f64::consts::FRAC_1_SQRT_2;
+        let sloped = RoughedStock {
+            faces: [[n, 0.0, n, 60.0 * n], [0.0, 0.0, 1.0, f64::INFINITY], [0.0, 0.0, 1.0, f64::INFINITY]],
+            ..STOCK
+        };
+        assert!((sloped.top_over(40.0, 0.0, 17.5) - (60.0 - 40.0 + 17.5)).abs() < 1e-9);
+        assert!((sloped.top_over(-10.0, 0.0, 17.5) - 60.0).abs() < 1e-9);
     }
 
     #[test]
