@@ -38,6 +38,7 @@ impl Milled {
                     "program_lines": s.lines,
                     "gouge_voxels": s.gouge_voxels,
                     "rapid_collision_lines": s.rapid_collision_lines,
+                    "holder_collision_lines": s.holder_collision_lines,
                 });
                 if self.preset == Preset::Shop {
                     let t = &s.tool;
@@ -157,6 +158,7 @@ impl Milled {
             "passes": f.summary.passes,
             "links": f.summary.links,
             "retracts": f.summary.retracts,
+            "guarded_points": f.summary.guarded_points,
             "cutting_length": round(f.summary.cutting_length, 6),
         });
         setup["surface_deviation"] = json!({

@@ -6,7 +6,7 @@ use crate::gcode::Coolant;
 use crate::gcode::MachineProfile;
 use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
 use crate::policy::{Action, ActionSpace, FinishChoice, SetupFeatures};
-use crate::toolpath::finish::FinishOptions;
+use crate::toolpath::finish::{FinishOptions, RoughedStock};
 use crate::toolpath::library::Cutting;
 use crate::toolpath::{PlanOptions, Tool, strategies};
 
@@ -21,6 +21,8 @@ pub(super) struct Job {
     pub(super) note: Option<String>,
     /// The finishing after the roughing, if the run finishes.
     pub(super) finish: Option<FinishJob>,
+    /// The stock box's upward faces in the setup frame ([`RoughedStock::faces`]).
+    pub(super) stock_faces: [[f64; 4]; 3],
 }
 
 /// What a setup is finished with.
@@ -64,6 +66,16 @@ impl Job {
             // Passes along X or Y as G18/G19 arcs above the cutter-location points (the
             // milling dialects all select planes).
             arc_tolerance: self.popts.arc_tolerance.filter(|_| self.popts.fit_arcs),
+            // The shank and holder keep clear of what this setup's roughing left (issue 35).
+            holder_stock: Some(RoughedStock {
+                radial: self.popts.finishing_allowance + self.popts.arc_tolerance.unwrap_or(0.0),
+                axial: self.popts.layer_height
+                    + self.popts.axial_allowance
+                    + self.popts.arc_tolerance.unwrap_or(0.0),
+                tool_radius: self.tool.radius(),
+                top: self.popts.stock.map_or(f64::INFINITY, |s| s.max.z),
+                faces: self.stock_faces,
+            }),
             ..FinishOptions::default()
         }
     }
@@ -117,7 +129,8 @@ impl Job {
             }
             None => popts,
         };
-        Ok(Self { setup: *setup, action: *action, tool, popts, note: None, finish: None })
+        let stock_faces = upward_faces(stock, setup);
+        Ok(Self { setup: *setup, action: *action, tool, popts, note: None, finish: None, stock_faces })
     }
 
     /// An upper estimate of the setup's toolpath length and machining time (hours): every
@@ -217,6 +230,26 @@ pub(super) fn setup_features(
         depth_histogram,
         points,
     }
+}
+
+/// The upward faces of the stock box (part frame) in `setup`'s frame, `[nx, ny, nz, d]`
+/// with `nz > 0` (no stock where `n . q > d`); unused entries `[0, 0, 1, inf]`.
+fn upward_faces(stock: &Aabb, setup: &Setup) -> [[f64; 4]; 3] {
+    let mut faces = [[0.0, 0.0, 1.0, f64::INFINITY]; 3];
+    let (r, t) = (setup.frame.rotation.inverse(), setup.frame.translation.vector);
+    let mut k = 0;
+    for a in 0..3 {
+        for (sign, d) in [(1.0, stock.max[a]), (-1.0, -stock.min[a])] {
+            let mut n = Vector3::zeros();
+            n[a] = sign;
+            let ns = r * n;
+            if ns.z > 1e-9 && k < 3 {
+                faces[k] = [ns.x, ns.y, ns.z, d - n.dot(&t)];
+                k += 1;
+            }
+        }
+    }
+    faces
 }
 
 /// The stock box as seen in a setup's frame (the box around its rotated corners).

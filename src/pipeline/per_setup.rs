@@ -2,6 +2,7 @@
 //! 3-axis program; the sink that feeds the simulator and records the path.
 
 use std::cell::RefCell;
+use std::collections::BTreeSet;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -84,7 +85,7 @@ pub(super) fn machine_setup(
     progress(Stage::GcodeTranslation { setup: i + 1, setups });
     let t = Instant::now();
     // The simulator's counts so far (flushed after the previous setup) are earlier programs'.
-    let (gouges_before, rapids_before) = sim_counts(ctx);
+    let (gouges_before, rapids_before, holders_before) = sim_counts(ctx);
     let mut tee = simulating(ctx.sim, trace);
     tee.first.clock = ctx.machine.map(|m| MachineTime::new(m.clone()));
     let finishing = prepare_finishing(ctx, job, i, &mut tee.first)?;
@@ -189,22 +190,15 @@ pub(super) fn machine_setup(
     let gouge_voxels = report.gouge_voxels - gouges_before;
     // The simulator keeps one set of lines over all programs; this setup's are the new
     // ones (a line number that already collided in an earlier program is not repeated).
-    let rapid_collision_lines =
-        report.rapid_collision_lines.iter().copied().filter(|l| !rapids_before.contains(l)).collect();
+    let rapid_collision_lines = new_lines(&report.rapid_collision_lines, &rapids_before);
+    let holder_collision_lines = new_lines(&report.holder_collisions, &holders_before);
     times.simulation += t.elapsed().saturating_sub(waited).as_secs_f64();
     let machine_time_s = clock.as_mut().map(|c| {
         let Ok(()) = c.finish();
         c.seconds()
     });
-    let finish = finish_result(
-        job,
-        (finished, surface, finishing),
-        split_s,
-        machine_time_s,
-        &plan,
-        ctx.samples,
-        times,
-    );
+    let fin = (finished, surface, finishing);
+    let finish = finish_result(job, fin, split_s, machine_time_s, &plan, ctx.samples, times);
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
@@ -216,17 +210,27 @@ pub(super) fn machine_setup(
         lines: summary.lines,
         gouge_voxels,
         rapid_collision_lines,
+        holder_collision_lines,
         preservation: 1.0,
         finish,
     };
     Ok((program, remaining))
 }
 
-/// The simulator's gouge count and rapid-collision lines so far.
-fn sim_counts(ctx: &Ctx<'_>) -> (u64, std::collections::BTreeSet<u64>) {
+/// The lines of `now` not in `before`.
+fn new_lines(now: &[u64], before: &BTreeSet<u64>) -> Vec<u64> {
+    now.iter().copied().filter(|l| !before.contains(l)).collect()
+}
+
+/// The simulator's gouge count, rapid-collision and holder-collision lines so far.
+fn sim_counts(ctx: &Ctx<'_>) -> (u64, BTreeSet<u64>, BTreeSet<u64>) {
     let sim = ctx.sim.borrow();
     let r = sim.report();
-    (r.gouge_voxels, r.rapid_collision_lines.iter().copied().collect())
+    (
+        r.gouge_voxels,
+        r.rapid_collision_lines.iter().copied().collect(),
+        r.holder_collisions.iter().copied().collect(),
+    )
 }
 
 /// The part in the program's frame, for the finisher's drop-cutter and the finished

@@ -268,6 +268,12 @@ pub(super) fn mill_rotary(
                 .copied()
                 .filter(|l| lines.contains(l))
                 .collect(),
+            holder_collision_lines: report
+                .holder_collisions
+                .iter()
+                .copied()
+                .filter(|l| lines.contains(l))
+                .collect(),
             preservation: 1.0,
             finish: None,
         });

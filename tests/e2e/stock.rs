@@ -4,7 +4,7 @@
 
 use shape2gcode::gcode::{Motion, MotionSink, ParseOptions, parse_str};
 use shape2gcode::geom::{Mesh, Point3};
-use shape2gcode::{Datum, HeuristicPolicy, MillOptions, MillRun, Milled, Preset, Stock, mill};
+use shape2gcode::{Datum, FinishChoice, HeuristicPolicy, MillOptions, MillRun, Milled, Preset, Stock, mill};
 
 /// A simple polygon in the XZ plane, counter-clockwise seen from -Y, extruded from y = 0
 /// to y = `depth`: a flat part of the kind slicers test with.
@@ -88,15 +88,24 @@ fn mill_with(mesh: &Mesh, opts: &MillOptions) -> Milled {
 /// 128^3 puts 13 voxels across the stand); the shop preset's box of stock around a flat
 /// part keeps it cheap. `s2g mill` on PrusaSlicer's own meshes gives the figures in the
 /// issue's closing note.
+///
+/// Finished as the shop preset finishes by default (`s2g mill --preset shop`), too: the
+/// roughing cuts the walls to size, since the ball's raster never descends a part's outer
+/// walls (with the roughing's former 0.3 mm allowance PrusaSlicer's bridge and ipadstand
+/// kept it there: IoU 0.948 and 0.965 at 256^3).
 #[test]
 fn flat_parts_lose_all_their_stock_in_both_presets() {
+    let finished = Some(FinishChoice::default());
     for (name, part) in [("bridge", bridge()), ("stand", stand())] {
-        for (preset, resolution, target) in [(Preset::Paper, 256, 0.9), (Preset::Shop, 256, 0.98)] {
-            let opts = MillOptions { preset, resolution, ..MillOptions::default() };
+        for (preset, finish, target) in
+            [(Preset::Paper, None, 0.9), (Preset::Shop, None, 0.98), (Preset::Shop, finished, 0.98)]
+        {
+            let opts = MillOptions { preset, resolution: 256, finish, ..MillOptions::default() };
             let m = mill_with(&part, &opts);
             assert!(
                 m.metrics.iou >= target,
-                "{name} {preset:?}: IoU {:.4} < {target} with setups {:?}",
+                "{name} {preset:?} finished {}: IoU {:.4} < {target} with setups {:?}",
+                finish.is_some(),
                 m.metrics.iou,
                 m.orientation.directions
             );

@@ -172,8 +172,10 @@ pub struct Args {
     /// Finishing tool number in the library (a ball or bull-nose end mill). Default: the rule above
     #[arg(long, value_name = "T")]
     finish_tool: Option<u32>,
-    /// Stock the roughing leaves for the finisher, `RADIAL[,AXIAL]` mm
-    #[arg(long, value_name = "MM", default_value = "0.3")]
+    /// Stock the roughing leaves for the finisher, `RADIAL[,AXIAL]` mm: by default none, the
+    /// roughing cuts walls and flats to size and the finisher takes the layer steps off the
+    /// slopes (a ball raster never descends the outer walls)
+    #[arg(long, value_name = "MM", default_value = "0")]
     allowance: String,
     /// Column spacing of the height field that measures the finished surface, mm
     #[arg(long, value_name = "MM", default_value_t = 0.1)]
@@ -678,6 +680,15 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
                 d.mean,
                 d.gouge_depth
             );
+            if f.summary.guarded_points > 0 {
+                println!(
+                    "    finish left out {} pass points where the shank or holder would meet the roughing's stock",
+                    f.summary.guarded_points
+                );
+            }
+        }
+        if !sp.holder_collision_lines.is_empty() {
+            println!("    holder collisions at lines {:?}", sp.holder_collision_lines);
         }
     }
     if let Some(d) = &milled.surface_deviation {

@@ -9,6 +9,7 @@
 //! on a clearance plane, plunges, gouge-checked links) and sums their length and time.
 
 mod emit;
+mod guard;
 mod order;
 mod parallel;
 mod scallop;
@@ -18,6 +19,7 @@ pub use emit::{
     FinishOptions, FinishSummary, KeepPoint, finish_setup, finish_setup_keep, finish_setup_opt,
     part_in_setup_frame,
 };
+pub use guard::RoughedStock;
 pub use parallel::{ParallelFinishOptions, parallel_finish, parallel_finish_opt};
 pub use scallop::{scallop_height, stepover_for_scallop};
 pub use strategy::{Crossed, FinishContext, FinishingStrategy, Parallel, SteepShallow, Waterline, cl_slope};

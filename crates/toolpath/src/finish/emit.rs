@@ -23,6 +23,7 @@ use s2g_gcode::{
 };
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
 
+use super::guard::{Guard, RoughedStock};
 use super::{FinishContext, FinishingStrategy};
 use crate::error::ToolpathError;
 use crate::link::book_move;
@@ -92,6 +93,12 @@ pub struct FinishOptions {
     /// the cutter-location surface bulges above a chord, an arc over it replaces the step
     /// up, across and down.
     pub arc_tolerance: Option<f64>,
+    /// What the roughing left, for the shank and holder check (`finish/guard.rs`): every
+    /// pass point, link, lift and crossing keeps the tool's shank and holder clear of it;
+    /// pass points where they are not are left out ([`FinishSummary::guarded_points`]), and
+    /// the tool crosses above it. `None` (default): no check (a tool with neither shank nor
+    /// holder is never checked).
+    pub holder_stock: Option<RoughedStock>,
 }
 
 impl Default for FinishOptions {
@@ -113,6 +120,7 @@ impl Default for FinishOptions {
             stock_left: None,
             hop_step: 0.25,
             arc_tolerance: None,
+            holder_stock: None,
         }
     }
 }
@@ -137,6 +145,9 @@ pub struct FinishSummary {
     pub time_s: f64,
     /// The clearance plane's height (setup frame).
     pub clear_z: f64,
+    /// Pass points left out because the tool's shank or holder would meet the stock
+    /// there ([`FinishOptions::holder_stock`]).
+    pub guarded_points: usize,
 }
 
 /// The part mesh, given in the part frame, in `setup`'s frame (tool axis +Z): what
@@ -229,6 +240,14 @@ pub fn finish_setup_keep<S: MotionSink>(
         }
         None => paths,
     };
+    let guard = match opts.holder_stock {
+        Some(stock) => Guard::new(part, &tool.cutter, stock)?,
+        None => None,
+    };
+    let (paths, guarded_points) = match &guard {
+        Some(g) => g.split(paths, opts.link_check_step),
+        None => (paths, 0),
+    };
     let paths = super::order::link_order(paths);
     // The cutter grown by the stock left: where it touches the part, the cutter itself is
     // that far from it.
@@ -252,11 +271,12 @@ pub fn finish_setup_keep<S: MotionSink>(
         sink,
         dc: &dc,
         safe: safe.as_ref(),
+        guard: guard.as_ref(),
         tool,
         opts,
         floor,
         pos: None,
-        sum: FinishSummary { clear_z: hi[2] + opts.clearance, ..Default::default() },
+        sum: FinishSummary { clear_z: hi[2] + opts.clearance, guarded_points, ..Default::default() },
     };
     em.begin(setup, strategy.name())?;
     for path in paths.iter().filter(|p| !p.is_empty()) {
@@ -330,6 +350,8 @@ struct Emitter<'a, S: MotionSink> {
     dc: &'a DropCutter<'a>,
     /// The grown cutter's drop-cutter and the stock left ([`FinishOptions::stock_left`]).
     safe: Option<&'a (DropCutter<'a>, f64)>,
+    /// The shank and holder check ([`FinishOptions::holder_stock`]).
+    guard: Option<&'a Guard<'a>>,
     tool: &'a Tool,
     opts: &'a FinishOptions,
     /// The lowest tip height finished: a link along the surface stays above it.
@@ -419,8 +441,14 @@ impl<S: MotionSink> Emitter<'_, S> {
         let n = n.max(1.0) as usize;
         (0..=n).all(|k| {
             let p = a + d * (k as f64 / n as f64);
-            !self.dc.interferes(p.x, p.y, p.z + tolerance)
+            !self.dc.interferes(p.x, p.y, p.z + tolerance) && self.guard_clear(&p)
         })
+    }
+
+    /// Whether the shank and holder are clear of the stock with the tip at `p` (always
+    /// without [`FinishOptions::holder_stock`]).
+    fn guard_clear(&self, p: &Point3) -> bool {
+        self.guard.is_none_or(|g| g.clear(p))
     }
 
     /// Feeds from the current position `a` to `b`: straight when that is gouge-free; else
@@ -481,6 +509,11 @@ impl<S: MotionSink> Emitter<'_, S> {
     /// `z`; `None` without a stock left.
     fn safe_height(&self, x: f64, y: f64, z: f64) -> Option<f64> {
         let (dc, t) = self.safe?;
+        let z = match self.guard.and_then(|g| g.lowest(x, y)) {
+            // A small margin over the guard's exact lowest height.
+            Some(g) => z.max(g + 1e-6),
+            None => z,
+        };
         Some(dc.height(x, y).map_or(z, |h| (h + t).max(z)))
     }
 
@@ -706,7 +739,7 @@ impl<S: MotionSink> Emitter<'_, S> {
         let n = n.max(1.0) as usize;
         (0..=n).all(|j| {
             let p = spec.point_at(j as f64 / n as f64);
-            !self.dc.interferes(p.x, p.y, p.z + self.opts.link_tolerance)
+            !self.dc.interferes(p.x, p.y, p.z + self.opts.link_tolerance) && self.guard_clear(&p)
         })
     }
 

@@ -1,0 +1,100 @@
+//! The finisher's shank and holder check (issue 35), simulated: a square boss taller than
+//! the finishing ball's flutes on a plate, roughed with a 12 mm end mill leaving 0.3 mm,
+//! then finished with a 10 mm ball whose shank is as wide as its flutes. Without the
+//! check ([`FinishOptions::holder_stock`] `None`) the ball finishes the boss's foot and its
+//! shank rubs the allowance left on the boss's wall above its flutes; with it the simulator
+//! finds no shank or holder contact, and the points it left out are counted.
+
+use s2g_gcode::{Motion, MotionRecorder, MotionSink};
+use s2g_geom::{Aabb, GridSpec, Holder, Mesh, MeshIndex, Point3, Setup, VoxelGrid, voxelize};
+use s2g_toolpath::finish::{FinishOptions, FinishSummary, Parallel, RoughedStock, finish_setup_opt};
+use s2g_toolpath::{PlanOptions, Tool, plan_setup};
+use s2g_voxsim::{Cutter, SimOptions, SimReport, Simulator, ToolTable};
+
+/// A 60 x 60 x 10 plate with a 24 x 24 boss from 10 to 50 on it.
+fn boss_on_plate() -> Mesh {
+    let mut m =
+        Mesh::cuboid(&Aabb::new(Point3::new(-30.0, -30.0, 0.0), Point3::new(30.0, 30.0, 10.0))).unwrap();
+    m.append(
+        &Mesh::cuboid(&Aabb::new(Point3::new(-12.0, -12.0, 10.0), Point3::new(12.0, 12.0, 50.0))).unwrap(),
+    );
+    m
+}
+
+/// A library-like tool: flutes, stick-out and a 35 mm holder.
+fn tool(number: u32, mut cutter: Cutter, stickout: f64) -> Tool {
+    cutter.stickout = stickout;
+    cutter.holder = Some(Holder { radius: 17.5, length: 40.0 });
+    Tool { number, ..Tool::new(cutter) }
+}
+
+/// Roughs the part, then finishes it with `holder_stock`; the simulator's report and the
+/// finisher's summary.
+fn mill(holder_stock: Option<RoughedStock>) -> (SimReport, FinishSummary) {
+    let part = boss_on_plate();
+    // Voxels of 0.5 mm whose centres lie 0.25 off the boss's walls, inside the allowance.
+    let stock = Aabb::new(Point3::new(-31.0, -31.0, -1.0), Point3::new(31.0, 31.0, 51.0));
+    let spec = GridSpec::new(&stock, [124, 124, 104]).unwrap();
+    let target = voxelize(&part, &spec).unwrap();
+    let rough = tool(9, Cutter::flat(6.0, 36.0), 66.0);
+    let ball = tool(17, Cutter::ball(5.0, 30.0), 56.0);
+    let popts = PlanOptions {
+        layer_height: 2.0,
+        finishing_allowance: 0.3,
+        axial_allowance: 0.3,
+        stock: Some(stock),
+        ..PlanOptions::default()
+    };
+    let mut rec = MotionRecorder::default();
+    plan_setup(&part, &Setup::top(), &rough, &popts, &mut rec).unwrap();
+    let index = MeshIndex::new(&part).unwrap();
+    let fopts = FinishOptions {
+        scallop: 0.05,
+        floor: Some(0.0),
+        clearance: 6.0,
+        approach: 6.0,
+        stock_left: Some(3.0),
+        holder_stock,
+        ..FinishOptions::default()
+    };
+    let summary =
+        finish_setup_opt(&index, &Setup::top(), &ball, &Parallel::default(), &fopts, &mut rec).unwrap();
+    let tools = ToolTable::single(rough.cutter).with(9, rough.cutter).with(17, ball.cutter);
+    let mut sim = Simulator::new(VoxelGrid::full(spec), tools, SimOptions::default())
+        .unwrap()
+        .with_target(&target)
+        .unwrap();
+    for (_, m) in &rec.motions {
+        if !matches!(m, Motion::Setup { .. }) {
+            sim.motion(m).unwrap();
+        }
+    }
+    let (report, _) = sim.into_simulation().unwrap().into_parts();
+    (report, summary)
+}
+
+#[test]
+fn the_finishers_shank_keeps_off_the_allowance_on_a_wall_taller_than_its_flutes() {
+    let stock = RoughedStock {
+        radial: 0.3,
+        axial: 2.3,
+        tool_radius: 6.0,
+        top: 51.0,
+        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
+    };
+    let (checked, summary) = mill(Some(stock));
+    assert_eq!(checked.gouge_voxels, 0);
+    assert!(
+        checked.holder_collisions.is_empty(),
+        "holder collisions at lines {:?}",
+        checked.holder_collisions
+    );
+    // The boss's foot, within the roughing tool's reach of its wall, is left out.
+    assert!(summary.guarded_points > 0);
+    let (unchecked, bare) = mill(None);
+    assert_eq!(bare.guarded_points, 0);
+    assert!(
+        !unchecked.holder_collisions.is_empty(),
+        "the unchecked finish meets no stock: the test shows nothing"
+    );
+}
