@@ -74,7 +74,7 @@ impl ActionSpace {
 
     /// The paper's space as its own 256³ grid sees it, on a grid of `resolution`³: every
     /// length multiplied by [`paper_space_scale`](Self::paper_space_scale)`(resolution)`.
-    /// On 64³ the radii are 1.02-10.2 voxels and the layers 0.5-4, where the paper's
+    /// On 64³ the radii are 0.256-2.56 voxels and the layers 0.5-4, where the paper's
     /// space gives 0.06-0.64 and 0.13-1: no tool of it is resolved there.
     pub fn paper_at_resolution(resolution: usize) -> Self {
         Self::paper().scaled(Self::paper_space_scale(resolution))

@@ -120,8 +120,8 @@ pub struct MillOptions {
     pub paper_scale_mm: f64,
     /// Paper preset: the action space's radii and layer heights multiplied by this
     /// (normalised units), so that a coarse grid sees its tools as the paper's 256³ grid
-    /// does: 256 / resolution makes the tools of a 64³ grid 1-10 voxels in radius where the
-    /// paper's are 0.06-0.64 ([`ActionSpace::paper_at_resolution`]). Must be positive;
+    /// does: 256 / resolution makes the tools of a 64³ grid 0.26-2.56 voxels in radius (5
+    /// voxels across for the largest) where the paper's are 0.06-0.64 ([`ActionSpace::paper_at_resolution`]). Must be positive;
     /// default 1 (the paper's space).
     pub paper_space_scale: f64,
     /// The stock. Default [`Stock::Preset`].

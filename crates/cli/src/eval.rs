@@ -32,7 +32,7 @@ pub struct Args {
     #[arg(long, default_value_t = 256)]
     res: usize,
     /// Action space: `paper` (the paper's tools in units of the part) or `grid` (the
-    /// paper's tools as its 256^3 grid sees them, scaled by 256 / --res: 1-10 voxels of
+    /// paper's tools as its 256^3 grid sees them, scaled by 256 / --res: 0.26-2.56 voxels of
     /// radius at 64^3).
     #[arg(long, default_value = "paper")]
     space: String,
