@@ -72,6 +72,21 @@ impl ActionSpace {
         }
     }
 
+    /// The paper's space as its own 256³ grid sees it, on a grid of `resolution`³: every
+    /// length multiplied by [`paper_space_scale`](Self::paper_space_scale)`(resolution)`.
+    /// On 64³ the radii are 0.256-2.56 voxels and the layers 0.5-4, where the paper's
+    /// space gives 0.06-0.64 and 0.13-1: no tool of it is resolved there.
+    pub fn paper_at_resolution(resolution: usize) -> Self {
+        Self::paper().scaled(Self::paper_space_scale(resolution))
+    }
+
+    /// `256 / resolution` (1 for a resolution of 0): the factor of
+    /// [`paper_at_resolution`](Self::paper_at_resolution), the value of
+    /// `MillOptions::paper_space_scale` (`--space grid`) that gives it.
+    pub fn paper_space_scale(resolution: usize) -> f64 {
+        if resolution == 0 { 1.0 } else { 256.0 / resolution as f64 }
+    }
+
     /// A shop tool library in millimetres: end mills of 1-12 mm diameter and depths of
     /// cut of 0.25-2 mm.
     pub fn shop() -> Self {

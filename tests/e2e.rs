@@ -6,6 +6,7 @@ mod e2e {
     mod fdm;
     mod feature;
     mod finish;
+    mod grid_space;
     #[cfg(feature = "learn")]
     mod learn;
     mod mill;

@@ -118,6 +118,12 @@ pub struct MillOptions {
     pub stock_margin: f64,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
+    /// Paper preset: the action space's radii and layer heights multiplied by this
+    /// (normalised units), so that a coarse grid sees its tools as the paper's 256³ grid
+    /// does: 256 / resolution makes the tools of a 64³ grid 0.26-2.56 voxels in radius (5
+    /// voxels across for the largest) where the paper's are 0.06-0.64 ([`ActionSpace::paper_at_resolution`]). Must be positive;
+    /// default 1 (the paper's space).
+    pub paper_space_scale: f64,
     /// The stock. Default [`Stock::Preset`].
     pub stock: Stock,
     /// The origin of each per-setup program's coordinates (G54), stated in its header
@@ -228,7 +234,7 @@ impl MillOptions {
     /// [`strategies`](Self::strategies).
     pub fn action_space(&self) -> ActionSpace {
         let mut space = match self.preset {
-            Preset::Paper => ActionSpace::paper().scaled(self.paper_scale_mm),
+            Preset::Paper => ActionSpace::paper().scaled(self.paper_space_scale * self.paper_scale_mm),
             Preset::Shop => ActionSpace {
                 radii: super::tooling::flat_end_mills(self.library())
                     .iter()
@@ -264,6 +270,7 @@ impl Default for MillOptions {
             seed: 0,
             stock_margin: 0.02,
             paper_scale_mm: 100.0,
+            paper_space_scale: 1.0,
             stock: Stock::Preset,
             datum: None,
             stock_removal: true,

@@ -750,6 +750,10 @@ fn part_and_stock(
             if !(k.is_finite() && k > 0.0) {
                 return Err(MillError::InvalidOption(format!("paper_scale_mm must be positive, got {k}")));
             }
+            let s = opts.paper_space_scale;
+            if !(s.is_finite() && s > 0.0) {
+                return Err(MillError::InvalidOption(format!("paper_space_scale must be positive, got {s}")));
+            }
             let norm = Normalization { scale: unit.scale * k, translation: unit.translation * k };
             let part = mesh.transformed(&norm.as_similarity());
             let half = 0.5 * k;

@@ -10,7 +10,7 @@ use shape2gcode::{
     tables_from_parts, write_part_result,
 };
 
-use crate::mill::{DEFAULT_MESH, parse_setups};
+use crate::mill::{DEFAULT_MESH, parse_setups, parse_space};
 
 /// Arguments of `s2g eval`.
 #[derive(Debug, clap::Args)]
@@ -31,6 +31,11 @@ pub struct Args {
     /// Simulation resolution.
     #[arg(long, default_value_t = 256)]
     res: usize,
+    /// Action space: `paper` (the paper's tools in units of the part) or `grid` (the
+    /// paper's tools as its 256^3 grid sees them, scaled by 256 / --res: 0.26-2.56 voxels of
+    /// radius at 64^3).
+    #[arg(long, default_value = "paper")]
+    space: String,
     /// Surface points for orientation selection.
     #[arg(long, default_value_t = 16384)]
     points: usize,
@@ -65,7 +70,7 @@ pub struct Args {
     /// runs with --results, one per --shard), byte for byte what one run over all the parts
     /// prints. The policies, tables and options are the files'.
     #[arg(long, value_name = "DIR", conflicts_with_all = [
-        "meshes", "corpus", "shard", "results", "policies", "tables", "res", "points", "finetune",
+        "meshes", "corpus", "shard", "results", "policies", "tables", "res", "space", "points", "finetune",
         "seed_groups", "setups", "seed", "front_facing",
     ])]
     merge: Option<PathBuf>,
@@ -165,6 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let setups = parse_setups(&args.setups)?;
     let opts = MillOptions {
         resolution: args.res,
+        paper_space_scale: parse_space(&args.space, args.res)?,
         orient_points: args.points,
         seed: args.seed,
         setups,

@@ -83,6 +83,11 @@ pub struct Args {
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
+    /// Paper preset's action space: `paper` (the paper's tools in units of the part) or
+    /// `grid` (the paper's tools as its 256^3 grid sees them, scaled by 256 / --res; the
+    /// same as `paper` at 256^3).
+    #[arg(long, default_value = "paper")]
+    space: String,
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -272,6 +277,15 @@ fn parse_datum(spec: Option<&str>) -> anyhow::Result<Option<Datum>> {
     })
 }
 
+/// `--space paper|grid` at `--res res`: the paper preset's `paper_space_scale`.
+pub fn parse_space(spec: &str, res: usize) -> anyhow::Result<f64> {
+    match spec {
+        "paper" => Ok(1.0),
+        "grid" => Ok(shape2gcode::ActionSpace::paper_space_scale(res)),
+        s => bail!("--space paper|grid, got {s:?}"),
+    }
+}
+
 /// `--setups auto|N`.
 pub fn parse_setups(spec: &str) -> anyhow::Result<SetupCount> {
     Ok(match spec {
@@ -445,6 +459,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         layout,
         rotary_tilt_range_deg: parse_range(&args.tilt_range)?,
         resolution: args.res,
+        paper_space_scale: parse_space(&args.space, args.res)?,
         seed: args.seed,
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,

@@ -34,6 +34,11 @@ pub struct Args {
     /// Simulation resolution of the training episodes.
     #[arg(long, default_value_t = 48)]
     res: usize,
+    /// Action space: `paper` (the paper's tools in units of the part) or `grid` (the
+    /// paper's tools as its 256^3 grid sees them, scaled by 256 / --res: 0.26-2.56 voxels of
+    /// radius at 64^3, so that the choice of tool shows in the reward).
+    #[arg(long, default_value = "paper")]
+    space: String,
     /// Setups per part.
     #[arg(long, default_value_t = 3)]
     setups: usize,
@@ -97,6 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         mill: shape2gcode::MillOptions {
             resolution: args.res,
+            paper_space_scale: crate::mill::parse_space(&args.space, args.res)?,
             orient_points: args.points,
             setups: SetupCount::Exactly(args.setups.max(1)),
             seed: args.seed,
