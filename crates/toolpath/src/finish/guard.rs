@@ -22,6 +22,7 @@
 
 use s2g_geom::{Cutter, DropCutter, MeshIndex, Point3};
 
+use super::strategy::end_run;
 use crate::error::ToolpathError;
 
 /// What the roughing left for the finisher's shank and holder check (setup frame).
@@ -134,27 +135,20 @@ impl<'a> Guard<'a> {
 
     fn split_one(&self, path: &[Point3], step: f64) -> (Vec<Vec<Point3>>, usize) {
         let (mut out, mut run, mut dropped) = (Vec::new(), Vec::new(), 0);
-        let flush = |run: &mut Vec<Point3>, out: &mut Vec<Vec<Point3>>| {
-            if run.len() >= 2 {
-                out.push(std::mem::take(run));
-            } else {
-                run.clear();
-            }
-        };
         for p in path {
             if !self.clear(p) {
                 dropped += 1;
-                flush(&mut run, &mut out);
+                end_run(&mut run, &mut out);
                 continue;
             }
             if let Some(a) = run.last()
                 && !self.chord_clear(a, p, step)
             {
-                flush(&mut run, &mut out);
+                end_run(&mut run, &mut out);
             }
             run.push(*p);
         }
-        flush(&mut run, &mut out);
+        end_run(&mut run, &mut out);
         (out, dropped)
     }
 

@@ -586,17 +586,21 @@ fn split_at_floor(dc: &DropCutter<'_>, paths: Vec<Vec<Point3>>, floor: f64) -> V
             {
                 run.push(c);
             }
-            if run.len() >= 2 {
-                out.push(std::mem::take(&mut run));
-            } else {
-                run.clear();
-            }
+            end_run(&mut run, &mut out);
         }
-        if run.len() >= 2 {
-            out.push(run);
-        }
+        end_run(&mut run, &mut out);
     }
     out
+}
+
+/// Ends the run of points `run`: moved into `out` as a path when it has at least two
+/// points, else dropped; `run` is left empty.
+pub(super) fn end_run(run: &mut Vec<Point3>, out: &mut Vec<Vec<Point3>>) {
+    if run.len() >= 2 {
+        out.push(std::mem::take(run));
+    } else {
+        run.clear();
+    }
 }
 
 /// The runs of consecutive points that `keep` accepts, each of at least two points.
@@ -607,15 +611,11 @@ fn split_runs(paths: Vec<Vec<Point3>>, mut keep: impl FnMut(&Point3) -> bool) ->
         for p in path {
             if keep(&p) {
                 run.push(p);
-            } else if run.len() >= 2 {
-                out.push(std::mem::take(&mut run));
             } else {
-                run.clear();
+                end_run(&mut run, &mut out);
             }
         }
-        if run.len() >= 2 {
-            out.push(run);
-        }
+        end_run(&mut run, &mut out);
     }
     out
 }
