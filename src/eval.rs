@@ -74,7 +74,7 @@ pub struct SeedGroup {
 }
 
 /// What [`evaluate`] computes besides the policy rows.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct EvalOptions {
     /// Which tables.
     pub tables: TableSet,
@@ -85,6 +85,29 @@ pub struct EvalOptions {
     pub finetune_episodes: usize,
     /// Rows of policies trained with different seeds (Appendix A.8).
     pub seed_groups: Vec<SeedGroup>,
+    /// The policy Table 4 takes the clearing strategies (and the contour pass) away from,
+    /// one at a time, by name as [`policy_by_name`] takes it. The paper ablates its learned
+    /// policy, which then chooses the best of the actions that are left; the default is
+    /// `learned` (the shipped policy), or `heuristic` in a build without the `learn`
+    /// feature, which has none.
+    pub ablated: String,
+}
+
+impl Default for EvalOptions {
+    /// Every table, no fine-tuning, no seed groups, Table 4 of the shipped policy.
+    fn default() -> Self {
+        Self {
+            tables: TableSet::default(),
+            finetune_episodes: 0,
+            seed_groups: Vec::new(),
+            ablated: default_ablated().to_owned(),
+        }
+    }
+}
+
+/// The policy Table 4 ablates unless told otherwise ([`EvalOptions::ablated`]).
+pub fn default_ablated() -> &'static str {
+    if cfg!(feature = "learn") { "learned" } else { "heuristic" }
 }
 
 /// Mean surface coverage of the orientation strategies (Table 2).
@@ -115,6 +138,8 @@ pub struct Tables {
     pub orientation: Option<CoverageRow>,
     /// Table 4: the chosen policy without one clearing strategy each.
     pub ablation: Vec<Row>,
+    /// The policy of Table 4 ([`EvalOptions::ablated`]), when it was computed.
+    pub ablated: Option<String>,
 }
 
 /// Which tables [`evaluate`] computes.
@@ -124,7 +149,8 @@ pub struct TableSet {
     pub policies: bool,
     /// Table 2: orientation strategies (from heuristic runs, made if no policy is `heuristic`).
     pub orientation: bool,
-    /// Table 4: the heuristic policy without one clearing strategy (or the contour) each.
+    /// Table 4: [`EvalOptions::ablated`] without one clearing strategy (or the contour)
+    /// each.
     pub strategies: bool,
 }
 
@@ -300,7 +326,7 @@ impl PartScores {
 }
 
 /// Which run of a part a [`PartScores`] is: a policy (fine-tuned for `finetune` episodes
-/// when positive), or, for Table 4, the heuristic `without` one clearing strategy (by its
+/// when positive), or, for Table 4, the policy `without` one clearing strategy (by its
 /// name) or the `contour` pass.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct RunKey {
@@ -317,8 +343,8 @@ impl RunKey {
         Self { policy: name.to_owned(), finetune, without: None }
     }
 
-    fn ablation(removed: &str) -> Self {
-        Self { policy: "heuristic".into(), finetune: 0, without: Some(removed.to_owned()) }
+    fn ablation(policy: &str, removed: &str) -> Self {
+        Self { policy: policy.to_owned(), finetune: 0, without: Some(removed.to_owned()) }
     }
 
     /// How progress reports and table rows name the run.
@@ -373,17 +399,18 @@ fn run_keys(policies: &[String], eval: &EvalOptions) -> Vec<RunKey> {
         add(RunKey::policy("heuristic", 0));
     }
     if which.strategies {
+        add(RunKey::policy(&eval.ablated, 0));
         for removed in StrategyKind::all() {
-            add(RunKey::ablation(removed.name()));
+            add(RunKey::ablation(&eval.ablated, removed.name()));
         }
-        add(RunKey::ablation("contour"));
+        add(RunKey::ablation(&eval.ablated, "contour"));
     }
     keys
 }
 
 /// Evaluates `policies` (see [`policy_by_name`]) on `parts`, for what `eval` asks;
-/// `on_run(part, row)` is told before each run. Table 4 is computed with the heuristic
-/// policy. The same as [`evaluate_part`] on each part and [`tables_from_parts`] on the
+/// `on_run(part, row)` is told before each run. Table 4 is computed with
+/// [`EvalOptions::ablated`]. The same as [`evaluate_part`] on each part and [`tables_from_parts`] on the
 /// results.
 pub fn evaluate(
     parts: &[(String, Mesh)],
@@ -414,6 +441,10 @@ pub fn evaluate_part(
     let mut result = PartResult { part: part.to_owned(), ..PartResult::default() };
     for key in run_keys(policies, eval) {
         on_run(part, &key.label());
+        let by_name = |space: &ActionSpace| {
+            policy_by_name(&key.policy, space, opts.seed)
+                .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {:?}", key.policy)))
+        };
         let milled = match (&key.without, key.finetune) {
             (Some(removed), _) => {
                 let o = match StrategyKind::from_name(removed) {
@@ -423,13 +454,9 @@ pub fn evaluate_part(
                     },
                     None => MillOptions { contour: false, ..opts.clone() },
                 };
-                scored(mesh, &mut HeuristicPolicy::default(), &o)?
+                scored(mesh, by_name(&o.action_space())?.as_mut(), &o)?
             }
-            (None, 0) => {
-                let mut policy = policy_by_name(&key.policy, &space, opts.seed)
-                    .ok_or_else(|| MillError::InvalidOption(format!("unknown policy {:?}", key.policy)))?;
-                scored(mesh, policy.as_mut(), opts)?
-            }
+            (None, 0) => scored(mesh, by_name(&space)?.as_mut(), opts)?,
             (None, f) => scored(mesh, finetuned(&key.policy, part, mesh, f, opts)?.as_mut(), opts)?,
         };
         if key == RunKey::policy("heuristic", 0) {
@@ -514,13 +541,13 @@ pub fn tables_from_parts(
         });
     }
     if which.strategies {
-        tables.ablation.push(mean_row("none removed", &runs(&RunKey::policy("heuristic", 0))?));
+        tables.ablation.push(mean_row("none removed", &runs(&RunKey::policy(&eval.ablated, 0))?));
         let removed = StrategyKind::all().into_iter().map(|s| s.name().to_owned());
         for removed in removed.chain(["contour".to_owned()]) {
-            tables
-                .ablation
-                .push(mean_row(&format!("without {removed}"), &runs(&RunKey::ablation(&removed))?));
+            let key = RunKey::ablation(&eval.ablated, &removed);
+            tables.ablation.push(mean_row(&format!("without {removed}"), &runs(&key)?));
         }
+        tables.ablated = Some(eval.ablated.clone());
     }
     Ok(tables)
 }
@@ -564,6 +591,7 @@ impl Tables {
         }
         if !self.ablation.is_empty() {
             v["table4_strategy_ablation"] = self.ablation.iter().map(row_json).collect::<Vec<_>>().into();
+            v["table4_policy"] = self.ablated.clone().into();
         }
         v
     }
@@ -613,7 +641,8 @@ impl Tables {
         }
         if !self.ablation.is_empty() {
             out += &format!(
-                "\n### Table 4: clearing strategies removed one at a time\n\n{head}{}",
+                "\n### Table 4: clearing strategies removed one at a time from {}\n\n{head}{}",
+                self.ablated.as_deref().unwrap_or("?"),
                 rows(&self.ablation)
             );
         }

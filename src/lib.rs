@@ -24,8 +24,8 @@ mod trace;
 
 pub use crate::eval::{
     Ci95, CoverageRow, EvalOptions, EvalPlan, PartResult, PartScores, RESULT_SUFFIX, Row, RunKey, SeedGroup,
-    Shard, TableSet, Tables, evaluate, evaluate_part, merge_results, part_result_path, policy_by_name,
-    tables_from_parts, write_part_result,
+    Shard, TableSet, Tables, default_ablated, evaluate, evaluate_part, merge_results, part_result_path,
+    policy_by_name, tables_from_parts, write_part_result,
 };
 pub use crate::fdm::{
     Bead, BeadShape, Deposition, Extrusion, FdmError, FdmOptions, FdmOutput, FdmReport, FdmStageSeconds,

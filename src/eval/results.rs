@@ -233,6 +233,10 @@ impl FileRecord {
     }
 }
 
+fn heuristic() -> String {
+    "heuristic".into()
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct PlanRecord {
@@ -240,6 +244,9 @@ struct PlanRecord {
     tables: Vec<String>,
     finetune: usize,
     seed_groups: Vec<(String, Vec<String>)>,
+    /// Table 4's policy; files written before it was a choice ablated the heuristic.
+    #[serde(default = "heuristic")]
+    ablated: String,
     options: String,
     count: usize,
     parts: String,
@@ -254,6 +261,7 @@ impl PlanRecord {
             tables: tables.iter().filter(|(_, on)| *on).map(|(n, _)| (*n).to_owned()).collect(),
             finetune: p.eval.finetune_episodes,
             seed_groups: p.eval.seed_groups.iter().map(|g| (g.name.clone(), g.members.clone())).collect(),
+            ablated: p.eval.ablated.clone(),
             options: p.options.clone(),
             count: p.count,
             parts: p.parts.clone(),
@@ -276,6 +284,7 @@ impl PlanRecord {
                     .into_iter()
                     .map(|(name, members)| SeedGroup { name, members })
                     .collect(),
+                ablated: self.ablated,
             },
             policies: self.policies,
             options: self.options,

@@ -159,16 +159,29 @@ impl LearnedPolicy {
         Ok(())
     }
 
-    /// Whether `space` is the action space the policy was trained on (normalised units
-    /// for the paper preset: `scale` is millimetres per unit, 1 for the shop preset).
-    fn fits(&self, space: &ActionSpace, scale: f64) -> bool {
+    /// Which of the policy's actions `space` keeps: for each action of the space the
+    /// policy was trained on (normalised units for the paper preset: `scale` is millimetres
+    /// per unit, 1 for the shop preset), the same action's index in `space`, or `None` where
+    /// `space` left its clearing strategy out. `None` when `space` is not the policy's space
+    /// with some strategies left out (other radii or layers, a strategy it never saw).
+    fn action_map(&self, space: &ActionSpace, scale: f64) -> Option<Vec<Option<usize>>> {
         let close = |a: &[f64], b: &[f64]| {
             a.len() == b.len()
                 && a.iter().zip(b).all(|(x, y)| (x * scale - y).abs() <= 1e-9 * y.abs().max(1.0))
         };
-        close(&self.info.radii, &space.radii)
-            && close(&self.info.layer_heights, &space.layer_heights)
-            && self.info.strategies.iter().map(String::as_str).eq(space.strategies.iter().map(|s| s.name()))
+        let known = |s: &crate::StrategyKind| self.info.strategies.iter().any(|n| n == s.name());
+        if !close(&self.info.radii, &space.radii)
+            || !close(&self.info.layer_heights, &space.layer_heights)
+            || !space.strategies.iter().all(known)
+        {
+            return None;
+        }
+        let kept: Vec<Option<usize>> = (self.info.strategies.iter())
+            .map(|n| space.strategies.iter().position(|s| s.name() == n))
+            .collect();
+        let (ns, ns_kept) = (self.info.strategies.len(), space.strategies.len());
+        let actions = self.info.radii.len() * self.info.layer_heights.len() * ns;
+        Some((0..actions).map(|i| kept[i % ns].map(|k| i / ns * ns_kept + k)).collect())
     }
 
     /// The kind of encoder the policy reads.
@@ -224,14 +237,16 @@ impl LearnedPolicy {
 impl Policy for LearnedPolicy {
     fn choose(&mut self, ctx: &SetupContext<'_>) -> Action {
         let scale = ctx.space.radii.first().zip(self.info.radii.first()).map_or(1.0, |(a, b)| a / b);
-        // In another action space (the shop preset, a strategy left out) the Q-network's
-        // actions mean nothing, so the heuristic decides; so it does if acting fails.
-        let learned = if self.fits(ctx.space, scale) {
+        // With strategies left out (Table 4's ablation) the policy chooses the best of the
+        // actions that are left. In another action space (the shop preset's tools) the
+        // Q-network's actions mean nothing, so the heuristic decides; so it does if acting
+        // fails.
+        let learned = self.action_map(ctx.space, scale).and_then(|map| {
             let state = observation(&self.encoder, ctx);
-            self.agent.act(&state, false).ok().and_then(|a| ctx.space.action(a))
-        } else {
-            None
-        };
+            let allowed: Vec<bool> = map.iter().map(Option::is_some).collect();
+            let a = self.agent.act_among(&state, &allowed).ok()??;
+            ctx.space.action(map[a]?)
+        });
         learned.unwrap_or_else(|| {
             self.deferred += 1;
             crate::policy::HeuristicPolicy::default().choose(ctx)

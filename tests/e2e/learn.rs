@@ -307,6 +307,39 @@ fn the_bundled_policy_names_the_heuristic_when_it_chooses_for_it() {
     assert_eq!(c.policy, "learned");
 }
 
+/// Table 4 ablates the learned policy: with a clearing strategy left out the bundled
+/// policy still chooses itself (the best of the actions left, not the heuristic), never
+/// the strategy left out, and where it never chose that strategy it chooses exactly as with
+/// all of them.
+#[test]
+fn the_bundled_policy_chooses_among_the_strategies_left() {
+    use shape2gcode::StrategyKind;
+    let (parts, opts) = cheap();
+    let paper = MillOptions { preset: Preset::Paper, strategies: StrategyKind::all(), tools: None, ..opts };
+    let actions = |m: &shape2gcode::Milled| m.setups.iter().map(|p| p.action).collect::<Vec<_>>();
+    let full = mill(&parts[0].1, &mut LearnedPolicy::bundled().unwrap(), &paper, &mut |_| {}).unwrap();
+    assert_eq!(full.policy, "learned");
+    let used: Vec<StrategyKind> = full.setups.iter().map(|p| p.action.strategy).collect();
+    let (mut kept, mut changed) = (0, 0);
+    for removed in StrategyKind::all() {
+        let left = MillOptions {
+            strategies: StrategyKind::all().into_iter().filter(|&s| s != removed).collect(),
+            ..paper.clone()
+        };
+        let m = mill(&parts[0].1, &mut LearnedPolicy::bundled().unwrap(), &left, &mut |_| {}).unwrap();
+        assert_eq!(m.policy, "learned", "without {}", removed.name());
+        assert!(m.setups.iter().all(|p| p.action.strategy != removed), "without {}", removed.name());
+        if used.contains(&removed) {
+            changed += 1;
+        } else {
+            assert_eq!(actions(&m), actions(&full), "without {}, which it never chose", removed.name());
+            kept += 1;
+        }
+    }
+    // Both cases happen: two setups choose at most two of the three strategies.
+    assert!(kept > 0 && changed > 0, "{used:?}");
+}
+
 /// Outcome files: what one environment simulated, another with the same parts and options
 /// reads back and steps through identically, under other reward weights too (the file
 /// keeps the reward terms, not their sum); other options take none of it; junk is a typed

@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use shape2gcode::geom::{Mesh, load_mesh};
 use shape2gcode::{
     EvalOptions, EvalPlan, MillOptions, SeedGroup, Shard, TableSet, Tables, evaluate_part, merge_results,
-    tables_from_parts, write_part_result,
+    policy_by_name, tables_from_parts, write_part_result,
 };
 
 use crate::mill::{DEFAULT_MESH, parse_setups, parse_space};
@@ -28,6 +28,11 @@ pub struct Args {
     /// `strategies` (Table 4).
     #[arg(long, default_value = "policies,orientation,strategies")]
     tables: String,
+    /// The policy Table 4 takes each clearing strategy (and the contour pass) away from,
+    /// one at a time (a name as --policies takes): the shipped learned policy, as the paper
+    /// ablates its own, which then chooses the best action that is left.
+    #[arg(long, value_name = "POLICY", default_value = shape2gcode::default_ablated())]
+    ablate: String,
     /// Simulation resolution.
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -70,7 +75,7 @@ pub struct Args {
     /// runs with --results, one per --shard), byte for byte what one run over all the parts
     /// prints. The policies, tables and options are the files'.
     #[arg(long, value_name = "DIR", conflicts_with_all = [
-        "meshes", "corpus", "shard", "results", "policies", "tables", "res", "space", "points", "finetune",
+        "meshes", "corpus", "shard", "results", "policies", "tables", "ablate", "res", "space", "points", "finetune",
         "seed_groups", "setups", "seed", "front_facing",
     ])]
     merge: Option<PathBuf>,
@@ -177,7 +182,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         flank_walls: !args.front_facing,
         ..MillOptions::default()
     };
-    let eval = EvalOptions { tables: which, finetune_episodes: args.finetune, seed_groups };
+    if which.strategies && policy_by_name(&args.ablate, &opts.action_space(), args.seed).is_none() {
+        bail!(
+            "unknown policy {:?} for --ablate (learned, heuristic, random, fixed-fine, fixed-coarse, fixed:R,H,S or a policy file)",
+            args.ablate
+        );
+    }
+    let eval =
+        EvalOptions { tables: which, finetune_episodes: args.finetune, seed_groups, ablated: args.ablate };
     let plan = EvalPlan::new(&names, &policies, &eval, &opts);
     let shard = args.shard.unwrap_or(Shard::ALL);
     if let Some(dir) = &args.results {

@@ -3,8 +3,9 @@
 //! removed at a time) as JSON and Markdown, on one small part with tiny settings.
 //!
 //! Every table row is a full `mill` run (about five seconds each whatever the
-//! resolution), and the heuristic policy is run six times for Table 4: these are the
-//! slowest CLI tests, so both outputs are produced by two concurrent processes.
+//! resolution), the learned policy is run five times for Table 4 and the heuristic once for
+//! Table 2: these are the slowest CLI tests, so both outputs are produced by two
+//! concurrent processes.
 
 use std::process::{Command, Output};
 
@@ -19,7 +20,7 @@ fn data(rel: &str) -> String {
 const MESH: &str = "fdm/models/cube10.stl";
 
 /// The small evaluation every test here runs: a 16^3 grid, 256 surface points, two policies.
-const SMALL: [&str; 6] = ["--res", "16", "--points", "256", "--policies", "heuristic,coarse"];
+const SMALL: [&str; 6] = ["--res", "16", "--points", "256", "--policies", "learned,coarse"];
 
 fn eval(format: &str) -> std::process::Child {
     s2g()
@@ -89,19 +90,29 @@ fn json_and_markdown_tables() {
     let (json, md) = (done(json), done(md));
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
     let md = String::from_utf8(md.stdout).unwrap();
-    // Progress goes to stderr, one line per run: 2 policies + 4 ablations.
+    // Progress goes to stderr, one line per run: 2 policies, the heuristic for Table 2, and
+    // the learned policy (a row already) without each of 3 strategies and the contour.
+    let progress = String::from_utf8_lossy(&json.stderr);
+    let announced: Vec<&str> = progress.lines().map(|l| l.rsplit(" with ").next().unwrap_or("")).collect();
     assert_eq!(
-        String::from_utf8_lossy(&json.stderr).lines().count(),
-        6,
-        "{}",
-        String::from_utf8_lossy(&json.stderr)
+        announced,
+        [
+            "learned",
+            "coarse",
+            "heuristic",
+            "learned without zigzag",
+            "learned without periphery",
+            "learned without spiral",
+            "learned without contour"
+        ],
+        "{progress}"
     );
 
     assert_eq!(v["parts"], serde_json::json!(["cube10"]), "{v}");
     // Tables 1 and 3: one row per policy, in the order asked.
     let t1 = v["table1_policies"].as_array().unwrap();
     let names: Vec<&str> = t1.iter().map(|r| r["name"].as_str().unwrap()).collect();
-    assert_eq!(names, ["heuristic", "coarse"], "{v}");
+    assert_eq!(names, ["learned", "coarse"], "{v}");
     t1.iter().for_each(check_row);
     // The same rows by name, as `{"policies": {NAME: {...}}}`.
     for r in t1 {
@@ -116,7 +127,9 @@ fn json_and_markdown_tables() {
         assert!((0.0..=ub + 1e-12).contains(&c(k)), "{k}: {t2}");
     }
     assert!(c("ours") + 1e-12 >= c("plain_greedy"), "{t2}");
-    // Table 4: the heuristic with nothing removed, then without each strategy and the contour.
+    // Table 4: the learned policy with nothing removed, then without each strategy and the
+    // contour.
+    assert_eq!(v["table4_policy"], "learned", "{v}");
     let t4 = v["table4_strategy_ablation"].as_array().unwrap();
     let names: Vec<&str> = t4.iter().map(|r| r["name"].as_str().unwrap()).collect();
     assert_eq!(
@@ -125,7 +138,7 @@ fn json_and_markdown_tables() {
         "{v}"
     );
     t4.iter().for_each(check_row);
-    // "none removed" is the heuristic row of Table 1 (the same runs).
+    // "none removed" is the learned row of Table 1 (the same runs).
     for k in &ROW_KEYS[1..] {
         assert_eq!(t4[0][k], t1[0][k], "{k}: {v}");
     }
@@ -134,7 +147,7 @@ fn json_and_markdown_tables() {
     for h in [
         "### Tables 1 and 3: policies",
         "### Table 2: orientation selection (surface coverage)",
-        "### Table 4: clearing strategies removed one at a time",
+        "### Table 4: clearing strategies removed one at a time from learned",
         "| | IoU | F1 | CD x1000 | NC | T (s) | reward | unsafe |",
         "| 6-axes | Rand(5) | Rand(6) | plain greedy | ours | upper bound |",
     ] {
@@ -167,6 +180,12 @@ fn bad_arguments_fail_fast_with_one_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.lines().any(|l| l.starts_with("s2g: error:") && l.contains("bogus")), "{err}");
     assert!(out.stdout.is_empty());
+    // An unknown policy for Table 4 is refused before anything is milled.
+    let out = s2g().args(["eval", &data(MESH)]).args(SMALL).args(["--ablate", "nonesuch"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("s2g: error:") && err.contains("nonesuch") && err.contains("--ablate"), "{err}");
     let dir = tempfile::tempdir().unwrap();
     let out = s2g().args(["eval", "--corpus"]).arg(dir.path()).output().unwrap();
     assert!(!out.status.success());

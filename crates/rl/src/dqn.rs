@@ -122,10 +122,16 @@ fn env_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> RlError {
 
 /// Index of the largest value, the lowest index on ties; NaNs never win.
 fn argmax(values: &[f32]) -> usize {
-    let mut best = 0;
-    for (i, &v) in values.iter().enumerate().skip(1) {
-        if v > values[best] || values[best].is_nan() {
-            best = i;
+    argmax_among(values, |_| true).unwrap_or(0)
+}
+
+/// The index of the largest of the `values` whose index `allowed` keeps (the lowest on
+/// ties, a NaN never preferred), or `None` when it keeps none.
+fn argmax_among(values: &[f32], allowed: impl Fn(usize) -> bool) -> Option<usize> {
+    let mut best: Option<usize> = None;
+    for (i, &v) in values.iter().enumerate().filter(|&(i, _)| allowed(i)) {
+        if best.is_none_or(|b| v > values[b] || values[b].is_nan()) {
+            best = Some(i);
         }
     }
     best
@@ -270,6 +276,22 @@ impl Dqn {
             }
         }
         Ok(argmax(&self.q_values(state)?))
+    }
+
+    /// The greedy action for `state` among the actions `allowed` marks (one flag per
+    /// action): the largest Q-value, the lowest index on ties, as [`act`](Self::act) without
+    /// exploration chooses among all of them; `None` when no action is allowed. An
+    /// action space with some actions taken away (a clearing strategy left out, as the
+    /// paper's Table 4 ablates) is acted in this way.
+    pub fn act_among(&self, state: &[f32], allowed: &[bool]) -> Result<Option<usize>, RlError> {
+        if allowed.len() != self.num_actions {
+            return Err(RlError::InvalidArgument(format!(
+                "{} action flags for an agent of {} actions",
+                allowed.len(),
+                self.num_actions
+            )));
+        }
+        Ok(argmax_among(&self.q_values(state)?, |i| allowed[i]))
     }
 
     /// One SplitMix64 step of the exploration generator.
@@ -483,6 +505,15 @@ mod tests {
         assert_eq!(argmax(&[1.0, 3.0, 3.0, 2.0]), 1);
         assert_eq!(argmax(&[f32::NAN, 0.5, 0.7]), 2);
         assert_eq!(argmax(&[-1.0]), 0);
+    }
+
+    #[test]
+    fn argmax_among_keeps_to_the_allowed_actions() {
+        let q = [1.0, 3.0, 3.0, 2.0, f32::NAN];
+        assert_eq!(argmax_among(&q, |i| i != 1), Some(2));
+        assert_eq!(argmax_among(&q, |i| i == 0 || i == 3), Some(3));
+        assert_eq!(argmax_among(&q, |i| i == 4 || i == 0), Some(0));
+        assert_eq!(argmax_among(&q, |_| false), None);
     }
 
     /// The TD targets follow their formulas: terminal transitions give `r`; otherwise the

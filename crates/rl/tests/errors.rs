@@ -96,6 +96,8 @@ fn size_mismatches_and_bad_arguments_are_typed_errors() {
     assert!(matches!(r, Err(RlError::StateDim { expected: 3, got: 4 })), "act: {r:?}");
     let r = agent.q_values(&[0.0, f32::NAN, 0.0]);
     assert!(matches!(r, Err(RlError::NonFiniteState { index: 1, .. })), "q_values: {r:?}");
+    let r = agent.act_among(&[0.0; 3], &[true]);
+    assert!(matches!(r, Err(RlError::InvalidArgument(_))), "act_among, one flag for two actions: {r:?}");
 
     let env6 = Corridor::new(6);
     let mut agent6 = Dqn::for_env(small_config(), &env6).unwrap();
@@ -104,6 +106,26 @@ fn size_mismatches_and_bad_arguments_are_typed_errors() {
     // Nothing has been trained yet, and a zero-episode train call is a no-op.
     let stats = agent6.train(&mut Corridor::new(6), 0, |_| {}).unwrap();
     assert_eq!((stats.episodes, stats.env_steps, stats.updates), (0, 0, 0));
+}
+
+/// Acting among a subset of the actions is the greedy choice restricted to it: with every
+/// action allowed it is `act`'s, and it never returns an action taken away.
+#[test]
+fn acting_among_allowed_actions_restricts_the_greedy_choice() {
+    let agent = Dqn::new(small_config(), 3, 4).unwrap();
+    let states = [[0.3f32, -1.0, 2.0], [1.0, 0.5, -0.25], [-2.0, 0.0, 0.75]];
+    for state in states {
+        let q = agent.q_values(&state).unwrap();
+        let all = agent.act_among(&state, &[true; 4]).unwrap();
+        assert_eq!(all, Some(agent.act(&state, false).unwrap()));
+        let best = all.unwrap();
+        let mut allowed = [true; 4];
+        allowed[best] = false;
+        let second = agent.act_among(&state, &allowed).unwrap().unwrap();
+        assert_ne!(second, best);
+        assert!(q.iter().enumerate().filter(|&(i, _)| allowed[i]).all(|(_, &v)| v <= q[second]), "{q:?}");
+    }
+    assert_eq!(agent.act_among(&states[0], &[false; 4]).unwrap(), None);
 }
 
 #[test]
