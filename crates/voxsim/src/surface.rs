@@ -438,14 +438,7 @@ pub fn surface_deviation_where(
                     && o.ball_radius.is_none_or(touches)
                     && counts(&hit.point, &hit.normal)
                 {
-                    // Passed over where the ball resting on the point had its tip: a feed's
-                    // tip within the pass width of it, no higher than the cutter-location
-                    // surface (as steep as the part there) rises over that width.
-                    let c = hit.point + hit.normal * r;
-                    let nz = hit.normal.z.abs().max(0.1);
-                    let rise = field.pass_width.unwrap_or(0.0) * (1.0 - nz * nz).sqrt() / nz;
-                    let passed = field.passed(c.x, c.y, c.z - r + rise + PASS_SLACK);
-                    if passed {
+                    if passed_over(field, &hit.point, &hit.normal, r) {
                         a.max = a.max.max(d);
                         a.sum += d;
                         a.n += 1;
@@ -475,6 +468,18 @@ pub fn surface_deviation_where(
         unpassed_area: t.unpassed as f64 * field.spacing * field.spacing,
         unpassed_max: t.unpassed_max,
     }
+}
+
+/// Whether a feed passed over the surface point `q` (outward normal `n`) for a ball of
+/// radius `r` (0: the point itself): a feed's tip came within the pass width of where the
+/// ball resting on `q` has its tip, no higher than that tip plus the rise of the
+/// cutter-location surface (as steep as the part there) over the width and
+/// [`PASS_SLACK`]. Always on a field without marks.
+fn passed_over(field: &HeightField, q: &Point3, n: &Vector3, r: f64) -> bool {
+    let c = q + n * r;
+    let nz = n.z.abs().max(0.1);
+    let rise = field.pass_width.unwrap_or(0.0) * (1.0 - nz * nz).sqrt() / nz;
+    field.passed(c.x, c.y, c.z - r + rise + PASS_SLACK)
 }
 
 /// How far above the ball's tip over a surface point (and the cutter-location surface's
@@ -525,7 +530,9 @@ fn cut_height(field: &HeightField, x: f64, y: f64) -> f64 {
 /// surface (the columns' heights, bilinear between them) passes, to within 0.001. `None`
 /// where the point is not reached: more than [`DeviationOptions::reach`] is left, or,
 /// with [`DeviationOptions::ball_radius`], no ball of that radius lowered along the axis
-/// rests on the point with its tip at or above [`DeviationOptions::floor`]. Material cut
+/// rests on the point with its tip at or above [`DeviationOptions::floor`], or, on a field
+/// with [`HeightFieldOptions::pass_width`], no feed passed over it (as in
+/// [`surface_deviation_where`]). Material cut
 /// below the point counts as none. The same whatever the number of threads. A part
 /// finished in several setups is finished at a point where any one of them finished it:
 /// its deviation there is the least of theirs.
@@ -548,6 +555,10 @@ pub fn deviation_at(
                     return None;
                 }
             } else if o.floor.is_some_and(|z| q.z < z) {
+                return None;
+            }
+            // Not finished here where no pass went over it.
+            if !passed_over(field, q, n, o.ball_radius.unwrap_or(0.0)) {
                 return None;
             }
             // Material at `q + s n` while it lies below the cut.
