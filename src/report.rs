@@ -166,6 +166,9 @@ impl Milled {
             "mean_mm": round(d.mean, 6),
             "gouge_depth_mm": round(d.gouge_depth, 6),
             "columns": d.columns,
+            "unpassed_columns": d.unpassed,
+            "unpassed_area_mm2": round(d.unpassed_area, 6),
+            "unpassed_max_mm": round(d.unpassed_max, 6),
             "gouged": f.gouged(),
         });
     }

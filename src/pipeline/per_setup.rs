@@ -250,7 +250,26 @@ fn prepare_finishing(
             let (lo, hi) = (b.min, b.max);
             let m = f.tool.radius() + ctx.surface_spacing;
             let tools = ToolTable::single(f.tool.cutter).with(f.tool.number, f.tool.cutter);
-            let hopts = HeightFieldOptions { spacing: ctx.surface_spacing, ..HeightFieldOptions::default() };
+            // A feed passed over a column when its tip came within three quarters of the
+            // raster's stepover of it: every column between two neighbouring passes is
+            // nearer one of them than half a stepover (and the grid's half diagonal), a
+            // column on a pass left out is a stepover from both. Steep-and-shallow's passes
+            // lie nearer (its waterline levels at most 0.71 stepovers apart on the walls of
+            // 45 degrees and more it gives them, its parallel passes 0.57); waterline alone
+            // spaces its levels wider on gentler slopes, so its columns are not marked
+            // (every one within reach counts).
+            let stepover =
+                crate::toolpath::finish::stepover_for_scallop(&f.tool.cutter, f.choice.scallop, 0.0)
+                    .map_err(|source| MillError::Plan {
+                        setup: i + 1,
+                        source: crate::toolpath::ToolpathError::Finish(source),
+                    })?;
+            let hopts = HeightFieldOptions {
+                spacing: ctx.surface_spacing,
+                pass_width: (f.choice.strategy != crate::policy::FinishStrategyKind::Waterline)
+                    .then_some(0.75 * stepover),
+                ..HeightFieldOptions::default()
+            };
             watcher.surface = Some(
                 HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
                     .map_err(sim_error)?,

@@ -81,6 +81,11 @@ fn finishing_brings_the_part_nearer_than_roughing_alone_and_reports_itself() {
             assert!(!js[key].is_null(), "setup {}: no {key} in the report", i + 1);
         }
         assert_eq!(js["scallop_mm"], 0.02);
+        // The columns no pass went over are reported apart, their area by the spacing.
+        let sd = &js["surface_deviation"];
+        assert_eq!(sd["unpassed_columns"], fin.deviation.unpassed);
+        let area = sd["unpassed_area_mm2"].as_f64().expect("unpassed_area_mm2");
+        assert!((area - fin.deviation.unpassed as f64 * 0.25 * 0.25).abs() < 1e-6, "setup {}: {sd}", i + 1);
         assert_eq!(js["tools"], serde_json::json!([s.tool.number, fin.tool.number]));
     }
 }

@@ -701,6 +701,12 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
                     f.summary.guarded_points
                 );
             }
+            if d.unpassed > 0 {
+                println!(
+                    "    surface no finishing pass went over: {} columns, {:.2} mm2, max {:.4} mm (not in the max above)",
+                    d.unpassed, d.unpassed_area, d.unpassed_max
+                );
+            }
         }
         if !sp.holder_collision_lines.is_empty() {
             println!("    holder collisions at lines {:?}", sp.holder_collision_lines);

@@ -3,13 +3,18 @@
 //! then finished with a 10 mm ball whose shank is as wide as its flutes. Without the
 //! check ([`FinishOptions::holder_stock`] `None`) the ball finishes the boss's foot and its
 //! shank rubs the allowance left on the boss's wall above its flutes; with it the simulator
-//! finds no shank or holder contact, and the points it left out are counted.
+//! finds no shank or holder contact, the points it left out are counted, and the finished
+//! surface's deviation reports the foot no pass went over apart from its max.
 
 use s2g_gcode::{Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Aabb, GridSpec, Holder, Mesh, MeshIndex, Point3, Setup, VoxelGrid, voxelize};
+use s2g_toolpath::finish::stepover_for_scallop;
 use s2g_toolpath::finish::{FinishOptions, FinishSummary, Parallel, RoughedStock, finish_setup_opt};
 use s2g_toolpath::{PlanOptions, Tool, plan_setup};
-use s2g_voxsim::{Cutter, SimOptions, SimReport, Simulator, ToolTable};
+use s2g_voxsim::{
+    Cutter, DeviationOptions, HeightField, HeightFieldOptions, SimOptions, SimReport, Simulator,
+    SurfaceDeviation, ToolTable, surface_deviation_opt,
+};
 
 /// A 60 x 60 x 10 plate with a 24 x 24 boss from 10 to 50 on it.
 fn boss_on_plate() -> Mesh {
@@ -28,9 +33,9 @@ fn tool(number: u32, mut cutter: Cutter, stickout: f64) -> Tool {
     Tool { number, ..Tool::new(cutter) }
 }
 
-/// Roughs the part, then finishes it with `holder_stock`; the simulator's report and the
-/// finisher's summary.
-fn mill(holder_stock: Option<RoughedStock>) -> (SimReport, FinishSummary) {
+/// Roughs the part, then finishes it with `holder_stock`; the simulator's report, the
+/// finisher's summary and the finished surface's deviation (columns a pass went over).
+fn mill(holder_stock: Option<RoughedStock>) -> (SimReport, FinishSummary, SurfaceDeviation) {
     let part = boss_on_plate();
     // Voxels of 0.5 mm whose centres lie 0.25 off the boss's walls, inside the allowance.
     let stock = Aabb::new(Point3::new(-31.0, -31.0, -1.0), Point3::new(31.0, 31.0, 51.0));
@@ -70,7 +75,18 @@ fn mill(holder_stock: Option<RoughedStock>) -> (SimReport, FinishSummary) {
         }
     }
     let (report, _) = sim.into_simulation().unwrap().into_parts();
-    (report, summary)
+    // The finishing moves (from its tool change on) in a height field that marks where
+    // a pass went, three quarters of the stepover either side.
+    let w = 0.75 * stepover_for_scallop(&ball.cutter, 0.05, 0.0).unwrap();
+    let hopts = HeightFieldOptions { spacing: 0.25, pass_width: Some(w), ..HeightFieldOptions::default() };
+    let mut field =
+        HeightField::new_opt([-36.0, -36.0], [36.0, 36.0], ToolTable::single(ball.cutter), &hopts).unwrap();
+    let start = rec.motions.iter().position(|(_, m)| matches!(m, Motion::ToolChange { tool: 17 })).unwrap();
+    for (_, m) in &rec.motions[start..] {
+        field.motion(m).unwrap();
+    }
+    let dopts = DeviationOptions { ball_radius: Some(5.0), floor: Some(0.0), ..DeviationOptions::default() };
+    (report, summary, surface_deviation_opt(&field, &index, &dopts))
 }
 
 #[test]
@@ -82,7 +98,7 @@ fn the_finishers_shank_keeps_off_the_allowance_on_a_wall_taller_than_its_flutes(
         top: 51.0,
         faces: [[0.0, 0.0, 1.0, 51.0]; 3],
     };
-    let (checked, summary) = mill(Some(stock));
+    let (checked, summary, dev) = mill(Some(stock));
     assert_eq!(checked.gouge_voxels, 0);
     assert!(
         checked.holder_collisions.is_empty(),
@@ -91,8 +107,15 @@ fn the_finishers_shank_keeps_off_the_allowance_on_a_wall_taller_than_its_flutes(
     );
     // The boss's foot, within the roughing tool's reach of its wall, is left out.
     assert!(summary.guarded_points > 0);
-    let (unchecked, bare) = mill(None);
+    let (unchecked, bare, bare_dev) = mill(None);
     assert_eq!(bare.guarded_points, 0);
+    // The deviation leaves the foot no pass went over out of its max and reports it apart:
+    // the roughing's 0.3 mm stays there, and every column the unchecked finish counts is
+    // either passed or not with the check.
+    assert_eq!(bare_dev.unpassed, 0, "{bare_dev:?}");
+    assert!(dev.unpassed > 0 && dev.unpassed_max > 0.29, "{dev:?}");
+    assert!(dev.max < 0.29, "{dev:?}");
+    assert_eq!(dev.columns + dev.unpassed, bare_dev.columns, "{dev:?} {bare_dev:?}");
     assert!(
         !unchecked.holder_collisions.is_empty(),
         "the unchecked finish meets no stock: the test shows nothing"

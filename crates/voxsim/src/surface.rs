@@ -31,11 +31,19 @@ pub struct HeightFieldOptions {
     pub arc_tolerance: f64,
     /// The most columns a field may have (an error beyond). Default `400_000_000`.
     pub max_columns: usize,
+    /// Where the tool passed: a feed move (not a rapid) marks every column within this
+    /// horizontal distance of its tip's path with the lowest tip height there
+    /// ([`HeightField::passed`]), so that the deviation counts only the surface a pass
+    /// went over (a finisher's passes left out where its shank would meet the stock leave
+    /// a strip their neighbours only brush, and the tool lifted over it). Half the
+    /// finisher's pass spacing or a little more. `None` (default): no marks, and every
+    /// column counts as passed.
+    pub pass_width: Option<f64>,
 }
 
 impl Default for HeightFieldOptions {
     fn default() -> Self {
-        Self { spacing: 0.05, arc_tolerance: 0.001, max_columns: 400_000_000 }
+        Self { spacing: 0.05, arc_tolerance: 0.001, max_columns: 400_000_000, pass_width: None }
     }
 }
 
@@ -51,6 +59,11 @@ pub struct HeightField {
     nx: usize,
     ny: usize,
     top: Vec<f64>,
+    /// The lowest tip height of a feed whose path passed within
+    /// [`HeightFieldOptions::pass_width`] of each column (`+inf`: none; empty without a
+    /// width).
+    passed: Vec<f64>,
+    pass_width: Option<f64>,
     tools: ToolTable,
     prims: ToolPrims,
     /// The current cutter's radius and corner radius: its tip profile bounds from below
@@ -74,10 +87,11 @@ impl HeightField {
     pub fn new_opt(min: [f64; 2], max: [f64; 2], tools: ToolTable, o: &HeightFieldOptions) -> Result<Self> {
         tools.validate()?;
         let ok = min.iter().chain(&max).all(|v| v.is_finite()) && min[0] <= max[0] && min[1] <= max[1];
-        if !(ok && o.spacing.is_finite() && o.spacing > 0.0 && o.arc_tolerance > 0.0) {
+        let width_ok = o.pass_width.is_none_or(|w| w.is_finite() && w >= 0.0);
+        if !(ok && o.spacing.is_finite() && o.spacing > 0.0 && o.arc_tolerance > 0.0 && width_ok) {
             return Err(SimError::InvalidOption(format!(
-                "height field over {min:?} .. {max:?} at spacing {} (arc tolerance {})",
-                o.spacing, o.arc_tolerance
+                "height field over {min:?} .. {max:?} at spacing {} (arc tolerance {}, pass width {:?})",
+                o.spacing, o.arc_tolerance, o.pass_width
             )));
         }
         let n = |a: usize| ((max[a] - min[a]) / o.spacing + 1e-9).floor() + 1.0;
@@ -97,6 +111,8 @@ impl HeightField {
             nx,
             ny,
             top: vec![f64::INFINITY; nx * ny],
+            passed: if o.pass_width.is_some() { vec![f64::INFINITY; nx * ny] } else { Vec::new() },
+            pass_width: o.pass_width,
             tools,
             prims,
             profile,
@@ -122,12 +138,34 @@ impl HeightField {
         (i < self.nx && j < self.ny).then(|| self.top[j * self.nx + i])
     }
 
-    /// Lowers the columns the cutter swept from `a` to `b` (part frame, axis +Z) reaches.
-    fn sweep(&mut self, a: Point3, b: Point3) {
+    /// Whether a feed's tip path passed within [`HeightFieldOptions::pass_width`] of the
+    /// column nearest `(x, y)` with the tip at most `z` there (always `true` without a
+    /// width; `false` outside the grid).
+    pub fn passed(&self, x: f64, y: f64, z: f64) -> bool {
+        if self.pass_width.is_none() {
+            return true;
+        }
+        let fx = ((x - self.min[0]) / self.spacing).round();
+        let fy = ((y - self.min[1]) / self.spacing).round();
+        if !(fx >= 0.0 && fy >= 0.0 && fx < self.nx as f64 && fy < self.ny as f64) {
+            return false;
+        }
+        self.passed[fy as usize * self.nx + fx as usize] <= z
+    }
+
+    /// [`HeightFieldOptions::pass_width`].
+    pub fn pass_width(&self) -> Option<f64> {
+        self.pass_width
+    }
+
+    /// Lowers the columns the cutter swept from `a` to `b` (part frame, axis +Z) reaches,
+    /// and marks those a feed's tip path passes near ([`HeightField::passed`]).
+    fn sweep(&mut self, a: Point3, b: Point3, feed: bool) {
         let seg = Seg::new(a, b, Vector3::z());
         let (lower, n) = lower_prims(&self.prims);
         let prims = &lower[..n];
-        let reach = prims.iter().map(|p| p.bound().2).fold(0.0, f64::max);
+        let width = self.pass_width.filter(|_| feed);
+        let reach = prims.iter().map(|p| p.bound().2).fold(width.unwrap_or(0.0), f64::max);
         let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
         let range = |lo: f64, hi: f64, m: f64, n: usize| {
             let i0 = ((lo - reach - m) / s).ceil().max(0.0);
@@ -140,6 +178,12 @@ impl HeightField {
             return;
         };
         let rows = &mut self.top[j0 * nx..(j1 + 1) * nx];
+        let mut no_marks = [];
+        let marks: &mut [f64] = match width {
+            Some(_) => &mut self.passed[j0 * nx..(j1 + 1) * nx],
+            None => &mut no_marks,
+        };
+        let w = width.unwrap_or(-1.0);
         // Every cutter point at horizontal distance rho from the axis lies at least
         // `floor(rho)` above the tip (its end's profile, the corner radius beyond the
         // radius, where only the shank and holder are): a column farther than rho from the
@@ -151,13 +195,17 @@ impl HeightField {
         };
         let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
         let ab2 = ab.norm_squared();
-        let row = |(dj, row): (usize, &mut [f64])| {
+        let row = |(dj, (row, mark)): (usize, (&mut [f64], &mut [f64]))| {
             let y = min[1] + (j0 + dj) as f64 * s;
             for (i, t) in row.iter_mut().enumerate().take(i1 + 1).skip(i0) {
                 let base = Point3::new(min[0] + i as f64 * s, y, 0.0);
                 let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
                 let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
-                if *t <= zmin + floor((ap - ab * u).norm()) {
+                let rho = (ap - ab * u).norm();
+                if rho <= w {
+                    mark[i] = mark[i].min(a.z + (b.z - a.z) * u);
+                }
+                if *t <= zmin + floor(rho) {
                     continue;
                 }
                 for p in prims {
@@ -167,20 +215,30 @@ impl HeightField {
                 }
             }
         };
-        if (i1 - i0 + 1) * (j1 - j0 + 1) > 4096 {
-            rows.par_chunks_mut(nx).enumerate().for_each(row);
+        // Without marks, every row gets an empty slice of them.
+        let mark_rows: Vec<&mut [f64]> = if marks.is_empty() {
+            (0..=j1 - j0).map(|_| <&mut [f64]>::default()).collect()
         } else {
-            rows.chunks_mut(nx).enumerate().for_each(row);
+            marks.chunks_mut(nx).collect()
+        };
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > 4096 {
+            rows.par_chunks_mut(nx).zip(mark_rows).enumerate().for_each(row);
+        } else {
+            rows.chunks_mut(nx).zip(mark_rows).enumerate().for_each(row);
         }
     }
 
     fn move_to(&mut self, to: Point3, line: u64) -> Result<()> {
+        self.move_feed(to, line, true)
+    }
+
+    fn move_feed(&mut self, to: Point3, line: u64, feed: bool) -> Result<()> {
         let p = self.frame * to;
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             return Err(SimError::InvalidMotion { line, message: format!("non-finite point {p}") });
         }
         let from = self.pos.unwrap_or(p);
-        self.sweep(from, p);
+        self.sweep(from, p, feed);
         self.pos = Some(p);
         Ok(())
     }
@@ -214,7 +272,8 @@ impl MotionSink for HeightField {
 
     fn motion(&mut self, m: &Motion<'_>) -> Result<()> {
         match m {
-            Motion::Rapid { to } | Motion::Linear { to, .. } => self.move_to(*to, 0),
+            Motion::Rapid { to } => self.move_feed(*to, 0, false),
+            Motion::Linear { to, .. } => self.move_to(*to, 0),
             Motion::Arc { to, .. } => {
                 let start = self.pos.map(|p| self.frame.inverse() * p);
                 let Some(spec) = start.and_then(|s| ArcSpec::from_motion(s, m)) else {
@@ -299,8 +358,17 @@ pub struct SurfaceDeviation {
     /// Deepest cut into the part anywhere: the largest distance inside the part of a
     /// column's cut point (0 when none is inside).
     pub gouge_depth: f64,
-    /// Reached columns: over the part, cut to within [`DeviationOptions::reach`] of its top.
+    /// Reached columns: over the part, cut to within [`DeviationOptions::reach`] of its top,
+    /// and (on a field with [`HeightFieldOptions::pass_width`]) passed over by a feed.
     pub columns: usize,
+    /// Columns that would count but that no feed passed over ([`HeightField::passed`] at
+    /// the tip of the ball resting on the surface below them): what the finisher left out
+    /// (where its shank or holder would have met the stock). Not in `max` and `mean`.
+    pub unpassed: usize,
+    /// Their area: their count times the square of the column spacing.
+    pub unpassed_area: f64,
+    /// The largest distance from the part's surface of those columns' cut points.
+    pub unpassed_max: f64,
 }
 
 /// [`surface_deviation_opt`] with the default options.
@@ -333,10 +401,10 @@ pub fn surface_deviation_where(
 ) -> SurfaceDeviation {
     let down = Vector3::new(0.0, 0.0, -1.0);
     let drop = o.ball_radius.and_then(|r| DropCutter::new(part, &Cutter::ball(r, 4.0 * r)).ok());
-    let per_row: Vec<(f64, f64, f64, usize)> = (0..field.ny)
+    let per_row: Vec<Tally> = (0..field.ny)
         .into_par_iter()
         .map(|j| {
-            let (mut max, mut sum, mut gouge, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+            let mut a = Tally::default();
             for i in 0..field.nx {
                 let t = field.top[j * field.nx + i];
                 if !t.is_finite() {
@@ -346,7 +414,7 @@ pub fn surface_deviation_where(
                 let p = Point3::new(x, y, t);
                 let d = part.closest_point(&p).distance;
                 if d > o.on_surface && part.contains(&p) {
-                    gouge = gouge.max(d);
+                    a.gouge = a.gouge.max(d);
                     continue;
                 }
                 // Outside the part, the first surface straight below is its top there (the
@@ -370,18 +438,64 @@ pub fn surface_deviation_where(
                     && o.ball_radius.is_none_or(touches)
                     && counts(&hit.point, &hit.normal)
                 {
-                    max = max.max(d);
-                    sum += d;
-                    n += 1;
+                    if passed_over(field, &hit.point, &hit.normal, r) {
+                        a.max = a.max.max(d);
+                        a.sum += d;
+                        a.n += 1;
+                    } else {
+                        a.unpassed_max = a.unpassed_max.max(d);
+                        a.unpassed += 1;
+                    }
                 }
             }
-            (max, sum, gouge, n)
+            a
         })
         .collect();
-    let (max, sum, gouge, n) = per_row
-        .into_iter()
-        .fold((0.0f64, 0.0, 0.0f64, 0), |a, r| (a.0.max(r.0), a.1 + r.1, a.2.max(r.2), a.3 + r.3));
-    SurfaceDeviation { max, mean: if n > 0 { sum / n as f64 } else { 0.0 }, gouge_depth: gouge, columns: n }
+    let t = per_row.into_iter().fold(Tally::default(), |a, r| Tally {
+        max: a.max.max(r.max),
+        sum: a.sum + r.sum,
+        gouge: a.gouge.max(r.gouge),
+        n: a.n + r.n,
+        unpassed: a.unpassed + r.unpassed,
+        unpassed_max: a.unpassed_max.max(r.unpassed_max),
+    });
+    SurfaceDeviation {
+        max: t.max,
+        mean: if t.n > 0 { t.sum / t.n as f64 } else { 0.0 },
+        gouge_depth: t.gouge,
+        columns: t.n,
+        unpassed: t.unpassed,
+        unpassed_area: t.unpassed as f64 * field.spacing * field.spacing,
+        unpassed_max: t.unpassed_max,
+    }
+}
+
+/// Whether a feed passed over the surface point `q` (outward normal `n`) for a ball of
+/// radius `r` (0: the point itself): a feed's tip came within the pass width of where the
+/// ball resting on `q` has its tip, no higher than that tip plus the rise of the
+/// cutter-location surface (as steep as the part there) over the width and
+/// [`PASS_SLACK`]. Always on a field without marks.
+fn passed_over(field: &HeightField, q: &Point3, n: &Vector3, r: f64) -> bool {
+    let c = q + n * r;
+    let nz = n.z.abs().max(0.1);
+    let rise = field.pass_width.unwrap_or(0.0) * (1.0 - nz * nz).sqrt() / nz;
+    field.passed(c.x, c.y, c.z - r + rise + PASS_SLACK)
+}
+
+/// How far above the ball's tip over a surface point (and the cutter-location surface's
+/// rise over the pass width) a feed may pass and still count as passing over it: the
+/// finisher's pass lift and sampling tolerance, well under any lift over a left-out stretch.
+const PASS_SLACK: f64 = 0.05;
+
+/// A row's (then the field's) sums in [`surface_deviation_where`].
+#[derive(Default)]
+struct Tally {
+    max: f64,
+    sum: f64,
+    gouge: f64,
+    n: usize,
+    unpassed: usize,
+    unpassed_max: f64,
 }
 
 /// The height `field` was cut to at `(x, y)`: bilinear between the four nearest columns;
@@ -416,7 +530,9 @@ fn cut_height(field: &HeightField, x: f64, y: f64) -> f64 {
 /// surface (the columns' heights, bilinear between them) passes, to within 0.001. `None`
 /// where the point is not reached: more than [`DeviationOptions::reach`] is left, or,
 /// with [`DeviationOptions::ball_radius`], no ball of that radius lowered along the axis
-/// rests on the point with its tip at or above [`DeviationOptions::floor`]. Material cut
+/// rests on the point with its tip at or above [`DeviationOptions::floor`], or, on a field
+/// with [`HeightFieldOptions::pass_width`], no feed passed over it (as in
+/// [`surface_deviation_where`]). Material cut
 /// below the point counts as none. The same whatever the number of threads. A part
 /// finished in several setups is finished at a point where any one of them finished it:
 /// its deviation there is the least of theirs.
@@ -439,6 +555,10 @@ pub fn deviation_at(
                     return None;
                 }
             } else if o.floor.is_some_and(|z| q.z < z) {
+                return None;
+            }
+            // Not finished here where no pass went over it.
+            if !passed_over(field, q, n, o.ball_radius.unwrap_or(0.0)) {
                 return None;
             }
             // Material at `q + s n` while it lies below the cut.

@@ -106,6 +106,76 @@ fn a_ball_raster_on_a_plane_leaves_the_analytic_scallop() {
 }
 
 #[test]
+fn a_pass_lifted_over_the_surface_leaves_unpassed_columns_out_of_the_max() {
+    // A ball raster 1 apart on a plane, its pass at y = 10 lifted 2 over the surface (as a
+    // finisher lifts over a stretch its shank check left out).
+    let part = MeshIndex::new(
+        &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
+    )
+    .unwrap();
+    let (r, s, w) = (3.0, 1.0, 0.75);
+    let cut = |width: Option<f64>| {
+        let o = HeightFieldOptions { pass_width: width, ..Default::default() };
+        let mut field =
+            HeightField::new_opt([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0)), &o)
+                .unwrap();
+        let mut go = |to: Point3, rapid: bool| {
+            let m =
+                if rapid { Motion::Rapid { to } } else { Motion::Linear { to, feed: 1000.0, extrude: None } };
+            field.motion(&m).unwrap();
+        };
+        go(Point3::new(-4.0, -4.0, 25.0), true);
+        for k in 0..=28 {
+            let y = -4.0 + k as f64;
+            let z = if k == 14 { 7.0 } else { 5.0 };
+            let (a, b) = if k % 2 == 0 { (-4.0, 24.0) } else { (24.0, -4.0) };
+            go(Point3::new(a, y, z), false);
+            go(Point3::new(b, y, z), false);
+        }
+        go(Point3::new(-4.0, 24.0, 25.0), true);
+        field
+    };
+    // Without marks the strip under the lifted pass counts: its middle is a stepover of 2.
+    let full = surface_deviation(&cut(None), &part);
+    let h2 = r - (r * r - 1.0f64).sqrt();
+    assert!((full.max - h2).abs() < 1e-9 && full.unpassed == 0, "{full:?}");
+    // With marks the columns farther than w from every pass cut on the surface (|y - 10| <
+    // s - w: 9 rows of the 401 columns over the part) are reported apart, and the max is
+    // that of the passed columns, w from a pass.
+    let d = surface_deviation(&cut(Some(w)), &part);
+    assert_eq!(d.unpassed, 9 * 401, "{d:?}");
+    assert!((d.unpassed_area - 9.0 * 401.0 * 0.05 * 0.05).abs() < 1e-9, "{d:?}");
+    assert!((d.unpassed_max - h2).abs() < 1e-9, "{d:?}");
+    let hw = r - (r * r - w * w).sqrt();
+    assert!((d.max - hw).abs() < 1e-9, "{d:?} vs {hw}");
+    assert_eq!(d.columns + d.unpassed, full.columns);
+    // Every column passed on the full raster.
+    let mut whole = HeightField::new_opt(
+        [-5.0, -5.0],
+        [25.0, 25.0],
+        ToolTable::single(Cutter::ball(r, 20.0)),
+        &HeightFieldOptions { pass_width: Some(w), ..Default::default() },
+    )
+    .unwrap();
+    raster(&mut whole, [-4.0, 24.0], [-4.0, 24.0], s, 5.0);
+    let d = surface_deviation(&whole, &part);
+    assert!(d.unpassed == 0 && (d.max - (r - (r * r - 0.25f64).sqrt())).abs() < 1e-9, "{d:?}");
+    // A rapid on the surface cuts but passes over nothing.
+    let mut rapid = HeightField::new_opt(
+        [-5.0, -5.0],
+        [25.0, 25.0],
+        ToolTable::single(Cutter::ball(r, 20.0)),
+        &HeightFieldOptions { pass_width: Some(w), ..Default::default() },
+    )
+    .unwrap();
+    for x in [-4.0, 24.0] {
+        rapid.motion(&Motion::Rapid { to: Point3::new(x, 10.0, 5.0) }).unwrap();
+    }
+    let d = surface_deviation(&rapid, &part);
+    assert!(d.columns == 0 && d.unpassed > 401, "{d:?}");
+}
+
+#[test]
 fn a_pass_below_the_surface_is_a_gouge_of_its_depth() {
     let part = MeshIndex::new(
         &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
@@ -126,6 +196,8 @@ fn bad_grids_and_tilted_setups_are_errors() {
     let tools = ToolTable::single(Cutter::ball(2.0, 20.0));
     let tiny = HeightFieldOptions { spacing: 0.0, ..Default::default() };
     assert!(HeightField::new_opt([0.0, 0.0], [1.0, 1.0], tools.clone(), &tiny).is_err());
+    let wide = HeightFieldOptions { pass_width: Some(f64::NAN), ..Default::default() };
+    assert!(HeightField::new_opt([0.0, 0.0], [1.0, 1.0], tools.clone(), &wide).is_err());
     assert!(HeightField::new([0.0, f64::NAN], [1.0, 1.0], tools.clone()).is_err());
     assert!(HeightField::new([2.0, 0.0], [1.0, 1.0], tools.clone()).is_err());
     let mut field = HeightField::new([0.0, 0.0], [1.0, 1.0], tools).unwrap();

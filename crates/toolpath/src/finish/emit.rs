@@ -429,8 +429,17 @@ impl<S: MotionSink> Emitter<'_, S> {
     }
 
     /// Whether the drop-cutter finds no interference deeper than `tolerance` at samples
-    /// [`FinishOptions::link_check_step`] apart along `a`-`b`.
+    /// [`FinishOptions::link_check_step`] apart along `a`-`b`, and the shank and holder
+    /// are clear there.
     fn clear(&self, a: &Point3, b: &Point3, tolerance: f64) -> bool {
+        self.clear_of(a, b, tolerance, true)
+    }
+
+    /// [`Self::clear`], the shank and holder checked only with `guard`: a chord between two
+    /// neighbouring points of a pass was checked by `Guard::split` at the same samples
+    /// below them (the pass lift raises both ends alike, and a guard clear at a tip height
+    /// is clear above it), so it is not checked twice.
+    fn clear_of(&self, a: &Point3, b: &Point3, tolerance: f64, guard: bool) -> bool {
         let d = b - a;
         // Samples by the 3-D length: a chord that drops steeply (across a jump of the
         // cutter-location surface at a wall) is short in XY but passes the wall's corner.
@@ -441,7 +450,7 @@ impl<S: MotionSink> Emitter<'_, S> {
         let n = n.max(1.0) as usize;
         (0..=n).all(|k| {
             let p = a + d * (k as f64 / n as f64);
-            !self.dc.interferes(p.x, p.y, p.z + tolerance) && self.guard_clear(&p)
+            !self.dc.interferes(p.x, p.y, p.z + tolerance) && (!guard || self.guard_clear(&p))
         })
     }
 
@@ -458,7 +467,8 @@ impl<S: MotionSink> Emitter<'_, S> {
     /// retract and a new entry at `b` (a chord across a kink of the cutter-location surface,
     /// where it jumps at a wall or cuts a corner of a waterline loop).
     fn step(&mut self, a: Point3, b: Point3) -> Result<(), ToolpathError<S::Error>> {
-        if self.clear(&a, &b, self.opts.link_tolerance) {
+        // `a`-`b` is a chord of a pass: `Guard::split` checked its shank and holder.
+        if self.clear_of(&a, &b, self.opts.link_tolerance, false) {
             return self.feed(b, self.tool.feed);
         }
         // Where the chord sags into the surface (a bend sharper than the sampling saw),
