@@ -394,7 +394,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let streamed = matches!(opts.layout, ProgramLayout::PerSetup);
     // Rest roughing may add a program per setup and pass: names for as many, of which the
     // run's programs take the first.
-    let mut paths = program_paths(&output, if streamed { run.program_bound() } else { 1 });
+    let paths = program_paths(&output, if streamed { run.program_bound() } else { 1 });
     let partial: Vec<PathBuf> = paths.iter().map(|p| partial_path(p)).collect();
     if streamed {
         let files = partial.clone();
@@ -413,7 +413,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     bar.finish();
-    paths.truncate(milled.programs.len());
+    // The programs written, named for their number (one program is `output` itself).
+    let paths = if streamed { program_paths(&output, milled.programs.len()) } else { paths };
 
     if streamed {
         for (from, to) in partial.iter().zip(&paths) {
