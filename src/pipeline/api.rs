@@ -229,10 +229,11 @@ pub struct MillOptions {
     /// Shop preset, per-setup layout: after every setup is machined, rest roughing
     /// ([`Milled::setups`] entries with [`SetupProgram::rest_of`]): each setup again, in
     /// its own program and fixture, with a smaller flat end mill of the library over the
-    /// material the earlier programs left (the simulated in-process stock), down to the
-    /// depth that tool reaches. This many passes per setup, each with a flat end mill at
-    /// most 0.7 times as wide as the one before, the one of those that reaches deepest into
-    /// the setup's stock (the widest of equals); 0 keeps one roughing tool per setup.
+    /// material the earlier programs left (the simulated in-process stock), as deep below
+    /// the stock's top as that tool's flutes are long (its shank and holder stay above all
+    /// stock). This many passes per setup, each with a flat end mill at
+    /// most 0.7 times as wide as the one before, the one of those whose flutes reach
+    /// deepest into the setup's stock (the widest of equals); 0 keeps one roughing tool per setup.
     /// Corners keep the roughing tool's radius and slots narrower than it keep their
     /// material otherwise (12 mm, then 8 and 5; 5 mm, then 3 and 2 with the shipped
     /// library). The paper preset ignores it. Default 2.

@@ -537,7 +537,8 @@ impl MillRun {
     /// setup again, in its own program with its fixture, its action and its datum, with
     /// a smaller flat end mill of the library ([`Tooling::rest_tool`]), over
     /// the material the earlier programs left (the simulated stock less the part; the
-    /// planner skips what is gone), as deep as that tool reaches. Nothing in the paper
+    /// planner skips what is gone), as deep below the stock's top as its flutes are long.
+    /// Nothing in the paper
     /// preset or the rotary layout. Called by [`finish`](Self::finish), once every setup
     /// has its action.
     fn rest_rough(&mut self, progress: &mut dyn FnMut(Stage)) -> Result<(), MillError> {
@@ -558,8 +559,23 @@ impl MillRun {
                 let (setup, note) = (before.setup, before.note.clone());
                 let action = Action { tool_radius: tool.0.radius(), ..before.action };
                 self.check_deadline(|| format!("rest roughing setup {} of {primary}", k + 1))?;
-                let mut job =
-                    Job::new(&setup, &action, tool, &self.stock, self.rapid, self.clearance, &self.opts)?;
+                // A rest pass reaches only as deep below the stock's top as its flutes are
+                // long, so its shank and holder stay above all stock. (A setup's own roughing
+                // cuts every level from the top down, and a shank no wider than the flutes
+                // follows them through what they cut; a rest pass skips the levels where
+                // nothing is left for it and may leave stock above its cut that the shank
+                // would meet: OpenSCAD's example001 at 128^3 had 4 holder collisions so.)
+                let (mut tool, cutting) = tool;
+                tool.cutter.stickout = tool.cutter.flute_length;
+                let mut job = Job::new(
+                    &setup,
+                    &action,
+                    (tool, cutting),
+                    &self.stock,
+                    self.rapid,
+                    self.clearance,
+                    &self.opts,
+                )?;
                 job.note = Some(match note {
                     Some(n) => format!("{n}; rest roughing of setup {}", k + 1),
                     None => format!("rest roughing of setup {}", k + 1),

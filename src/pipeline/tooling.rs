@@ -178,18 +178,17 @@ impl Tooling {
     /// The rest-roughing tool after roughing with a flat end mill of `radius`, in a setup
     /// whose stock is `depth` deep along its axis
     /// ([`MillOptions::rest_roughing`](super::MillOptions::rest_roughing)): of the
-    /// library's flat end mills at most 0.7 times as wide, the one that reaches deepest
-    /// into that depth ([`Tool::envelope`]; a small end mill's shank is often wider than
-    /// its flutes, so it reaches only as deep as they are long), the widest of equals, with
-    /// its cutting data; `None` in the paper preset or where the library has none that
-    /// small.
+    /// library's flat end mills at most 0.7 times as wide, the one whose flutes reach
+    /// deepest into that depth (a rest pass cuts no deeper below the stock's top than its
+    /// flutes are long: `MillRun::rest_rough`), the widest of equals, with its cutting
+    /// data; `None` in the paper preset or where the library has none that small.
     pub(super) fn rest_tool(
         &self,
         radius: f64,
         depth: f64,
     ) -> Result<Option<(Tool, Option<Cutting>)>, MillError> {
         let Self::Library(shop) = self else { return Ok(None) };
-        let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length.min(depth);
+        let reach = |t: &LibraryTool| t.cutter.flute_length.min(depth);
         let Some(t) =
             shop.flats.iter().filter(|t| t.cutter.radius <= 0.7 * radius + 1e-9).max_by(|a, b| {
                 reach(a).total_cmp(&reach(b)).then(a.cutter.radius.total_cmp(&b.cutter.radius))

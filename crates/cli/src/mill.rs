@@ -91,9 +91,10 @@ pub struct Args {
     #[arg(long, conflicts_with = "res")]
     voxel: Option<f64>,
     /// Shop preset: rest-roughing passes per setup after all setups, each with a flat end
-    /// mill of the library at most 0.7 times as wide as the one before (the one that
-    /// reaches deepest), over the material the earlier programs left; each pass of each
-    /// setup is a program of its own. 0: one roughing tool per setup.
+    /// mill of the library at most 0.7 times as wide as the one before (the one whose
+    /// flutes reach deepest; as deep as they are long), over the material the earlier
+    /// programs left; each pass of each setup is a program of its own. 0: one roughing
+    /// tool per setup.
     #[arg(long, default_value_t = 2)]
     rest_roughing: usize,
     /// With --voxel: the most voxels the simulation grid may hold (over the part's box with
@@ -830,7 +831,7 @@ mod tests {
         let (r, bounded) = resolution_for_voxel([100.0; 3], 0.05, 0.02, 1 << 28).unwrap();
         assert!(bounded && r < 2001, "{r}");
         let h = 100.0 / r as f64;
-        let count = ((104.0 / h) as f64).ceil().powi(3);
+        let count = (104.0 / h).ceil().powi(3);
         assert!(count <= (1u64 << 28) as f64, "{count}");
         assert!(((104.0 / (100.0 / (r + 1) as f64)).ceil().powi(3)) > (1u64 << 28) as f64 * 0.9);
         // The longest side's limit.
