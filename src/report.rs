@@ -77,6 +77,7 @@ impl Milled {
             "machining_time_s": round(sim.machining_time_s, 3),
             "gouge_voxels": sim.gouge_voxels,
             "first_gouge_line": sim.first_gouge_line,
+            "grid_iou": round(self.grid_iou, 6),
             "rapid_collisions": self.rapid_collisions(),
             "holder_collisions": sim.holder_collisions.len(),
             "removed_volume": round(sim.removed_volume_mm3, 9),

@@ -663,6 +663,12 @@ pub struct Milled {
     /// IoU, F1, Chamfer x1000 and normal consistency of the residual stock against
     /// the part, both normalised into the unit cube.
     pub metrics: ShapeMetrics,
+    /// IoU of the simulated stock and the part's voxels on the simulation grid (voxels of
+    /// [`MillOptions::resolution`] along the part's longest side), beside
+    /// [`metrics`](Self::metrics)' IoU, which is on a 256^3 grid over the unit cube and so
+    /// cannot resolve a part a few millimetres thick and 200 mm long however fine the
+    /// simulation is.
+    pub grid_iou: f64,
     /// The residual stock as a mesh, in part units (the input mesh's frame).
     pub residual: Mesh,
     /// The stock box, in part units.
