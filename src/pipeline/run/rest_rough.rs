@@ -54,6 +54,7 @@ impl MillRun {
                 // nothing is left for it and may leave stock above its cut that the shank
                 // would meet: OpenSCAD's example001 at 128^3 had 4 holder collisions so.)
                 let (mut tool, cutting) = tool;
+                let stickout = tool.cutter.stickout;
                 tool.cutter.stickout = tool.cutter.flute_length;
                 let mut job = Job::new(
                     &setup,
@@ -75,6 +76,8 @@ impl MillRun {
                 self.times = times;
                 let (mut program, remaining) = result?;
                 program.rest_of = Some(k + 1);
+                // The program ran with the library's tool: only its plan was cut short.
+                program.tool.cutter.stickout = stickout;
                 self.setups.push(program);
                 self.remaining = remaining;
             }
