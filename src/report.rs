@@ -40,6 +40,9 @@ impl Milled {
                     "rapid_collision_lines": s.rapid_collision_lines,
                     "holder_collision_lines": s.holder_collision_lines,
                 });
+                if let Some(k) = s.rest_of {
+                    setup["rest_of"] = json!(k);
+                }
                 if self.preset == Preset::Shop {
                     let t = &s.tool;
                     setup["tool"] = json!({
@@ -73,6 +76,8 @@ impl Milled {
             "normal_consistency": round(self.metrics.normal_consistency, 6),
             "machining_time_s": round(sim.machining_time_s, 3),
             "gouge_voxels": sim.gouge_voxels,
+            "first_gouge_line": sim.first_gouge_line,
+            "grid_iou": round(self.grid_iou, 6),
             "rapid_collisions": self.rapid_collisions(),
             "holder_collisions": sim.holder_collisions.len(),
             "removed_volume": round(sim.removed_volume_mm3, 9),

@@ -213,6 +213,7 @@ pub(super) fn machine_setup(
         holder_collision_lines,
         preservation: 1.0,
         finish,
+        rest_of: None,
     };
     Ok((program, remaining))
 }

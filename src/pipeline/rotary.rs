@@ -275,6 +275,7 @@ pub(super) fn mill_rotary(
                 .filter(|l| lines.contains(l))
                 .collect(),
             preservation: 1.0,
+            rest_of: None,
             finish: None,
         });
     }

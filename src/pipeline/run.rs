@@ -28,6 +28,8 @@ use crate::toolpath::library::Cutting;
 use crate::trace::PathTrace;
 use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator};
 
+mod rest_rough;
+
 /// A milling run one setup at a time: what [`mill`](super::mill) does, opened up so that a caller (the
 /// learning environment, an interactive tool) picks each setup's [`Action`] after seeing
 /// what the earlier setups left.
@@ -520,7 +522,9 @@ impl MillRun {
         self.finish(&policy.name(), progress)
     }
 
-    /// Finishes the run: the rotary layout's program is written and simulated now, then
+    /// Finishes the run: the shop preset's rest roughing is machined
+    /// ([`MillOptions::rest_roughing`]), the rotary layout's program is written and
+    /// simulated now, then
     /// the residual stock is meshed and scored (stage [`Stage::Scoring`]). `policy` names
     /// the policy in the result. Errors when a setup has no action yet.
     pub fn finish(mut self, policy: &str, progress: &mut dyn FnMut(Stage)) -> Result<Milled, MillError> {
@@ -531,6 +535,7 @@ impl MillRun {
                 self.setup_count()
             )));
         }
+        self.rest_rough(progress)?;
         let opts = &self.opts;
         if let (ProgramLayout::Rotary(axes), Some(placements)) = (opts.layout, &self.placements) {
             // Above this height (program +Z, rotary centre at the origin) the tool clears
@@ -552,6 +557,12 @@ impl MillRun {
         self.check_deadline(|| "scoring the residual stock".into())?;
         let simulated = self.sim.into_inner().into_simulation().map_err(sim_error)?;
         let rewards = simulated.rewards(&self.target, &RewardWeights::default()).map_err(sim_error)?;
+        let grid_iou = {
+            let (stock, part) = (simulated.residual(), &self.target);
+            let both = stock.count_and(part).map_err(|e| MillError::Simulation(e.into()))?;
+            let union = stock.count() + part.count() - both;
+            if union > 0 { both as f64 / union as f64 } else { 1.0 }
+        };
         let simulation = simulated.report().clone();
         let programs: Vec<String> = match opts.layout {
             ProgramLayout::PerSetup => self.setups.iter().map(|s| s.text.clone()).collect(),
@@ -587,6 +598,7 @@ impl MillRun {
             self.setups.iter().filter_map(|s| s.finish.as_ref()).map(|f| f.reached.as_slice()),
         );
         Ok(Milled {
+            grid_iou,
             surface_deviation,
             preset: opts.preset,
             stock_option: opts.stock,

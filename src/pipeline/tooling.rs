@@ -175,6 +175,34 @@ impl Tooling {
 }
 
 impl Tooling {
+    /// The rest-roughing tool after roughing with a flat end mill of `radius`, in a setup
+    /// whose stock is `depth` deep along its axis
+    /// ([`MillOptions::rest_roughing`](super::MillOptions::rest_roughing)): of the
+    /// library's flat end mills at most 0.7 times as wide, the one whose flutes reach
+    /// deepest into that depth (a rest pass cuts no deeper below the stock's top than its
+    /// flutes are long: `MillRun::rest_rough`), the widest of equals, with its cutting
+    /// data; `None` in the paper preset or where the library has none that small.
+    pub(super) fn rest_tool(
+        &self,
+        radius: f64,
+        depth: f64,
+    ) -> Result<Option<(Tool, Option<Cutting>)>, MillError> {
+        let Self::Library(shop) = self else { return Ok(None) };
+        let reach = |t: &LibraryTool| t.cutter.flute_length.min(depth);
+        let Some(t) =
+            shop.flats.iter().filter(|t| t.cutter.radius <= 0.7 * radius + 1e-9).max_by(|a, b| {
+                reach(a).total_cmp(&reach(b)).then(a.cutter.radius.total_cmp(&b.cutter.radius))
+            })
+        else {
+            return Ok(None);
+        };
+        let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
+        Ok(Some((
+            t.tool(&shop.material, &shop.machine).map_err(bad)?,
+            Some(t.cutting(&shop.material, &shop.machine).map_err(bad)?),
+        )))
+    }
+
     /// The finishing tool of a setup roughed with `rough` whose stock is `depth` deep along
     /// its axis. With `number`, that library tool (a ball or bull-nose end mill). Else the
     /// rule: the largest ball end mill of the library no wider than the roughing tool that

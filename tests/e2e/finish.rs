@@ -22,6 +22,9 @@ fn boss(finish: Option<FinishChoice>) -> Milled {
         metric_samples: 4000,
         finish,
         surface_spacing: 0.25,
+        // Each setup's own program, roughed and finished; no rest-roughing programs after
+        // them (those are not finished; `stock.rs` tests them).
+        rest_roughing: 0,
         ..MillOptions::default()
     };
     let action = Action { tool_radius: 5.0, layer_height: 2.0, strategy: StrategyKind::ZIGZAG };

@@ -227,3 +227,73 @@ fn a_datum_moves_the_program_origin_and_not_the_cut() {
     }
     assert!(plain.report_json(false).get("datum").is_none(), "no datum unless asked");
 }
+
+/// A 40 x 20 mm block 10 mm thick with a slot 4.5 mm wide and 8 mm deep across its top:
+/// narrower than the 8 mm end mill that roughs it.
+fn slotted_block() -> Mesh {
+    extruded(
+        &[[0., 0.], [40., 0.], [40., 20.], [22.25, 20.], [22.25, 12.], [17.75, 12.], [17.75, 20.], [0., 20.]],
+        10.0,
+    )
+}
+
+/// Rest roughing (issue 35): every setup roughed with an 8 mm end mill leaves the 4.5 mm
+/// slot full; the rest pass with the library's smaller end mill over the simulated
+/// in-process stock cuts it out, safely (no gouge, rapid through material or holder
+/// contact), and its programs say which setup they machine again with which tool.
+#[test]
+fn rest_roughing_cuts_the_slot_the_roughing_tool_is_too_wide_for() {
+    let part = slotted_block();
+    let slot = 4.5 * 8.0 * 10.0;
+    let run = |rest: usize| {
+        let opts = MillOptions {
+            preset: Preset::Shop,
+            resolution: 64,
+            orient_points: 2048,
+            metric_samples: 2000,
+            rest_roughing: rest,
+            ..MillOptions::default()
+        };
+        let mut run = MillRun::new(&part, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+        let action = shape2gcode::Action {
+            tool_radius: 4.0,
+            layer_height: 2.0,
+            strategy: shape2gcode::StrategyKind::ZIGZAG,
+        };
+        while run.next_setup().is_some() {
+            run.machine(action, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+        }
+        run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
+    };
+    let (without, with) = (run(0), run(2));
+    for m in [&without, &with] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    assert!(without.setups.iter().all(|s| s.rest_of.is_none() && s.tool.diameter() == 8.0));
+    let rest: Vec<_> = with.setups.iter().filter(|s| s.rest_of.is_some()).collect();
+    assert!(!rest.is_empty(), "no rest-roughing program");
+    // 8 mm, then at most 0.7 times as wide each pass: 5 mm (still too wide), then 3 mm.
+    for s in &rest {
+        assert!(s.tool.diameter() < 8.0, "rest tool of {} mm", s.tool.diameter());
+        assert!(s.text.contains("rest roughing of setup"), "the program does not say what it is");
+    }
+    let tools: Vec<_> = with
+        .setups
+        .iter()
+        .map(|s| (s.rest_of, s.tool.diameter(), s.setup.tool_axis().into_inner()))
+        .collect();
+    assert!(rest.iter().any(|s| s.tool.diameter() < 4.5), "no rest tool fits the slot: {tools:?}");
+    assert_eq!(with.programs.len(), with.setups.len());
+    // The slot is 360 mm^3 of a 7,640 mm^3 part: cut out, the IoU gains most of its share.
+    let gain = with.metrics.iou - without.metrics.iou;
+    let share = slot / (40.0 * 20.0 * 10.0 - slot);
+    assert!(
+        gain > 0.6 * share,
+        "IoU {} -> {} (slot share {share:.4})",
+        without.metrics.iou,
+        with.metrics.iou
+    );
+    let removed = (with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3) / slot;
+    assert!(removed > 0.7, "the rest pass removed {removed:.2} of the slot's volume");
+}

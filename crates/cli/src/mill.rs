@@ -83,6 +83,24 @@ pub struct Args {
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
+    /// Simulation voxel size in mm (in the paper preset, mm of its 100 mm part), instead of
+    /// --res: the resolution becomes the part's longest side over it, so that a part a few
+    /// millimetres thick is resolved whatever its length (a 2 mm bar 200 mm long is 1.3
+    /// voxels thick at --res 128, 10 at --voxel 0.2). Bounded by --max-voxels and by 2048
+    /// along the longest side, with a note on stderr when a bound coarsens it.
+    #[arg(long, conflicts_with = "res")]
+    voxel: Option<f64>,
+    /// Shop preset: rest-roughing passes per setup after all setups, each with a flat end
+    /// mill of the library at most 0.7 times as wide as the one before (the one whose
+    /// flutes reach deepest; as deep as they are long), over the material the earlier
+    /// programs left; each pass of each setup is a program of its own. 0: one roughing
+    /// tool per setup.
+    #[arg(long, default_value_t = 2)]
+    rest_roughing: usize,
+    /// With --voxel: the most voxels the simulation grid may hold (over the part's box with
+    /// the stock margin); the voxel grows until the grid fits.
+    #[arg(long, default_value_t = 1 << 28)]
+    max_voxels: u64,
     /// Paper preset's action space: `paper` (the paper's tools in units of the part) or
     /// `grid` (the paper's tools as its 256^3 grid sees them, scaled by 256 / --res; the
     /// same as `paper` at 256^3).
@@ -375,7 +393,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     }
     run.keep_trace(args.render.is_some());
     let streamed = matches!(opts.layout, ProgramLayout::PerSetup);
-    let paths = program_paths(&output, if streamed { run.setup_count() } else { 1 });
+    // Rest roughing may add a program per setup and pass: names for as many, of which the
+    // run's programs take the first.
+    let paths = program_paths(&output, if streamed { run.program_bound() } else { 1 });
     let partial: Vec<PathBuf> = paths.iter().map(|p| partial_path(p)).collect();
     if streamed {
         let files = partial.clone();
@@ -394,6 +414,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     };
     bar.finish();
+    // The programs written, named for their number (one program is `output` itself).
+    let paths = if streamed { program_paths(&output, milled.programs.len()) } else { paths };
 
     if streamed {
         for (from, to) in partial.iter().zip(&paths) {
@@ -449,6 +471,27 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         );
     }
     let tools = args.tools.as_ref().map(|p| crate::tools::library(Some(p))).transpose()?;
+    let resolution = match args.voxel {
+        None => args.res,
+        Some(voxel) => {
+            let extent = mesh.bbox().map(|b| b.extent()).unwrap_or_default();
+            // The paper preset scales the part's longest side to its 100 mm.
+            let mm = match preset {
+                Preset::Paper => MillOptions::default().paper_scale_mm / extent.max().max(f64::MIN_POSITIVE),
+                Preset::Shop => input_scale,
+            };
+            let extent = [extent.x * mm, extent.y * mm, extent.z * mm];
+            let (resolution, bounded) =
+                resolution_for_voxel(extent, voxel, MillOptions::default().stock_margin, args.max_voxels)?;
+            if bounded {
+                eprintln!(
+                    "note: --voxel {voxel} mm needs more than {} voxels or 2048 along the longest side; simulating at --res {resolution}",
+                    args.max_voxels
+                );
+            }
+            resolution
+        }
+    };
     Ok(MillOptions {
         tools,
         material: args.material.clone(),
@@ -458,8 +501,8 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         dialect: args.dialect,
         layout,
         rotary_tilt_range_deg: parse_range(&args.tilt_range)?,
-        resolution: args.res,
-        paper_space_scale: parse_space(&args.space, args.res)?,
+        resolution,
+        paper_space_scale: parse_space(&args.space, resolution)?,
         seed: args.seed,
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,
@@ -472,11 +515,44 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         finish: finish_choice(args, preset, layout)?,
         finish_allowance: parse_allowance(&args.allowance)?,
         surface_spacing: args.surface_spacing,
+        rest_roughing: args.rest_roughing,
         ..MillOptions::default()
     })
 }
 
 /// Millimetres per mesh unit from `--units`, `--scale` and `--size` (shop preset only).
+/// The resolution (voxels along the longest side of a part of `extent` mm) whose voxels are
+/// `voxel` mm, and whether a bound coarsened it: the grid over the part's box grown by
+/// `margin` of its longest side on every side holds at most `max_voxels`, and the longest
+/// side at most 2048 voxels (the simulator's limit). At least 8 voxels along it.
+pub fn resolution_for_voxel(
+    extent: [f64; 3],
+    voxel: f64,
+    margin: f64,
+    max_voxels: u64,
+) -> anyhow::Result<(usize, bool)> {
+    let l = extent.iter().copied().fold(0.0, f64::max);
+    if !(voxel.is_finite() && voxel > 0.0) {
+        bail!("--voxel must be a positive length in mm, got {voxel}");
+    }
+    if !(l.is_finite() && l > 0.0) {
+        bail!("--voxel needs a part with extent");
+    }
+    let count = |r: usize| {
+        let h = l / r as f64;
+        extent.iter().map(|e| ((e + 2.0 * margin * l) / h).ceil().max(1.0)).product::<f64>()
+    };
+    // Voxels strictly finer than asked: a round size over a part of round length would put
+    // voxel centres on the faces at round millimetres (the grid is centred on the part),
+    // where a flat end mill's bottom at the face takes the voxel the part counts as its own.
+    let wanted = ((l / voxel).floor() as usize + 1).max(8);
+    let mut r = wanted.min(2048);
+    while r > 8 && count(r) > max_voxels as f64 {
+        r = ((r as f64 * (max_voxels as f64 / count(r)).cbrt()).floor() as usize).clamp(8, r - 1);
+    }
+    Ok((r, r < wanted))
+}
+
 fn input_scale(args: &Args, mesh: &Mesh, preset: Preset) -> anyhow::Result<f64> {
     if preset == Preset::Paper {
         if args.units.is_some() || args.scale.is_some() || args.size.is_some() {
@@ -743,4 +819,30 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
         "stages: orientation {:.2} s, actions {:.3} s, G-code {:.2} s, simulation {:.2} s, scoring {:.2} s",
         t.orientation, t.action_selection, t.gcode_translation, t.simulation, t.scoring
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::resolution_for_voxel;
+
+    #[test]
+    fn voxel_size_sets_the_resolution_within_the_bounds() {
+        // A 2 mm bar 200 mm long: 0.2 mm voxels are 1,000 along it, 10 across; one more
+        // puts the voxels' centres off the round millimetres.
+        let (r, bounded) = resolution_for_voxel([200.0, 2.0, 2.0], 0.2, 0.02, 1 << 28).unwrap();
+        assert_eq!((r, bounded), (1001, false));
+        assert_eq!(resolution_for_voxel([200.0, 2.0, 2.0], 0.3, 0.02, 1 << 28).unwrap(), (667, false));
+        // A 100 mm cube at 0.05 mm would need 2,000^3 voxels: the bound coarsens it, and the
+        // grid (the part's box and margin) then fits the bound.
+        let (r, bounded) = resolution_for_voxel([100.0; 3], 0.05, 0.02, 1 << 28).unwrap();
+        assert!(bounded && r < 2001, "{r}");
+        let h = 100.0 / r as f64;
+        let count = (104.0 / h).ceil().powi(3);
+        assert!(count <= (1u64 << 28) as f64, "{count}");
+        assert!(((104.0 / (100.0 / (r + 1) as f64)).ceil().powi(3)) > (1u64 << 28) as f64 * 0.9);
+        // The longest side's limit.
+        assert_eq!(resolution_for_voxel([1000.0, 1.0, 1.0], 0.1, 0.0, u64::MAX).unwrap(), (2048, true));
+        assert!(resolution_for_voxel([10.0; 3], 0.0, 0.02, 1 << 28).is_err());
+        assert!(resolution_for_voxel([0.0; 3], 0.1, 0.02, 1 << 28).is_err());
+    }
 }

@@ -282,7 +282,7 @@ fn x_extent(program: &str) -> f64 {
 fn units_scale_and_size_set_the_part_s_size_in_the_shop_preset() {
     let dir = tempfile::tempdir().unwrap();
     let action = "fixed:4,8,zigzag";
-    let shop = ["--preset", "shop", "--no-finish", "--res", "48"];
+    let shop = ["--preset", "shop", "--no-finish", "--res", "48", "--rest-roughing", "0"];
     for (extra, side) in
         [(&["--units", "in", "--scale", "0.1"][..], 65.0 * 2.54), (&["--size", "20"][..], 20.0)]
     {

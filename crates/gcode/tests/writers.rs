@@ -1245,3 +1245,32 @@ mod cycles_and_tools {
         assert!(!text.contains("G43"), "grbl has no G43 H: {text}");
     }
 }
+
+/// An arc whose radius is above the written decimals' quantum but under LinuxCNC's radius
+/// tolerance (0.00005 inch) is written as a line, which our parser (and `rs274`) reads; a
+/// rest-roughing pass of a 3 mm end mill planned one on OpenSCAD's example001 and the
+/// program failed to parse ("degenerate arc: zero radius").
+#[test]
+fn arcs_under_linuxcnc_s_radius_tolerance_are_written_as_lines() {
+    for r in [0.0002, 0.0006, 0.0012, 0.002] {
+        let start = Point3::new(1.0, 2.0, -1.0);
+        let center = Point3::new(1.0 + r, 2.0, -1.0);
+        let to = Point3::new(1.0 + r, 2.0 + r, -1.0);
+        let motions = [
+            Motion::Rapid { to: start },
+            Motion::Arc {
+                to,
+                center,
+                plane: Plane::XY,
+                direction: ArcDirection::CounterClockwise,
+                turns: 0,
+                feed: 600.0,
+                extrude: None,
+            },
+        ];
+        let text = write_program(Dialect::LinuxCnc, WriterOptions::default(), &motions).unwrap();
+        let back = parse_back(&format!("radius {r}"), &text);
+        let arcs = back.iter().filter(|m| matches!(m, Motion::Arc { .. })).count();
+        assert_eq!(arcs, usize::from(r >= 0.0013), "radius {r}: {text}");
+    }
+}

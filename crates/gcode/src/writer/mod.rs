@@ -66,6 +66,10 @@ use crate::motion::{
 };
 use crate::rotary::{RotaryAxes, rotary_angles};
 
+/// The least radius an arc is written with, at its start and its end (program units):
+/// LinuxCNC's radius tolerance, 0.00005 inch in millimetres (stricter in an inch program).
+const MIN_ARC_RADIUS: f64 = 0.00005 * 25.4;
+
 pub(crate) use format::{push_num, rounded};
 
 /// Marlin extrusion mode.
@@ -739,7 +743,9 @@ impl<W: Write> Core<W> {
         let r1 = off_u.hypot(off_v);
         let r2 = (r[u] - cu).hypot(r[v] - cv);
         let quantum = 10f64.powi(-(d.min(300) as i32));
-        if r1 < quantum {
+        // LinuxCNC (and this crate's parser) refuse an arc whose written radius at its
+        // start or its end is under 0.00005 inch (0.00127 mm): such a move is a line.
+        if r1.min(r2) < quantum.max(MIN_ARC_RADIUS) {
             // Zero radius: the move is a straight line.
             return self.linear(to, feed, extrude);
         }
