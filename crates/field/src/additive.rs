@@ -34,6 +34,7 @@
 //! sees them through a [`Normalization`] (the part's bounding box centred and its largest
 //! side scaled to 1), so planar layers are `G = ẑ`.
 
+use std::f64::consts::FRAC_PI_2;
 use std::time::Instant;
 
 use burn::optim::AdamConfig;
@@ -47,7 +48,7 @@ use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 use crate::tool::{Tool, place_tool, tool_points};
 use crate::train::LossConstants;
 use crate::train::{
-    Batcher, LossLog, device_of, fit_planar, layer_collision, loss_values, ramp, regularisers, train,
+    Batcher, LossLog, device_of, fit_planar_along, layer_collision, loss_values, ramp, regularisers, train,
 };
 
 /// The overhang angle in degrees (see the module docs) of a surface with outward normal
@@ -150,6 +151,14 @@ pub struct PrintConstants {
     pub base_factor: f64,
     /// Clearance `ε` of the nozzle above the platform (Eq. 35), in part units. Default `0.5`.
     pub platform_clearance: f64,
+    /// Height `h0` above the platform, in part units, over which the layers rise from
+    /// flat: at a height `h` below it, a layer may tilt at most `90° h / h0` off the
+    /// platform ([`first_layers_loss`], with the base loss's factor, added to the base
+    /// term), at the base samples lifted by every 0.5 up to `h0` (where inside the part)
+    /// and at the poses below it: every multi-axis printer lays its first layers flat on
+    /// the platform, and a nozzle along a steep layer's normal near the platform would
+    /// dip below it. `0` leaves Eq. 31 alone. Default `3`.
+    pub first_layers: f64,
 }
 
 impl Default for PrintConstants {
@@ -161,6 +170,7 @@ impl Default for PrintConstants {
             support_factor: 25.0,
             base_factor: 2.5,
             platform_clearance: 0.5,
+            first_layers: 3.0,
         }
     }
 }
@@ -178,6 +188,7 @@ impl PrintConstants {
             ("constants.support_factor", self.support_factor),
             ("constants.base_factor", self.base_factor),
             ("constants.platform_clearance", self.platform_clearance),
+            ("constants.first_layers", self.first_layers),
             ("constants.overhang_margin_deg", self.overhang_margin_deg),
         ])?;
         FieldError::check_positive(&[("constants.layer.singular_gradient", c.singular_gradient)])?;
@@ -426,7 +437,8 @@ impl<'a> PrintProblem<'a> {
 pub struct PrintLosses {
     /// Support-free (Eq. 30) on the batch's surface samples.
     pub support_free: Tensor<1>,
-    /// Base orientation (Eq. 31) on all base samples (zero without any).
+    /// Base orientation (Eq. 31) on all base samples (zero without any), plus the first
+    /// layers' loss ([`first_layers_loss`], [`PrintConstants::first_layers`]).
     pub base: Tensor<1>,
     /// Nozzle-part collision (Eq. 13): nozzle points inside the part on printed layers.
     pub collision: Tensor<1>,
@@ -514,6 +526,17 @@ pub fn print_losses(
         let b_unit = problem.unit_tensor(problem.base.iter().copied(), &device);
         base_loss(g.forward_gradient(b_unit).gradient, [0.0, 0.0, 1.0], constants.base_factor)
     };
+    let low = first_layer_points(problem, constants.first_layers);
+    let base = if low.is_empty() {
+        base
+    } else {
+        let cos: Vec<f64> = low
+            .iter()
+            .map(|p| (FRAC_PI_2 * (p.z - problem.platform) / constants.first_layers).min(FRAC_PI_2).cos())
+            .collect();
+        let unit = problem.unit_tensor(low.into_iter(), &device);
+        base + first_layers_loss(g.forward_gradient(unit).gradient, &cos, constants.base_factor)
+    };
     let terms = nozzle_terms(g, problem, poses, phase, constants)?;
     Ok(PrintLosses {
         support_free,
@@ -525,6 +548,30 @@ pub fn print_losses(
         curvature: terms.curvature,
         colliding_poses: terms.colliding_poses,
     })
+}
+
+/// The first layers' loss on a batch: `factor · mean ReLU(c_i - d_z)` with
+/// `d = ∇G/|∇G|` from `gradient` `[n, 3]` and `cos_limit` the `n` cosines `c_i` of the
+/// largest tilt of the layers off the platform (normal `+z`) at each point: zero where no
+/// layer tilts more than its point allows.
+pub fn first_layers_loss(gradient: Tensor<2>, cos_limit: &[f64], factor: f64) -> Tensor<1> {
+    let n = gradient.dims()[0];
+    let device = gradient.device();
+    let c: Vec<f32> = cos_limit.iter().map(|&c| c as f32).collect();
+    let c = Tensor::<2>::from_data(TensorData::new(c, [n, 1]), &device);
+    let dz = layer_normal(gradient).narrow(1, 2, 1);
+    (c - dz).clamp_min(0.0).mean().mul_scalar(factor)
+}
+
+/// Where the first layers are held flat ([`PrintConstants::first_layers`]): the base
+/// samples lifted by every half unit up to `band` above the platform, where they are
+/// inside the part, and the poses below `band`.
+fn first_layer_points(problem: &PrintProblem<'_>, band: f64) -> Vec<Point3> {
+    let steps = (band / 0.5).floor() as usize;
+    let lifted =
+        problem.base.iter().flat_map(|b| (1..=steps).map(move |k| b + Vector3::z() * (0.5 * k as f64)));
+    let lifted = lifted.filter(|p| problem.part.distance(p) < 0.0);
+    lifted.chain(problem.poses.iter().filter(|p| p.z - problem.platform < band).copied()).collect()
 }
 
 /// Refuses an empty index list or an index `>= len` into the problem's `what`s.
@@ -643,6 +690,11 @@ pub struct PrintOptions {
     pub network: SirenConfig,
     /// Adam steps fitting `G = ẑ` (planar layers). Default `300`.
     pub pretrain_steps: usize,
+    /// The pretraining's layers lean this many degrees from `+z` toward `+x` (`G = d̂·x̂`
+    /// with `d̂ = (sin β, 0, cos β)`): an asymmetric start, from which a part whose two
+    /// halves would build toward each other (an arch) is built from one side over the
+    /// top. Default `0` (planar layers), in `(-90, 90)`.
+    pub pretrain_lean_deg: f64,
     /// Adam steps on Eq. 37. Default `300`.
     pub steps: usize,
     /// Poses per step. Default `128`.
@@ -666,6 +718,7 @@ impl Default for PrintOptions {
         Self {
             network: SirenConfig { sine_layers: 3, width: 64, first_omega: 5.0, hidden_omega: 30.0, seed: 0 },
             pretrain_steps: 300,
+            pretrain_lean_deg: 0.0,
             steps: 300,
             batch_size: 128,
             surface_batch: 256,
@@ -690,6 +743,9 @@ impl PrintOptions {
             return Err(FieldError::config("surface_batch", "must be at least 1"));
         }
         FieldError::check_positive(&[("learning_rate", self.learning_rate)])?;
+        if !(self.pretrain_lean_deg.abs() < 90.0) {
+            return Err(FieldError::config("pretrain_lean_deg", "must be in (-90, 90)"));
+        }
         let w = self.weights;
         FieldError::check_non_negative(&[
             ("weights.spacing", w.spacing),
@@ -703,14 +759,15 @@ impl PrintOptions {
     }
 }
 
-/// Planar layers (`G = ẑ`, build direction `+z` everywhere) for printing: a new network of
-/// `options.network` fitted as [`pretrain_planar`](crate::pretrain_planar) does, on an
-/// autodiff device.
+/// Planar layers (`G = ẑ`, build direction `+z` everywhere; leaning toward `+x` by
+/// [`PrintOptions::pretrain_lean_deg`]) for printing: a new network of `options.network`
+/// fitted as [`pretrain_planar`](crate::pretrain_planar) does, on an autodiff device.
 ///
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`].
 pub fn pretrain_planar_print(options: &PrintOptions) -> Result<Siren> {
     options.validate()?;
-    fit_planar(&options.network, options.pretrain_steps, options.seed, options.backend)
+    let (s, c) = options.pretrain_lean_deg.to_radians().sin_cos();
+    fit_planar_along(&options.network, options.pretrain_steps, options.seed, options.backend, [s, 0.0, c])
 }
 
 /// What [`optimize_print_layers`] did.

@@ -86,8 +86,8 @@ mod train;
 
 pub use additive::{
     OverhangStats, PrintCollisionCount, PrintConstants, PrintLosses, PrintOptions, PrintProblem, PrintReport,
-    PrintSamples, PrintWeights, base_loss, bent_arm_mesh, optimize_print_layers, overhang_angle,
-    overhang_angles, overhang_stats, pretrain_planar_print, print_collisions, print_losses,
+    PrintSamples, PrintWeights, base_loss, bent_arm_mesh, first_layers_loss, optimize_print_layers,
+    overhang_angle, overhang_angles, overhang_stats, pretrain_planar_print, print_collisions, print_losses,
     support_free_loss,
 };
 pub use aligned::{
