@@ -151,13 +151,16 @@ pub struct PrintConstants {
     pub base_factor: f64,
     /// Clearance `ε` of the nozzle above the platform (Eq. 35), in part units. Default `0.5`.
     pub platform_clearance: f64,
-    /// Height `h0` above the platform, in part units, over which the layers rise from
-    /// flat: at a height `h` below it, a layer may tilt at most `90° h / h0` off the
-    /// platform ([`first_layers_loss`], with the base loss's factor, added to the base
-    /// term), at the base samples lifted by every 0.5 up to `h0` (where inside the part)
-    /// and at the poses below it: every multi-axis printer lays its first layers flat on
-    /// the platform, and a nozzle along a steep layer's normal near the platform would
-    /// dip below it. `0` leaves Eq. 31 alone. Default `3`.
+    /// Height `h0` above the platform, in part units, within which the first layers are
+    /// held as flat as the nozzle needs: at a height `h`, a layer may tilt off the platform
+    /// at most as far as the problem's nozzle along its normal stays
+    /// [`PrintConstants::platform_clearance`] above the platform (Eq. 35 solved for the
+    /// tilt: flat at the platform, free from about the nozzle's radius up;
+    /// [`first_layers_loss`], with the support-free loss's factor, added to the base term).
+    /// It is taken at the base samples lifted by every 0.5 up to `h0` and the surface
+    /// samples below `h0` moved 0.5 inward (where inside the part), and at the poses below
+    /// `h0`: the pose grid alone rarely samples the first layers, where the part flares out
+    /// over the platform. `0` leaves Eq. 31 alone. Default `3`.
     pub first_layers: f64,
 }
 
@@ -530,12 +533,14 @@ pub fn print_losses(
     let base = if low.is_empty() {
         base
     } else {
+        let rings: Vec<(f64, f64)> =
+            problem.nozzle.points(0.0).iter().map(|q| (q[0], q[1].hypot(q[2]))).collect();
         let cos: Vec<f64> = low
             .iter()
-            .map(|p| (FRAC_PI_2 * (p.z - problem.platform) / constants.first_layers).min(FRAC_PI_2).cos())
+            .map(|p| platform_tilt_cos(p.z - problem.platform, &rings, constants.platform_clearance))
             .collect();
         let unit = problem.unit_tensor(low.into_iter(), &device);
-        base + first_layers_loss(g.forward_gradient(unit).gradient, &cos, constants.base_factor)
+        base + first_layers_loss(g.forward_gradient(unit).gradient, &cos, constants.support_factor)
     };
     let terms = nozzle_terms(g, problem, poses, phase, constants)?;
     Ok(PrintLosses {
@@ -563,15 +568,42 @@ pub fn first_layers_loss(gradient: Tensor<2>, cos_limit: &[f64], factor: f64) ->
     (c - dz).clamp_min(0.0).mean().mul_scalar(factor)
 }
 
+/// The cosine of the largest tilt `φ` in `[0°, 90°]` of a nozzle whose tip is `h` above
+/// the platform and whose points lie at `(axial, radius)` in `rings`, at which every point
+/// stays `clearance` above it (Eq. 35 for the worst ring phase):
+/// `h + a cos φ - r sin φ >= clearance`, i.e. `φ <= acos((clearance - h) / R) - β` with
+/// `R = |(a, r)|`, `β = atan2(r, a)`.
+fn platform_tilt_cos(h: f64, rings: &[(f64, f64)], clearance: f64) -> f64 {
+    let mut phi = FRAC_PI_2;
+    for &(a, r) in rings {
+        let big = a.hypot(r);
+        if big <= 0.0 {
+            continue;
+        }
+        let k = (clearance - h) / big;
+        let limit = if k <= -1.0 { FRAC_PI_2 } else { k.min(1.0).acos() - r.atan2(a) };
+        phi = phi.min(limit.max(0.0));
+    }
+    phi.cos()
+}
+
 /// Where the first layers are held flat ([`PrintConstants::first_layers`]): the base
-/// samples lifted by every half unit up to `band` above the platform, where they are
-/// inside the part, and the poses below `band`.
+/// samples lifted by every half unit up to `band` above the platform and the surface
+/// samples below `band` moved half a unit inward, where they are inside the part, and the
+/// poses below `band`.
 fn first_layer_points(problem: &PrintProblem<'_>, band: f64) -> Vec<Point3> {
     let steps = (band / 0.5).floor() as usize;
     let lifted =
         problem.base.iter().flat_map(|b| (1..=steps).map(move |k| b + Vector3::z() * (0.5 * k as f64)));
-    let lifted = lifted.filter(|p| problem.part.distance(p) < 0.0);
-    lifted.chain(problem.poses.iter().filter(|p| p.z - problem.platform < band).copied()).collect()
+    // The skin near the platform, half a unit in (where the part flares out over it).
+    let skin = problem.surface.iter().zip(&problem.normals).filter(|(p, _)| p.z - problem.platform < band);
+    let skin = skin.map(|(p, n)| p - n * 0.5);
+    let low = problem.poses.iter().filter(|p| p.z - problem.platform < band).copied();
+    lifted
+        .chain(skin)
+        .filter(|p| p.z > problem.platform && problem.part.distance(p) < 0.0)
+        .chain(low)
+        .collect()
 }
 
 /// Refuses an empty index list or an index `>= len` into the problem's `what`s.
