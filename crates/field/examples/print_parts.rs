@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,arch,bracket,bunny
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --lean DEG]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG]
 //! ```
 //!
 //! The parts, standing on `z = 0`: the bent arm of `support_free` (radius 6, column 12,
@@ -57,6 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--bead" => options.paths.bead_width = value.parse()?,
             "--lattice" => options.paths.lattice = value.parse()?,
             "--margin" => options.optimisation.constants.overhang_margin_deg = value.parse()?,
+            "--first-factor" => options.optimisation.constants.first_layers_factor = value.parse()?,
             "--lean" => options.optimisation.pretrain_lean_deg = value.parse()?,
             "--first-layers" => options.optimisation.constants.first_layers = value.parse()?,
             _ => return Err(format!("unknown flag {flag}").into()),

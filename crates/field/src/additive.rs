@@ -156,12 +156,16 @@ pub struct PrintConstants {
     /// at most as far as the problem's nozzle along its normal stays
     /// [`PrintConstants::platform_clearance`] above the platform (Eq. 35 solved for the
     /// tilt: flat at the platform, free from about the nozzle's radius up;
-    /// [`first_layers_loss`], with the support-free loss's factor, added to the base term).
+    /// [`first_layers_loss`] with [`PrintConstants::first_layers_factor`], added to the
+    /// base term).
     /// It is taken at the base samples lifted by every 0.5 up to `h0` and the surface
     /// samples below `h0` moved 0.5 inward (where inside the part), and at the poses below
     /// `h0`: the pose grid alone rarely samples the first layers, where the part flares out
     /// over the platform. `0` leaves Eq. 31 alone. Default `3`.
     pub first_layers: f64,
+    /// Intrinsic factor of the first layers' loss ([`first_layers_loss`]). Default `25`
+    /// (the support-free loss's).
+    pub first_layers_factor: f64,
 }
 
 impl Default for PrintConstants {
@@ -174,6 +178,7 @@ impl Default for PrintConstants {
             base_factor: 2.5,
             platform_clearance: 0.5,
             first_layers: 3.0,
+            first_layers_factor: 25.0,
         }
     }
 }
@@ -192,6 +197,7 @@ impl PrintConstants {
             ("constants.base_factor", self.base_factor),
             ("constants.platform_clearance", self.platform_clearance),
             ("constants.first_layers", self.first_layers),
+            ("constants.first_layers_factor", self.first_layers_factor),
             ("constants.overhang_margin_deg", self.overhang_margin_deg),
         ])?;
         FieldError::check_positive(&[("constants.layer.singular_gradient", c.singular_gradient)])?;
@@ -540,7 +546,7 @@ pub fn print_losses(
             .map(|p| platform_tilt_cos(p.z - problem.platform, &rings, constants.platform_clearance))
             .collect();
         let unit = problem.unit_tensor(low.into_iter(), &device);
-        base + first_layers_loss(g.forward_gradient(unit).gradient, &cos, constants.support_factor)
+        base + first_layers_loss(g.forward_gradient(unit).gradient, &cos, constants.first_layers_factor)
     };
     let terms = nozzle_terms(g, problem, poses, phase, constants)?;
     Ok(PrintLosses {
@@ -775,7 +781,7 @@ impl PrintOptions {
             return Err(FieldError::config("surface_batch", "must be at least 1"));
         }
         FieldError::check_positive(&[("learning_rate", self.learning_rate)])?;
-        if !(self.pretrain_lean_deg.abs() < 90.0) {
+        if self.pretrain_lean_deg.is_nan() || self.pretrain_lean_deg.abs() >= 90.0 {
             return Err(FieldError::config("pretrain_lean_deg", "must be in (-90, 90)"));
         }
         let w = self.weights;
