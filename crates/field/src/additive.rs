@@ -1051,6 +1051,23 @@ mod tests {
         Siren::from_weights(&[3, 2, 1], vec![(w0, b0), (w1, vec![0.0])], 1.0, 30.0, &device)
     }
 
+    /// The first layers' tilt limit agrees with a scan of the tilt: the largest `φ` (0.01°
+    /// steps) at which every ring point of a nozzle with a wider carriage stays clear.
+    #[test]
+    fn platform_tilt_limit_matches_a_scan() {
+        let rings = [(0.5, 2.5), (4.0, 2.5), (8.0, 10.0), (20.0, 10.0), (3.0, 0.0)];
+        let clear = |h: f64, phi: f64| rings.iter().all(|&(a, r)| h + a * phi.cos() - r * phi.sin() >= 0.5);
+        for h in [0.0, 0.3, 0.5, 0.8, 1.2, 2.0, 3.0, 5.0, 12.0] {
+            let scan = (0..=9000).map(|k| (k as f64 * 0.01).to_radians()).take_while(|&p| clear(h, p)).last();
+            let expected = scan.map_or(1.0, f64::cos);
+            let got = platform_tilt_cos(h, &rings, 0.5);
+            assert!((got.acos() - expected.acos()).to_degrees().abs() < 0.02, "h {h}: {got} vs {expected}");
+        }
+        // Flat at the platform for the bare nozzle, free from its radius up.
+        assert!(platform_tilt_cos(3.5, &[(0.5, 2.5)], 0.5).abs() < 1e-12);
+        assert!(platform_tilt_cos(0.5, &[(0.5, 2.5)], 0.5) > 0.98);
+    }
+
     /// Layers curving up into a bowl around `x = 0` (`G = cos 8x + z/2`): a nozzle of
     /// radius 0.3 along `+z` at the origin has ring points at `x = ±0.3` on layers already
     /// printed (`cos 2.4 + 0.025 < 1`) inside the part, so Eq. 13 is positive and the pose
