@@ -6,7 +6,7 @@
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,arch,bracket,bunny
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG]
 //! ```
 //!
 //! The parts, standing on `z = 0`: the bent arm of `support_free` (radius 6, column 12,
@@ -15,7 +15,10 @@
 //! tapering to 2, 10 deep) and the bundled bunny (`assets/stanford_bunny.stl`, Y up
 //! turned Z up, scaled 5×: about 50 mm, the ears leaning out).
 
-use s2g_field::{PrintMeshOptions, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh, print_mesh};
+use s2g_field::{
+    PrintMeshOptions, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh, overhang_misses, print_mesh,
+    read_beads,
+};
 use s2g_geom::{Mesh, Point3, load_mesh};
 
 fn part(name: &str) -> Result<Mesh, Box<dyn std::error::Error>> {
@@ -57,6 +60,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--bead" => options.paths.bead_width = value.parse()?,
             "--lattice" => options.paths.lattice = value.parse()?,
             "--margin" => options.optimisation.constants.overhang_margin_deg = value.parse()?,
+            "--first-factor" => options.optimisation.constants.first_layers_factor = value.parse()?,
+            "--lean" => options.optimisation.pretrain_lean_deg = value.parse()?,
+            "--first-layers" => options.optimisation.constants.first_layers = value.parse()?,
             _ => return Err(format!("unknown flag {flag}").into()),
         }
     }
@@ -70,6 +76,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let run = print_mesh(&mesh, &options, &mut |stage: PrintStage| eprintln!("{name}: {stage:?}"))?;
         let (p, s, sp, t) = (&run.program, &run.score, &run.spacing, &run.seconds);
         let (pp, ps) = run.planar.as_ref().ok_or("no planar baseline")?;
+        // Where the overhang lies: the share of the failing bead samples within 2 mm of
+        // the platform.
+        let (o, w) = (&options.program, options.paths.bead_width);
+        let beads = read_beads(&run.program.text, o.rotary, w, o.filament_diameter)?;
+        let (_, misses) = overhang_misses(&beads, w, options.optimisation.constants.max_overhang_deg, 0.0);
+        let low = misses.iter().filter(|q| q.z < 2.0).count();
         println!(
             "| {name} | {} | {:.3} | {:.4} | {} / {} | {:.1} | {:.3} | {:.3} | {:.4} | {} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} |",
             p.layers,
@@ -92,7 +104,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "{{\"part\":\"{name}\",\"layers\":{},\"paths\":{},\"iou\":{:.4},\"overhang_fraction\":{:.5},\"planar_iou\":{:.4},\
              \"planar_overhang_fraction\":{:.5},\"collisions\":{},\"poses_checked\":{},\"planar_collisions\":{},\
              \"spacing_within_25\":{:.4},\"spacing_median\":{:.3},\"lone_length\":{:.1},\"measured_length\":{:.1},\
-             \"volume_ratio\":{:.3},\"blocks\":{},\"travel_collisions\":{},\"turned_axes\":{},\"unclear_points\":{},\"unprintable_length\":{:.1},\"planar_support_volume\":{:.1},\"planar_support_area\":{:.1},\"part_volume\":{:.1},\"seconds\":{{\"optimise\":{:.1},\"extract\":{:.1},\"program\":{:.1},\"rebuild\":{:.1}}}}}",
+             \"volume_ratio\":{:.3},\"blocks\":{},\"travel_collisions\":{},\"turned_axes\":{},\"unclear_points\":{},\"unprintable_length\":{:.1},\"overhang_misses\":{},\"overhang_misses_below_2mm\":{},\"planar_support_volume\":{:.1},\"planar_support_area\":{:.1},\"part_volume\":{:.1},\"seconds\":{{\"optimise\":{:.1},\"extract\":{:.1},\"program\":{:.1},\"rebuild\":{:.1}}}}}",
             p.layers,
             p.paths,
             s.iou,
@@ -112,6 +124,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             p.turned_axes,
             p.unclear_points,
             p.unprintable_length,
+            misses.len(),
+            low,
             run.planar_support.volume,
             run.planar_support.area,
             mesh.signed_volume(),

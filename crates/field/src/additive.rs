@@ -34,6 +34,7 @@
 //! sees them through a [`Normalization`] (the part's bounding box centred and its largest
 //! side scaled to 1), so planar layers are `G = ẑ`.
 
+use std::f64::consts::FRAC_PI_2;
 use std::time::Instant;
 
 use burn::optim::AdamConfig;
@@ -47,7 +48,7 @@ use crate::siren::{FieldHessian, Siren, SirenConfig, SirenF64};
 use crate::tool::{Tool, place_tool, tool_points};
 use crate::train::LossConstants;
 use crate::train::{
-    Batcher, LossLog, device_of, fit_planar, layer_collision, loss_values, ramp, regularisers, train,
+    Batcher, LossLog, device_of, fit_planar_along, layer_collision, loss_values, ramp, regularisers, train,
 };
 
 /// The overhang angle in degrees (see the module docs) of a surface with outward normal
@@ -150,6 +151,21 @@ pub struct PrintConstants {
     pub base_factor: f64,
     /// Clearance `ε` of the nozzle above the platform (Eq. 35), in part units. Default `0.5`.
     pub platform_clearance: f64,
+    /// Height `h0` above the platform, in part units, within which the first layers are
+    /// held as flat as the nozzle needs: at a height `h`, a layer may tilt off the platform
+    /// at most as far as the problem's nozzle along its normal stays
+    /// [`PrintConstants::platform_clearance`] above the platform (Eq. 35 solved for the
+    /// tilt: flat at the platform, free from about the nozzle's radius up;
+    /// [`first_layers_loss`] with [`PrintConstants::first_layers_factor`], added to the
+    /// base term).
+    /// It is taken at the base samples lifted by every 0.5 up to `h0` and the surface
+    /// samples below `h0` moved 0.5 inward (where inside the part), and at the poses below
+    /// `h0`: the pose grid alone rarely samples the first layers, where the part flares out
+    /// over the platform. `0` leaves Eq. 31 alone. Default `3`.
+    pub first_layers: f64,
+    /// Intrinsic factor of the first layers' loss ([`first_layers_loss`]). Default `25`
+    /// (the support-free loss's).
+    pub first_layers_factor: f64,
 }
 
 impl Default for PrintConstants {
@@ -161,6 +177,8 @@ impl Default for PrintConstants {
             support_factor: 25.0,
             base_factor: 2.5,
             platform_clearance: 0.5,
+            first_layers: 3.0,
+            first_layers_factor: 25.0,
         }
     }
 }
@@ -178,6 +196,8 @@ impl PrintConstants {
             ("constants.support_factor", self.support_factor),
             ("constants.base_factor", self.base_factor),
             ("constants.platform_clearance", self.platform_clearance),
+            ("constants.first_layers", self.first_layers),
+            ("constants.first_layers_factor", self.first_layers_factor),
             ("constants.overhang_margin_deg", self.overhang_margin_deg),
         ])?;
         FieldError::check_positive(&[("constants.layer.singular_gradient", c.singular_gradient)])?;
@@ -426,7 +446,8 @@ impl<'a> PrintProblem<'a> {
 pub struct PrintLosses {
     /// Support-free (Eq. 30) on the batch's surface samples.
     pub support_free: Tensor<1>,
-    /// Base orientation (Eq. 31) on all base samples (zero without any).
+    /// Base orientation (Eq. 31) on all base samples (zero without any), plus the first
+    /// layers' loss ([`first_layers_loss`], [`PrintConstants::first_layers`]).
     pub base: Tensor<1>,
     /// Nozzle-part collision (Eq. 13): nozzle points inside the part on printed layers.
     pub collision: Tensor<1>,
@@ -514,6 +535,19 @@ pub fn print_losses(
         let b_unit = problem.unit_tensor(problem.base.iter().copied(), &device);
         base_loss(g.forward_gradient(b_unit).gradient, [0.0, 0.0, 1.0], constants.base_factor)
     };
+    let low = first_layer_points(problem, constants.first_layers);
+    let base = if low.is_empty() {
+        base
+    } else {
+        let rings: Vec<(f64, f64)> =
+            problem.nozzle.points(0.0).iter().map(|q| (q[0], q[1].hypot(q[2]))).collect();
+        let cos: Vec<f64> = low
+            .iter()
+            .map(|p| platform_tilt_cos(p.z - problem.platform, &rings, constants.platform_clearance))
+            .collect();
+        let unit = problem.unit_tensor(low.into_iter(), &device);
+        base + first_layers_loss(g.forward_gradient(unit).gradient, &cos, constants.first_layers_factor)
+    };
     let terms = nozzle_terms(g, problem, poses, phase, constants)?;
     Ok(PrintLosses {
         support_free,
@@ -525,6 +559,57 @@ pub fn print_losses(
         curvature: terms.curvature,
         colliding_poses: terms.colliding_poses,
     })
+}
+
+/// The first layers' loss on a batch: `factor · mean ReLU(c_i - d_z)` with
+/// `d = ∇G/|∇G|` from `gradient` `[n, 3]` and `cos_limit` the `n` cosines `c_i` of the
+/// largest tilt of the layers off the platform (normal `+z`) at each point: zero where no
+/// layer tilts more than its point allows.
+pub fn first_layers_loss(gradient: Tensor<2>, cos_limit: &[f64], factor: f64) -> Tensor<1> {
+    let n = gradient.dims()[0];
+    let device = gradient.device();
+    let c: Vec<f32> = cos_limit.iter().map(|&c| c as f32).collect();
+    let c = Tensor::<2>::from_data(TensorData::new(c, [n, 1]), &device);
+    let dz = layer_normal(gradient).narrow(1, 2, 1);
+    (c - dz).clamp_min(0.0).mean().mul_scalar(factor)
+}
+
+/// The cosine of the largest tilt `φ` in `[0°, 90°]` of a nozzle whose tip is `h` above
+/// the platform and whose points lie at `(axial, radius)` in `rings`, at which every point
+/// stays `clearance` above it (Eq. 35 for the worst ring phase):
+/// `h + a cos φ - r sin φ >= clearance`, i.e. `φ <= acos((clearance - h) / R) - β` with
+/// `R = |(a, r)|`, `β = atan2(r, a)`.
+fn platform_tilt_cos(h: f64, rings: &[(f64, f64)], clearance: f64) -> f64 {
+    let mut phi = FRAC_PI_2;
+    for &(a, r) in rings {
+        let big = a.hypot(r);
+        if big <= 0.0 {
+            continue;
+        }
+        let k = (clearance - h) / big;
+        let limit = if k <= -1.0 { FRAC_PI_2 } else { k.min(1.0).acos() - r.atan2(a) };
+        phi = phi.min(limit.max(0.0));
+    }
+    phi.cos()
+}
+
+/// Where the first layers are held flat ([`PrintConstants::first_layers`]): the base
+/// samples lifted by every half unit up to `band` above the platform and the surface
+/// samples below `band` moved half a unit inward, where they are inside the part, and the
+/// poses below `band`.
+fn first_layer_points(problem: &PrintProblem<'_>, band: f64) -> Vec<Point3> {
+    let steps = (band / 0.5).floor() as usize;
+    let lifted =
+        problem.base.iter().flat_map(|b| (1..=steps).map(move |k| b + Vector3::z() * (0.5 * k as f64)));
+    // The skin near the platform, half a unit in (where the part flares out over it).
+    let skin = problem.surface.iter().zip(&problem.normals).filter(|(p, _)| p.z - problem.platform < band);
+    let skin = skin.map(|(p, n)| p - n * 0.5);
+    let low = problem.poses.iter().filter(|p| p.z - problem.platform < band).copied();
+    lifted
+        .chain(skin)
+        .filter(|p| p.z > problem.platform && problem.part.distance(p) < 0.0)
+        .chain(low)
+        .collect()
 }
 
 /// Refuses an empty index list or an index `>= len` into the problem's `what`s.
@@ -643,6 +728,11 @@ pub struct PrintOptions {
     pub network: SirenConfig,
     /// Adam steps fitting `G = ẑ` (planar layers). Default `300`.
     pub pretrain_steps: usize,
+    /// The pretraining's layers lean this many degrees from `+z` toward `+x` (`G = d̂·x̂`
+    /// with `d̂ = (sin β, 0, cos β)`): an asymmetric start, from which a part whose two
+    /// halves would build toward each other (an arch) is built from one side over the
+    /// top. Default `0` (planar layers), in `(-90, 90)`.
+    pub pretrain_lean_deg: f64,
     /// Adam steps on Eq. 37. Default `300`.
     pub steps: usize,
     /// Poses per step. Default `128`.
@@ -666,6 +756,7 @@ impl Default for PrintOptions {
         Self {
             network: SirenConfig { sine_layers: 3, width: 64, first_omega: 5.0, hidden_omega: 30.0, seed: 0 },
             pretrain_steps: 300,
+            pretrain_lean_deg: 0.0,
             steps: 300,
             batch_size: 128,
             surface_batch: 256,
@@ -690,6 +781,9 @@ impl PrintOptions {
             return Err(FieldError::config("surface_batch", "must be at least 1"));
         }
         FieldError::check_positive(&[("learning_rate", self.learning_rate)])?;
+        if self.pretrain_lean_deg.is_nan() || self.pretrain_lean_deg.abs() >= 90.0 {
+            return Err(FieldError::config("pretrain_lean_deg", "must be in (-90, 90)"));
+        }
         let w = self.weights;
         FieldError::check_non_negative(&[
             ("weights.spacing", w.spacing),
@@ -703,14 +797,15 @@ impl PrintOptions {
     }
 }
 
-/// Planar layers (`G = ẑ`, build direction `+z` everywhere) for printing: a new network of
-/// `options.network` fitted as [`pretrain_planar`](crate::pretrain_planar) does, on an
-/// autodiff device.
+/// Planar layers (`G = ẑ`, build direction `+z` everywhere; leaning toward `+x` by
+/// [`PrintOptions::pretrain_lean_deg`]) for printing: a new network of `options.network`
+/// fitted as [`pretrain_planar`](crate::pretrain_planar) does, on an autodiff device.
 ///
 /// Errors: [`FieldError::InvalidConfig`] for bad options, [`FieldError::Diverged`].
 pub fn pretrain_planar_print(options: &PrintOptions) -> Result<Siren> {
     options.validate()?;
-    fit_planar(&options.network, options.pretrain_steps, options.seed, options.backend)
+    let (s, c) = options.pretrain_lean_deg.to_radians().sin_cos();
+    fit_planar_along(&options.network, options.pretrain_steps, options.seed, options.backend, [s, 0.0, c])
 }
 
 /// What [`optimize_print_layers`] did.
@@ -954,6 +1049,23 @@ mod tests {
         let w1 = vec![if cos { 1.0 } else { 0.0 }, 1000.0 * k];
         let device = Backend::default().device();
         Siren::from_weights(&[3, 2, 1], vec![(w0, b0), (w1, vec![0.0])], 1.0, 30.0, &device)
+    }
+
+    /// The first layers' tilt limit agrees with a scan of the tilt: the largest `φ` (0.01°
+    /// steps) at which every ring point of a nozzle with a wider carriage stays clear.
+    #[test]
+    fn platform_tilt_limit_matches_a_scan() {
+        let rings = [(0.5, 2.5), (4.0, 2.5), (8.0, 10.0), (20.0, 10.0), (3.0, 0.0)];
+        let clear = |h: f64, phi: f64| rings.iter().all(|&(a, r)| h + a * phi.cos() - r * phi.sin() >= 0.5);
+        for h in [0.0, 0.3, 0.5, 0.8, 1.2, 2.0, 3.0, 5.0, 12.0] {
+            let scan = (0..=9000).map(|k| (k as f64 * 0.01).to_radians()).take_while(|&p| clear(h, p)).last();
+            let expected = scan.map_or(1.0, f64::cos);
+            let got = platform_tilt_cos(h, &rings, 0.5);
+            assert!((got.acos() - expected.acos()).to_degrees().abs() < 0.02, "h {h}: {got} vs {expected}");
+        }
+        // Flat at the platform for the bare nozzle, free from its radius up.
+        assert!(platform_tilt_cos(3.5, &[(0.5, 2.5)], 0.5).abs() < 1e-12);
+        assert!(platform_tilt_cos(0.5, &[(0.5, 2.5)], 0.5) > 0.98);
     }
 
     /// Layers curving up into a bowl around `x = 0` (`G = cos 8x + z/2`): a nozzle of

@@ -86,8 +86,8 @@ mod train;
 
 pub use additive::{
     OverhangStats, PrintCollisionCount, PrintConstants, PrintLosses, PrintOptions, PrintProblem, PrintReport,
-    PrintSamples, PrintWeights, base_loss, bent_arm_mesh, optimize_print_layers, overhang_angle,
-    overhang_angles, overhang_stats, pretrain_planar_print, print_collisions, print_losses,
+    PrintSamples, PrintWeights, base_loss, bent_arm_mesh, first_layers_loss, optimize_print_layers,
+    overhang_angle, overhang_angles, overhang_stats, pretrain_planar_print, print_collisions, print_losses,
     support_free_loss,
 };
 pub use aligned::{
@@ -116,8 +116,8 @@ pub use print::{
     AlignDirection, Bead, LayerField, NeuralLayers, PathKind, PlanarLayers, PlanarSupport, PrintLayer,
     PrintMeshOptions, PrintObjective, PrintPath, PrintPathOptions, PrintPlan, PrintProgram,
     PrintProgramOptions, PrintRun, PrintScore, PrintStage, ScoreOptions, SpacingStats, StageSeconds,
-    arch_mesh, bead_spacing, bracket_mesh, deposit, extract_print, overhang_fraction, planar_support,
-    print_mesh, print_program, read_beads, score_print,
+    arch_mesh, bead_spacing, bracket_mesh, deposit, extract_print, overhang_fraction, overhang_misses,
+    planar_support, print_mesh, print_program, read_beads, score_print,
 };
 pub use program::{
     ContourPaths, MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh,

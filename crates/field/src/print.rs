@@ -29,7 +29,9 @@ use crate::siren::SirenF64;
 pub use emit::{PrintProgram, PrintProgramOptions};
 pub use extract::{PathKind, PrintLayer, PrintPath, PrintPathOptions};
 pub use parts::{arch_mesh, bracket_mesh};
-pub use rebuild::{Bead, PrintScore, ScoreOptions, deposit, overhang_fraction, read_beads, score_print};
+pub use rebuild::{
+    Bead, PrintScore, ScoreOptions, deposit, overhang_fraction, overhang_misses, read_beads, score_print,
+};
 pub use run::{
     AlignDirection, PrintMeshOptions, PrintObjective, PrintRun, PrintStage, StageSeconds, print_mesh,
 };

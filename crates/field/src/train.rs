@@ -173,18 +173,30 @@ pub(crate) fn layer_collision(
 /// Fits a new network of `network` to `G(x̂) = ẑ` by `steps` Adam steps (see
 /// [`pretrain_planar`]), on `backend`'s autodiff device.
 pub(crate) fn fit_planar(network: &SirenConfig, steps: usize, seed: u64, backend: Backend) -> Result<Siren> {
+    fit_planar_along(network, steps, seed, backend, [0.0, 0.0, 1.0])
+}
+
+/// Fits a new network of `network` to `G(x̂) = d·x̂` (planar layers normal to the unit
+/// `d`) by `steps` Adam steps, as [`fit_planar`] does for `d = ẑ`.
+pub(crate) fn fit_planar_along(
+    network: &SirenConfig,
+    steps: usize,
+    seed: u64,
+    backend: Backend,
+    d: [f64; 3],
+) -> Result<Siren> {
     let device = backend.device().autodiff();
+    let d = d.map(|c| c as f32);
     let mut net = Siren::new(network, &device)?;
     let mut opt = AdamConfig::new().init();
     let mut rng = SplitMix64::new(seed, 0x504c_414e);
     let n = 512;
     for step in 0..steps {
         let pts: Vec<f32> = (0..3 * n).map(|_| rng.uniform(-0.6, 0.6) as f32).collect();
-        let z: Vec<f32> = pts.chunks_exact(3).map(|c| c[2]).collect();
+        let z: Vec<f32> = pts.chunks_exact(3).map(|c| d[0] * c[0] + d[1] * c[1] + d[2] * c[2]).collect();
         let x = Tensor::<2>::from_data(TensorData::new(pts, [n, 3]), &device);
         let target = Tensor::<2>::from_data(TensorData::new(z, [n, 1]), &device);
-        let ez =
-            Tensor::<2>::from_data(TensorData::new(vec![0.0f32, 0.0, 1.0], [1, 3]), &device).expand([n, 3]);
+        let ez = Tensor::<2>::from_data(TensorData::new(d.to_vec(), [1, 3]), &device).expand([n, 3]);
         let out = net.forward_gradient(x);
         let loss = (out.value - target).square().mean() + (out.gradient - ez).square().sum_dim(1).mean();
         let v: f32 = loss.clone().into_scalar();

@@ -5,10 +5,10 @@
 use burn::tensor::{Tensor, TensorData};
 use s2g_field::{
     Backend, FieldError, MeshSdf, PrintConstants, PrintOptions, PrintProblem, PrintSamples, Tool, base_loss,
-    bent_arm_mesh, optimize_print_layers, overhang_angle, overhang_stats, pretrain_planar_print,
-    print_collisions, print_losses, support_free_loss,
+    bent_arm_mesh, first_layers_loss, optimize_print_layers, overhang_angle, overhang_stats,
+    pretrain_planar_print, print_collisions, print_losses, support_free_loss,
 };
-use s2g_geom::{Aabb, Point3, Sphere, Vector3};
+use s2g_geom::{Aabb, BoxShape, Point3, Sphere, Vector3};
 
 fn scalar(t: Tensor<1>) -> f32 {
     t.into_scalar()
@@ -63,6 +63,55 @@ fn support_free_and_base_losses_vanish_only_when_aligned() {
     assert!(scalar(on_platform).abs() < 1e-6);
     let tilted = base_loss(rows(&[[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), [0.0, 0.0, 1.0], 2.5);
     assert!((scalar(tilted) - 1.25).abs() < 1e-6);
+}
+
+#[test]
+fn first_layers_loss_counts_only_layers_steeper_than_allowed() {
+    let (s30, c30) = 30f64.to_radians().sin_cos();
+    let (s60, c60) = 60f64.to_radians().sin_cos();
+    let grads = rows(&[[2.0 * s30, 0.0, 2.0 * c30], [0.0, s60, c60], [0.0, 0.0, -1.0]]);
+    let limit = 45f64.to_radians().cos();
+    let loss = scalar(first_layers_loss(grads, &[limit; 3], 2.5)) as f64;
+    // 30° is within 45°; 60° and a layer upside down are not.
+    let expected = 2.5 * ((limit - c60) + (limit + 1.0)) / 3.0;
+    assert!((loss - expected).abs() < 1e-5, "{loss} vs {expected}");
+    assert_eq!(scalar(first_layers_loss(rows(&[[0.0, 0.0, 1.0]]), &[1.0], 2.5)), 0.0);
+}
+
+/// Layers leaning 40° off the platform (an asymmetric pretraining) pay the first layers'
+/// loss over a block standing on the platform only where it is held flat; planar ones
+/// pay nothing.
+#[test]
+fn leaning_first_layers_pay_near_the_platform() {
+    let block = BoxShape { min: Point3::new(-5.0, -5.0, 0.0), max: Point3::new(5.0, 5.0, 10.0) };
+    let bounds = Aabb::new(block.min, block.max);
+    let base: Vec<Point3> = (0..5)
+        .flat_map(|i| (0..5).map(move |j| Point3::new(2.0 * i as f64 - 4.0, 2.0 * j as f64 - 4.0, 0.0)))
+        .collect();
+    let samples = PrintSamples {
+        poses: vec![Point3::new(0.0, 0.0, 5.0)],
+        surface: vec![Point3::new(5.0, 0.0, 5.0)],
+        normals: vec![Vector3::x()],
+        base,
+    };
+    let problem = PrintProblem::with_samples(&block, nozzle(), bounds, 0.0, samples).unwrap();
+    let base_term = |lean: f64, first_layers: f64| {
+        let options =
+            PrintOptions { pretrain_steps: 200, pretrain_lean_deg: lean, ..PrintOptions::default() };
+        let g = pretrain_planar_print(&options).unwrap();
+        let (_, grad) = g.to_f64().unwrap().value_gradient([0.0, 0.0, 0.0]);
+        let tilt = Vector3::new(grad[0], grad[1], grad[2]).angle(&Vector3::z()).to_degrees();
+        assert!((tilt - lean).abs() < 3.0, "pretrained tilt {tilt} for {lean}");
+        let constants = PrintConstants { first_layers, ..PrintConstants::default() };
+        scalar(print_losses(&g, &problem, &[0], &[0], 0.0, &constants).unwrap().base) as f64
+    };
+    let (flat, free) = (base_term(40.0, 3.0), base_term(40.0, 0.0));
+    // Eq. 31 alone: 2.5 (1 - cos 40°); held flat, points up to 1.5 high allow less than 40°.
+    assert!((free - 2.5 * (1.0 - 40f64.to_radians().cos())).abs() < 0.05, "{free}");
+    assert!(flat > free + 0.05, "{flat} vs {free}");
+    assert!(base_term(0.0, 3.0) < 0.01);
+    let bad = PrintOptions { pretrain_lean_deg: 90.0, ..PrintOptions::default() };
+    assert!(matches!(pretrain_planar_print(&bad), Err(FieldError::InvalidConfig { .. })));
 }
 
 fn arm() -> s2g_geom::Mesh {

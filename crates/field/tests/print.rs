@@ -3,8 +3,8 @@
 
 use s2g_field::{
     LayerField, MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions,
-    PrintProgramOptions, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print, planar_support,
-    print_mesh, print_program, read_beads,
+    PrintProgramOptions, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print,
+    overhang_misses, planar_support, print_mesh, print_program, read_beads,
 };
 use s2g_geom::{Aabb, Mesh, Point3, Vector3};
 
@@ -93,6 +93,11 @@ fn planar_arm_prints_rebuilds_and_repeats() {
     assert!(beads.iter().all(|b| (b.axis - s2g_geom::Vector3::z()).norm() < 1e-9), "planar beads tilt");
     let score = s2g_field::score_print(&beads, &mesh, &s2g_field::ScoreOptions::default()).unwrap();
     assert!(score.iou > 0.9, "IoU {}", score.iou);
+    // The samples with nothing below are the fraction's, all on the bend's underside
+    // (the column below 12 mm is a vertical wall).
+    let (total, misses) = overhang_misses(&beads, 1.0, 45.0, 0.0);
+    assert_eq!(misses.len() as f64 / total as f64, score.overhang_fraction);
+    assert!(!misses.is_empty() && misses.iter().all(|p| p.z > 11.0), "{:?}", misses.first());
     let spacing = bead_spacing(&plan.layers, opts.bead_width);
     assert!(spacing.within_25 > 0.95, "{spacing:?}");
     let again = print_program(

@@ -7,7 +7,9 @@
 //! - **Travel**: retract the filament, lift the nozzle along its axis by the first hop of
 //!   [`PrintProgramOptions::hops`] whose whole way is clear (lift, traverse over to the
 //!   next start lifted along its axis, lower), else straight up by the first such hop,
-//!   else the way with the fewest colliding poses; unretract.
+//!   else over everything (out to a sphere around the part's box, along it with the
+//!   nozzle pointing away from the part, in to the start), else the way with the fewest
+//!   colliding poses; unretract.
 //! - **Collisions**: every pose the machine passes through (each block sampled as the
 //!   simulator interpolates it: program point linear, rotation slerp, at most
 //!   [`PrintProgramOptions::check_step`] of tip travel apart) is tested with the sampled
@@ -431,7 +433,60 @@ impl Emitter<'_> {
                 break;
             }
         }
+        if best.as_ref().is_some_and(|b| b.hits > 0) {
+            // Over everything: out to a sphere around the whole part, along it, back in.
+            let combos = [(dirs[0].0, dirs[0].1), (Vector3::z(), Vector3::z()), (dirs[0].0, Vector3::z())];
+            for (dc, ds) in combos.into_iter().chain([(Vector3::z(), dirs[0].1)]) {
+                let way = self.sphere_way(&cur, start, &dc, &ds);
+                let (checked, hits) = self.count_way(&cur, &way, true);
+                if best.as_ref().is_none_or(|b| hits < b.hits) {
+                    best = Some(Travel { checked, hits, raised: true, way });
+                }
+                if hits == 0 {
+                    break;
+                }
+            }
+        }
         best.unwrap_or(Travel { checked: 0, hits: 0, raised: false, way: vec![*start] })
+    }
+
+    /// The way over everything from `cur` to `start`: out along `dc` from `cur`'s tip to
+    /// the sphere 2 mm outside the lattice's box, along a great circle of that sphere
+    /// (every 10° at most) with the nozzle axis radial, so that nozzle and carriage point
+    /// away from the part, in to the point of the sphere along `ds` from `start`, down to
+    /// `start`. Directions on the sphere are kept at least 14° above its equator, so the
+    /// way never passes under the part.
+    fn sphere_way(&self, cur: &State, start: &State, dc: &Vector3, ds: &Vector3) -> Vec<State> {
+        let (centre, r) = self.lattice.sphere();
+        let radius = r + 2.0;
+        // The lift `h >= 0` along unit `d` from `p` that reaches the sphere.
+        let exit = |p: &Point3, d: &Vector3| {
+            let o = p - centre;
+            let b = o.dot(d);
+            (-b + (b * b - o.norm_squared() + radius * radius).max(0.0).sqrt()).max(0.0)
+        };
+        let lift = State { tip: cur.tip + dc * exit(&cur.tip, dc), ..*cur };
+        let above = State { tip: start.tip + ds * exit(&start.tip, ds), ..*start };
+        let up = |p: &Point3| {
+            let mut v = p - centre;
+            v.z = v.z.max(0.25 * v.norm());
+            v.try_normalize(1e-9).unwrap_or_else(Vector3::z)
+        };
+        let (u0, u1) = (up(&lift.tip), up(&above.tip));
+        let n = (u0.angle(&u1).to_degrees() / 10.0).ceil().max(1.0) as usize;
+        let (a0, a1) = (s2g_geom::UnitVector3::new_unchecked(u0), s2g_geom::UnitVector3::new_unchecked(u1));
+        let mut way = vec![lift];
+        let mut prev = lift;
+        for k in 0..=n {
+            let u = a0.try_slerp(&a1, k as f64 / n as f64, 1e-9).map_or(u1, |u| u.into_inner());
+            let (tilt, c) = tool_axis_angles(self.opts.rotary, &u);
+            let c = if tilt.abs() < 1e-9 { prev.c } else { c + 360.0 * ((prev.c - c) / 360.0).round() };
+            prev = State { tip: centre + u * radius, tilt, c };
+            way.push(prev);
+        }
+        way.push(above);
+        way.push(*start);
+        way
     }
 
     /// Retract, go along `travel`'s way, unretract.
@@ -522,5 +577,53 @@ impl Emitter<'_> {
         let raw = String::from_utf8_lossy(&self.writer.into_inner()).into_owned();
         self.report.text = merge_rotary_blocks(&raw, self.opts.rotary);
         Ok(self.report)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::print::LayerField;
+    use s2g_geom::{Aabb, BoxShape};
+
+    /// Bowl layers `G = z + x²/100`: a layer runs 3 mm lower 18 mm out than in the middle.
+    struct Bowl;
+
+    impl LayerField for Bowl {
+        fn value_gradient(&self, p: &Point3) -> (f64, Vector3) {
+            (p.z + 0.01 * p.x * p.x, Vector3::new(0.02 * p.x, 0.0, 1.0))
+        }
+    }
+
+    /// A travel across a bowl layer from one rim to the other: a 1 mm hop (along the
+    /// axes or straight up) runs through the middle, printed up to 3 mm above the rims;
+    /// the way over the part's sphere is clear, every pose of it checked.
+    #[test]
+    fn a_travel_that_no_hop_clears_goes_over_the_part() {
+        let part = BoxShape { min: Point3::new(-20.0, 0.0, 0.0), max: Point3::new(20.0, 10.0, 10.0) };
+        let bounds = Aabb::new(part.min, part.max);
+        let lattice = Lattice::new(&bounds, 0.5, &Bowl, &part).unwrap();
+        let opts = PrintProgramOptions { hops: vec![1.0], ..PrintProgramOptions::default() };
+        let mut e = Emitter::new(&opts, &lattice, 0.0, 0.5).unwrap();
+        e.printed_below = 6.0;
+        let level = 6.25;
+        let on_layer = |x: f64| Point3::new(x, 5.0, level - 0.01 * x * x);
+        let axis = |x: f64| Bowl.value_gradient(&on_layer(x)).1.normalize();
+        let cur = e.state(on_layer(-18.0), &axis(-18.0));
+        e.state = Some(cur);
+        let start = e.state(on_layer(18.0), &axis(18.0));
+        assert!(!e.collides(&cur.tip, &axis(-18.0), true) && !e.collides(&start.tip, &axis(18.0), true));
+        // Every hop of the options collides on the way.
+        for d in [(axis(-18.0), axis(18.0)), (Vector3::z(), Vector3::z())] {
+            let way = [State { tip: cur.tip + d.0, ..cur }, State { tip: start.tip + d.1, ..start }, start];
+            assert!(e.count_way(&cur, &way, true).1 > 0);
+        }
+        let travel = e.travel_way(&start);
+        assert_eq!(travel.hits, 0);
+        assert!(travel.raised && travel.way.len() > 4 && travel.checked > 50, "{}", travel.checked);
+        // The way rises above the part's top and ends at the start.
+        assert!(travel.way.iter().any(|s| s.tip.z > 12.0));
+        assert!((travel.way.last().unwrap().tip - start.tip).norm() < 1e-12);
+        assert_eq!(e.count_way(&cur, &travel.way, true), (travel.checked, 0));
     }
 }

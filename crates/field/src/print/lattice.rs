@@ -103,6 +103,15 @@ impl Lattice {
         v
     }
 
+    /// The centre of the lattice's box and the radius of the sphere through its corners:
+    /// everything the lattice knows of lies inside it.
+    pub(crate) fn sphere(&self) -> (Point3, f64) {
+        let ext =
+            Vector3::new((self.dims[0] - 1) as f64, (self.dims[1] - 1) as f64, (self.dims[2] - 1) as f64)
+                * self.spacing;
+        (self.origin + ext * 0.5, 0.5 * ext.norm())
+    }
+
     /// The layer field at `p` (clamped to the lattice's box).
     pub(crate) fn g_at(&self, p: &Point3) -> f64 {
         self.interpolate(&self.g, p, None)

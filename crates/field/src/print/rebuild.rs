@@ -165,6 +165,18 @@ pub fn deposit(beads: &[Bead], spec: &GridSpec, width: f64) -> VoxelGrid {
 
 /// The overhang fraction of the module docs.
 pub fn overhang_fraction(beads: &[Bead], width: f64, max_overhang_deg: f64, platform: f64) -> f64 {
+    let (total, misses) = overhang_misses(beads, width, max_overhang_deg, platform);
+    if total == 0 { 0.0 } else { misses.len() as f64 / total as f64 }
+}
+
+/// The bead samples [`overhang_fraction`] checks, and those of them with nothing below
+/// (where the overhang lies), in bead order.
+pub fn overhang_misses(
+    beads: &[Bead],
+    width: f64,
+    max_overhang_deg: f64,
+    platform: f64,
+) -> (usize, Vec<Point3>) {
     let tan = max_overhang_deg.to_radians().tan();
     let step = 0.25 * width;
     // Mid-height points of every bead, with the bead's index, hashed by cell.
@@ -183,7 +195,7 @@ pub fn overhang_fraction(beads: &[Bead], width: f64, max_overhang_deg: f64, plat
             samples.push((i, c - d * b.thickness, d, s, b.thickness));
         }
     }
-    let (mut total, mut bad) = (0usize, 0usize);
+    let (mut total, mut bad) = (0usize, Vec::new());
     for (i, bottom, d, s, th) in samples {
         for e in [-0.5, 0.0, 0.5] {
             let p = bottom + s * (e * width);
@@ -213,10 +225,12 @@ pub fn overhang_fraction(beads: &[Bead], width: f64, max_overhang_deg: f64, plat
                     }
                 }
             }
-            bad += !ok as usize;
+            if !ok {
+                bad.push(p);
+            }
         }
     }
-    if total == 0 { 0.0 } else { bad as f64 / total as f64 }
+    (total, bad)
 }
 
 /// Scores `beads` against `mesh`: deposit and voxelised part on one grid of cubic voxels
