@@ -694,7 +694,10 @@ impl Milled {
     /// `λ_s Σ_s R_s + λ_f R_f + λ_MRR R_MRR`, one `R_s` per setup, `R_MRR` in cm³ of
     /// material removed per minute of machining (the machined part's units).
     pub fn total_reward(&self, weights: &RewardWeights) -> f64 {
-        weights.lambda_s * self.setups.iter().map(|s| s.preservation).sum::<f64>()
+        // Eq. 13's setups are those the policy chose actions for, not the rest-roughing
+        // programs that follow them.
+        let chosen = self.setups.iter().filter(|s| s.rest_of.is_none());
+        weights.lambda_s * chosen.map(|s| s.preservation).sum::<f64>()
             + weights.lambda_f * self.rewards.final_iou
             + weights.lambda_mrr * self.simulation.mrr_mm3_per_min / 1000.0
     }

@@ -29,6 +29,9 @@ fn cheap() -> (Vec<(String, shape2gcode::geom::Mesh)>, MillOptions) {
         metric_samples: 500,
         // 3 mm of stock around the part: material for the tools to remove.
         stock_margin: 0.3,
+        // An episode is the setups the policy chooses for; the rest roughing `mill` adds
+        // after them is no step of it, so the pipeline is compared without it.
+        rest_roughing: 0,
         ..MillOptions::default()
     };
     (vec![("cube10".into(), cube)], opts)
