@@ -265,9 +265,14 @@ impl<'a> Emitter<'a> {
     /// The state with the tip at `tip` and the nozzle along `axis`, C unwrapped to the
     /// nearest turn of the current C (kept where the axis is vertical).
     fn state(&self, tip: Point3, axis: &Vector3) -> State {
+        self.state_after(tip, axis, self.state.map_or(0.0, |s| s.c))
+    }
+
+    /// The pose with the tip at `tip` and the tool along `axis`, its C angle the turn of
+    /// the axis's nearest `prev_c` (unchanged where the axis is vertical and C is free).
+    fn state_after(&self, tip: Point3, axis: &Vector3, prev_c: f64) -> State {
         let (tilt, c) = tool_axis_angles(self.opts.rotary, axis);
-        let prev = self.state.map_or(0.0, |s| s.c);
-        let c = if tilt.abs() < 1e-9 { prev } else { c + 360.0 * ((prev - c) / 360.0).round() };
+        let c = if tilt.abs() < 1e-9 { prev_c } else { c + 360.0 * ((prev_c - c) / 360.0).round() };
         State { tip, tilt, c }
     }
 
@@ -435,8 +440,8 @@ impl Emitter<'_> {
         }
         if best.as_ref().is_some_and(|b| b.hits > 0) {
             // Over everything: out to a sphere around the whole part, along it, back in.
-            let combos = [(dirs[0].0, dirs[0].1), (Vector3::z(), Vector3::z()), (dirs[0].0, Vector3::z())];
-            for (dc, ds) in combos.into_iter().chain([(Vector3::z(), dirs[0].1)]) {
+            let (up, (dc0, ds0)) = (Vector3::z(), dirs[0]);
+            for (dc, ds) in [(dc0, ds0), (up, up), (dc0, up), (up, ds0)] {
                 let way = self.sphere_way(&cur, start, &dc, &ds);
                 let (checked, hits) = self.count_way(&cur, &way, true);
                 if best.as_ref().is_none_or(|b| hits < b.hits) {
@@ -479,9 +484,7 @@ impl Emitter<'_> {
         let mut prev = lift;
         for k in 0..=n {
             let u = a0.try_slerp(&a1, k as f64 / n as f64, 1e-9).map_or(u1, |u| u.into_inner());
-            let (tilt, c) = tool_axis_angles(self.opts.rotary, &u);
-            let c = if tilt.abs() < 1e-9 { prev.c } else { c + 360.0 * ((prev.c - c) / 360.0).round() };
-            prev = State { tip: centre + u * radius, tilt, c };
+            prev = self.state_after(centre + u * radius, &u, prev.c);
             way.push(prev);
         }
         way.push(above);
