@@ -77,7 +77,10 @@ impl Milled {
             "machining_time_s": round(sim.machining_time_s, 3),
             "gouge_voxels": sim.gouge_voxels,
             "first_gouge_line": sim.first_gouge_line,
-            "grid_iou": round(self.grid_iou, 6),
+            // The IoU on the simulation grid (voxels of `MillOptions::resolution` along the
+            // part's longest side; Eq. 11's R_f), beside `iou` on a 256^3 grid over the unit
+            // cube, which cannot resolve a part a few millimetres thick and 200 mm long.
+            "grid_iou": round(self.rewards.final_iou, 6),
             "rapid_collisions": self.rapid_collisions(),
             "holder_collisions": sim.holder_collisions.len(),
             "removed_volume": round(sim.removed_volume_mm3, 9),

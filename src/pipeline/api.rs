@@ -241,6 +241,10 @@ pub struct MillOptions {
 }
 
 impl MillOptions {
+    /// The resolutions a run accepts ([`resolution`](Self::resolution)): voxels along the
+    /// stock's longest side.
+    pub const RESOLUTIONS: std::ops::RangeInclusive<usize> = 8..=2048;
+
     /// The action space these options mill with, in planning units: the paper's scaled to
     /// [`paper_scale_mm`](Self::paper_scale_mm), or the shop's, limited to
     /// [`strategies`](Self::strategies).
@@ -663,12 +667,6 @@ pub struct Milled {
     /// IoU, F1, Chamfer x1000 and normal consistency of the residual stock against
     /// the part, both normalised into the unit cube.
     pub metrics: ShapeMetrics,
-    /// IoU of the simulated stock and the part's voxels on the simulation grid (voxels of
-    /// [`MillOptions::resolution`] along the part's longest side), beside
-    /// [`metrics`](Self::metrics)' IoU, which is on a 256^3 grid over the unit cube and so
-    /// cannot resolve a part a few millimetres thick and 200 mm long however fine the
-    /// simulation is.
-    pub grid_iou: f64,
     /// The residual stock as a mesh, in part units (the input mesh's frame).
     pub residual: Mesh,
     /// The stock box, in part units.

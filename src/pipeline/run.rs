@@ -557,12 +557,6 @@ impl MillRun {
         self.check_deadline(|| "scoring the residual stock".into())?;
         let simulated = self.sim.into_inner().into_simulation().map_err(sim_error)?;
         let rewards = simulated.rewards(&self.target, &RewardWeights::default()).map_err(sim_error)?;
-        let grid_iou = {
-            let (stock, part) = (simulated.residual(), &self.target);
-            let both = stock.count_and(part).map_err(|e| MillError::Simulation(e.into()))?;
-            let union = stock.count() + part.count() - both;
-            if union > 0 { both as f64 / union as f64 } else { 1.0 }
-        };
         let simulation = simulated.report().clone();
         let programs: Vec<String> = match opts.layout {
             ProgramLayout::PerSetup => self.setups.iter().map(|s| s.text.clone()).collect(),
@@ -598,7 +592,6 @@ impl MillRun {
             self.setups.iter().filter_map(|s| s.finish.as_ref()).map(|f| f.reached.as_slice()),
         );
         Ok(Milled {
-            grid_iou,
             surface_deviation,
             preset: opts.preset,
             stock_option: opts.stock,
@@ -670,9 +663,10 @@ fn select_setups(
 
 /// Refuses options no run can use, before any work.
 fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
-    if opts.resolution < 8 || opts.resolution > 2048 {
+    if !MillOptions::RESOLUTIONS.contains(&opts.resolution) {
         return Err(MillError::InvalidOption(format!(
-            "resolution must be 8..=2048, got {}",
+            "resolution must be {:?}, got {}",
+            MillOptions::RESOLUTIONS,
             opts.resolution
         )));
     }

@@ -520,11 +520,10 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
     })
 }
 
-/// Millimetres per mesh unit from `--units`, `--scale` and `--size` (shop preset only).
 /// The resolution (voxels along the longest side of a part of `extent` mm) whose voxels are
 /// `voxel` mm, and whether a bound coarsened it: the grid over the part's box grown by
-/// `margin` of its longest side on every side holds at most `max_voxels`, and the longest
-/// side at most 2048 voxels (the simulator's limit). At least 8 voxels along it.
+/// `margin` of its longest side on every side holds at most `max_voxels`, and the resolution
+/// stays within the run's limits ([`MillOptions::RESOLUTIONS`], 8 to 2048).
 pub fn resolution_for_voxel(
     extent: [f64; 3],
     voxel: f64,
@@ -545,14 +544,16 @@ pub fn resolution_for_voxel(
     // Voxels strictly finer than asked: a round size over a part of round length would put
     // voxel centres on the faces at round millimetres (the grid is centred on the part),
     // where a flat end mill's bottom at the face takes the voxel the part counts as its own.
-    let wanted = ((l / voxel).floor() as usize + 1).max(8);
-    let mut r = wanted.min(2048);
-    while r > 8 && count(r) > max_voxels as f64 {
-        r = ((r as f64 * (max_voxels as f64 / count(r)).cbrt()).floor() as usize).clamp(8, r - 1);
+    let (lo, hi) = (*MillOptions::RESOLUTIONS.start(), *MillOptions::RESOLUTIONS.end());
+    let wanted = ((l / voxel).floor() as usize + 1).max(lo);
+    let mut r = wanted.min(hi);
+    while r > lo && count(r) > max_voxels as f64 {
+        r = ((r as f64 * (max_voxels as f64 / count(r)).cbrt()).floor() as usize).clamp(lo, r - 1);
     }
     Ok((r, r < wanted))
 }
 
+/// Millimetres per mesh unit from `--units`, `--scale` and `--size` (shop preset only).
 fn input_scale(args: &Args, mesh: &Mesh, preset: Preset) -> anyhow::Result<f64> {
     if preset == Preset::Paper {
         if args.units.is_some() || args.scale.is_some() || args.size.is_some() {
