@@ -52,6 +52,23 @@ pub(super) struct Shop {
     machine: MachineProfile,
 }
 
+impl Shop {
+    /// Library tool `t` as planned: its tool and its cutting data in the shop's material on
+    /// its machine.
+    fn planned(&self, t: &LibraryTool) -> Result<(Tool, Option<Cutting>), MillError> {
+        Ok((
+            t.tool(&self.material, &self.machine).map_err(library_error)?,
+            Some(t.cutting(&self.material, &self.machine).map_err(library_error)?),
+        ))
+    }
+}
+
+/// A library's refusal (an unknown material, cutting data that give no feed) as an option
+/// error.
+fn library_error(e: crate::toolpath::library::LibraryError) -> MillError {
+    MillError::InvalidOption(e.to_string())
+}
+
 impl Tooling {
     /// The tooling of `opts`: the paper preset's planned tools, or the shop preset's
     /// library ([`MillOptions::tools`], the shipped one by default) in
@@ -67,8 +84,7 @@ impl Tooling {
             return Ok(Self::Planned { diag, feed });
         }
         let lib = opts.library();
-        let material =
-            lib.material(&opts.material).map_err(|e| MillError::InvalidOption(e.to_string()))?.clone();
+        let material = lib.material(&opts.material).map_err(library_error)?.clone();
         let machine = opts.machine.clone().or_else(|| lib.machine.clone()).unwrap_or_default();
         machine.validate().map_err(|e| MillError::InvalidOption(format!("machine: {e}")))?;
         let flats = flat_end_mills(lib);
@@ -78,7 +94,7 @@ impl Tooling {
             ));
         }
         for t in &flats {
-            t.cutting(&material, &machine).map_err(|e| MillError::InvalidOption(e.to_string()))?;
+            t.cutting(&material, &machine).map_err(library_error)?;
         }
         Ok(Self::Library(Box::new(Shop { flats, all: lib.tools.clone(), material, machine })))
     }
@@ -150,7 +166,7 @@ impl Tooling {
         match self {
             Self::Planned { diag, feed } => Ok((planned_tool(radius, number, *diag, *feed), None)),
             Self::Library(shop) => {
-                let Shop { flats, material, machine, .. } = &**shop;
+                let flats = &shop.flats;
                 let Some(i) = flats.iter().position(|t| t.cutter.radius == radius) else {
                     let have: Vec<String> =
                         flats.iter().map(|t| format!("{}", t.cutter.diameter())).collect();
@@ -164,11 +180,7 @@ impl Tooling {
                 let t = flats[i..].iter().find(|t| reach(t) >= depth).unwrap_or_else(|| {
                     flats[i..].iter().max_by(|a, b| reach(a).total_cmp(&reach(b))).unwrap_or(&flats[i])
                 });
-                let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
-                Ok((
-                    t.tool(material, machine).map_err(bad)?,
-                    Some(t.cutting(material, machine).map_err(bad)?),
-                ))
+                shop.planned(t)
             }
         }
     }
@@ -196,11 +208,7 @@ impl Tooling {
         else {
             return Ok(None);
         };
-        let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
-        Ok(Some((
-            t.tool(&shop.material, &shop.machine).map_err(bad)?,
-            Some(t.cutting(&shop.material, &shop.machine).map_err(bad)?),
-        )))
+        shop.planned(t).map(Some)
     }
 
     /// The finishing tool of a setup roughed with `rough` whose stock is `depth` deep along
@@ -225,7 +233,6 @@ impl Tooling {
             Self::Library(shop) => shop,
         };
         let rounded = |t: &&LibraryTool| !matches!(t.cutter.shape, CutterShape::Flat(_));
-        let bad = |e: crate::toolpath::library::LibraryError| MillError::InvalidOption(e.to_string());
         let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
         let chosen = match number {
             Some(n) => shop.all.iter().filter(rounded).find(|t| t.number == n).ok_or_else(|| {
@@ -250,7 +257,7 @@ impl Tooling {
                 })?
             }
         };
-        chosen.tool(&shop.material, &shop.machine).map_err(bad)
+        chosen.tool(&shop.material, &shop.machine).map_err(library_error)
     }
 }
 
