@@ -72,7 +72,17 @@ pub struct HeightField {
     frame: Isometry3,
     pos: Option<Point3>,
     arc_tolerance: f64,
+    /// The highest `top` of every [`TILE`] x [`TILE`] block of columns (row-major over
+    /// the blocks): a move whose lower bound over a block is at least this cannot lower
+    /// any of its columns, so the block is passed over without visiting them.
+    tile_max: Vec<f64>,
+    /// Sweep every column of the move's box ([`HeightField::sweep_reference`]), the
+    /// baseline the tiled sweep is tested and benched against.
+    reference: bool,
 }
+
+/// Columns along each side of a block of [`HeightField::tile_max`].
+const TILE: usize = 8;
 
 impl HeightField {
     /// [`HeightField::new_opt`] with the default options.
@@ -119,6 +129,8 @@ impl HeightField {
             frame: Isometry3::identity(),
             pos: None,
             arc_tolerance: o.arc_tolerance,
+            tile_max: vec![f64::INFINITY; nx.div_ceil(TILE) * ny.div_ceil(TILE)],
+            reference: false,
         })
     }
 
@@ -158,9 +170,150 @@ impl HeightField {
         self.pass_width
     }
 
+    /// Every column's cut height and pass mark, row-major (the marks empty without a pass
+    /// width): for comparing the tiled sweep with the reference.
+    #[doc(hidden)]
+    pub fn columns(&self) -> (&[f64], &[f64]) {
+        (&self.top, &self.passed)
+    }
+
+    /// Sweeps every later move with [`HeightField::sweep_reference`] (every column of the
+    /// move's box visited) instead of the tiled sweep; the results are the same bit for
+    /// bit. For tests and benches.
+    #[doc(hidden)]
+    pub fn use_reference_sweep(&mut self) {
+        self.reference = true;
+    }
+
     /// Lowers the columns the cutter swept from `a` to `b` (part frame, axis +Z) reaches,
-    /// and marks those a feed's tip path passes near ([`HeightField::passed`]).
+    /// and marks those a feed's tip path passes near ([`HeightField::passed`]): the
+    /// columns of [`HeightField::sweep_reference`] in blocks of [`TILE`] x [`TILE`], a
+    /// block left out where its highest column lies no higher than the cutter's lowest
+    /// possible reach over the block (the tip profile at the block's nearest distance from
+    /// the path) and no mark can fall in it. A column it skips the reference skips too, and
+    /// every other column is computed by the same expressions, so the field is the same
+    /// bit for bit.
     fn sweep(&mut self, a: Point3, b: Point3, feed: bool) {
+        if self.reference {
+            return self.sweep_reference(a, b, feed);
+        }
+        let seg = Seg::new(a, b, Vector3::z());
+        let (lower, n) = lower_prims(&self.prims);
+        let prims = &lower[..n];
+        let width = self.pass_width.filter(|_| feed);
+        let reach = prims.iter().map(|p| p.bound().2).fold(width.unwrap_or(0.0), f64::max);
+        let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
+        let range = |lo: f64, hi: f64, m: f64, n: usize| {
+            let i0 = ((lo - reach - m) / s).ceil().max(0.0);
+            let i1 = ((hi + reach - m) / s).floor().min(n as f64 - 1.0);
+            (i0 <= i1).then_some((i0 as usize, i1 as usize))
+        };
+        let (Some((i0, i1)), Some((j0, j1))) =
+            (range(a.x.min(b.x), a.x.max(b.x), min[0], nx), range(a.y.min(b.y), a.y.max(b.y), min[1], ny))
+        else {
+            return;
+        };
+        let w = width.unwrap_or(-1.0);
+        let (radius, rc) = self.profile;
+        let floor = move |rho: f64| {
+            let d = rho.min(radius) - (radius - rc);
+            if d <= 0.0 { 0.0 } else { rc - (rc * rc - d * d).max(0.0).sqrt() }
+        };
+        let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
+        let ab2 = ab.norm_squared();
+        let tnx = nx.div_ceil(TILE);
+        let (tj0, tj1) = (j0 / TILE, j1 / TILE);
+        // One row of blocks: its columns' rows, its blocks' maxima and its marks (empty
+        // without marks).
+        let block_row = |tj: usize, rows: &mut [f64], tmax: &mut [f64], mark: &mut [f64]| {
+            let (r0, r1) = ((tj * TILE).max(j0), (tj * TILE + TILE - 1).min(j1));
+            let y = |j: usize| min[1] + j as f64 * s;
+            for ti in i0 / TILE..=i1 / TILE {
+                let (c0, c1) = ((ti * TILE).max(i0), (ti * TILE + TILE - 1).min(i1));
+                // The block's nearest distance from the path, less a margin far above the
+                // rounding of either distance, so its bound is at most every column's.
+                let near = rect_segment_distance(
+                    [min[0] + c0 as f64 * s, y(r0)],
+                    [min[0] + c1 as f64 * s, y(r1)],
+                    [a.x, a.y],
+                    [b.x, b.y],
+                );
+                let near = (near - 1e-9).max(0.0);
+                if near > w && tmax[ti] <= zmin + floor(near) {
+                    continue;
+                }
+                let mut lowered = false;
+                for j in r0..=r1 {
+                    let off = (j - tj * TILE) * nx;
+                    let row = &mut rows[off..off + nx];
+                    for (i, t) in row.iter_mut().enumerate().take(c1 + 1).skip(c0) {
+                        let base = Point3::new(min[0] + i as f64 * s, y(j), 0.0);
+                        let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
+                        let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
+                        let rho = (ap - ab * u).norm();
+                        if rho <= w {
+                            let m = &mut mark[off + i];
+                            *m = m.min(a.z + (b.z - a.z) * u);
+                        }
+                        if *t <= zmin + floor(rho) {
+                            continue;
+                        }
+                        for p in prims {
+                            if let Some((lo, _)) = p.column(&seg, &base) {
+                                let old = *t;
+                                *t = t.min(lo);
+                                lowered |= *t != old;
+                            }
+                        }
+                    }
+                }
+                if lowered {
+                    let (x0, x1) = (ti * TILE, (ti * TILE + TILE).min(nx));
+                    let high =
+                        rows.chunks(nx).flat_map(|r| &r[x0..x1]).fold(f64::NEG_INFINITY, |m, &t| m.max(t));
+                    tmax[ti] = high;
+                }
+            }
+        };
+        let (top0, top1) = (tj0 * TILE * nx, ((tj1 + 1) * TILE).min(ny) * nx);
+        let rows = &mut self.top[top0..top1];
+        let tmax = &mut self.tile_max[tj0 * tnx..(tj1 + 1) * tnx];
+        let parallel = (i1 - i0 + 1) * (j1 - j0 + 1) > 4096;
+        let chunk = TILE * nx;
+        match width {
+            Some(_) => {
+                let marks = &mut self.passed[top0..top1];
+                let it = |(k, ((r, m), t)): (usize, ((&mut [f64], &mut [f64]), &mut [f64]))| {
+                    block_row(tj0 + k, r, t, m)
+                };
+                if parallel {
+                    rows.par_chunks_mut(chunk)
+                        .zip(marks.par_chunks_mut(chunk))
+                        .zip(tmax.par_chunks_mut(tnx))
+                        .enumerate()
+                        .for_each(it);
+                } else {
+                    rows.chunks_mut(chunk)
+                        .zip(marks.chunks_mut(chunk))
+                        .zip(tmax.chunks_mut(tnx))
+                        .enumerate()
+                        .for_each(it);
+                }
+            }
+            None => {
+                let it = |(k, (r, t)): (usize, (&mut [f64], &mut [f64]))| block_row(tj0 + k, r, t, &mut []);
+                if parallel {
+                    rows.par_chunks_mut(chunk).zip(tmax.par_chunks_mut(tnx)).enumerate().for_each(it);
+                } else {
+                    rows.chunks_mut(chunk).zip(tmax.chunks_mut(tnx)).enumerate().for_each(it);
+                }
+            }
+        }
+    }
+
+    /// The sweep of every column in the move's box, one row at a time: the baseline of
+    /// [`HeightField::sweep`].
+    fn sweep_reference(&mut self, a: Point3, b: Point3, feed: bool) {
         let seg = Seg::new(a, b, Vector3::z());
         let (lower, n) = lower_prims(&self.prims);
         let prims = &lower[..n];
@@ -242,6 +395,44 @@ impl HeightField {
         self.pos = Some(p);
         Ok(())
     }
+}
+
+/// The distance from the rectangle `[lo, hi]` to the segment `p q` in the plane (0 where
+/// they meet).
+fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
+    // Clip the segment to the rectangle (Liang-Barsky): a piece inside means they meet.
+    let d = [q[0] - p[0], q[1] - p[1]];
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for k in 0..2 {
+        if d[k] == 0.0 {
+            if p[k] < lo[k] || p[k] > hi[k] {
+                t0 = 1.0;
+                t1 = 0.0;
+            }
+        } else {
+            let (a, b) = ((lo[k] - p[k]) / d[k], (hi[k] - p[k]) / d[k]);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+    }
+    if t0 <= t1 {
+        return 0.0;
+    }
+    // Apart: the nearest pair has an end of the segment or a corner of the rectangle.
+    let to_rect = |x: [f64; 2]| {
+        let dx = (lo[0] - x[0]).max(x[0] - hi[0]).max(0.0);
+        let dy = (lo[1] - x[1]).max(x[1] - hi[1]).max(0.0);
+        (dx * dx + dy * dy).sqrt()
+    };
+    let dd = d[0] * d[0] + d[1] * d[1];
+    let to_seg = |x: [f64; 2]| {
+        let u =
+            if dd > 0.0 { (((x[0] - p[0]) * d[0] + (x[1] - p[1]) * d[1]) / dd).clamp(0.0, 1.0) } else { 0.0 };
+        let (ex, ey) = (x[0] - p[0] - d[0] * u, x[1] - p[1] - d[1] * u);
+        (ex * ex + ey * ey).sqrt()
+    };
+    let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
+    corners.into_iter().map(to_seg).chain([to_rect(p), to_rect(q)]).fold(f64::INFINITY, f64::min)
 }
 
 /// The cutting primitives that can be lowest in a column: a cylinder of the flutes above a
