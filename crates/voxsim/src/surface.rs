@@ -618,8 +618,7 @@ pub fn surface_deviation_where(
                 // the axis over its centre stops: clear of the part, and nothing above it.
                 let touches = |r: f64| {
                     let c = hit.point + hit.normal * r;
-                    drop.as_ref()
-                        .is_some_and(|dc| dc.height(c.x, c.y).is_some_and(|h| h <= c.z - r + 1e-3 * r))
+                    drop.as_ref().is_some_and(|dc| rests_on(dc, &c, r))
                 };
                 // A ball touches this point with its tip at the centre's height less its radius.
                 let r = o.ball_radius.unwrap_or(0.0);
@@ -658,6 +657,21 @@ pub fn surface_deviation_where(
         unpassed: t.unpassed,
         unpassed_area: t.unpassed as f64 * field.spacing * field.spacing,
         unpassed_max: t.unpassed_max,
+    }
+}
+
+/// Whether the ball of radius `r` centred at `c` (the drop cutter `dc`'s ball) rests
+/// there when lowered along the axis: its drop height over `c` is at most its tip's height
+/// (to 0.1 % of the radius). The search starts from 0.2 % of the radius below that tip, as
+/// a ball resting on a surface point along its normal finds that point's contact there
+/// (and nothing lower is asked for); only where nothing lies above that start is the
+/// whole drop height asked for. The same answer as [`DropCutter::height`] compared with
+/// the tip, bit for bit.
+fn rests_on(dc: &DropCutter<'_>, c: &Point3, r: f64) -> bool {
+    let level = c.z - r + 1e-3 * r;
+    match dc.height_above(c.x, c.y, c.z - r - 2e-3 * r) {
+        Some(h) => h <= level,
+        None => dc.height(c.x, c.y).is_some_and(|h| h <= level),
     }
 }
 
@@ -741,7 +755,7 @@ pub fn deviation_at(
         .map(|(q, n)| {
             if let Some(r) = o.ball_radius {
                 let c = q + n * r;
-                let rests = drop.as_ref()?.height(c.x, c.y).is_some_and(|h| h <= c.z - r + 1e-3 * r);
+                let rests = rests_on(drop.as_ref()?, &c, r);
                 if !rests || o.floor.is_some_and(|z| c.z - r < z) {
                     return None;
                 }

@@ -48,9 +48,19 @@ fn program(seed: u64, n: usize) -> Vec<Motion<'static>> {
                 let a = g.uniform(0.0, std::f64::consts::TAU);
                 let center = Point3::new(at.x - r * a.cos(), at.y - r * a.sin(), at.z);
                 let b = a + g.uniform(-3.0, 3.0);
-                let to = Point3::new(center.x + r * b.cos(), center.y + r * b.sin(), at.z + g.uniform(-0.5, 0.5));
-                let direction = if g.below(2) == 0 { ArcDirection::Clockwise } else { ArcDirection::CounterClockwise };
-                ms.push(Motion::Arc { to, center, plane: Plane::XY, direction, turns: 0, feed: 1000.0, extrude: None });
+                let to =
+                    Point3::new(center.x + r * b.cos(), center.y + r * b.sin(), at.z + g.uniform(-0.5, 0.5));
+                let direction =
+                    if g.below(2) == 0 { ArcDirection::Clockwise } else { ArcDirection::CounterClockwise };
+                ms.push(Motion::Arc {
+                    to,
+                    center,
+                    plane: Plane::XY,
+                    direction,
+                    turns: 0,
+                    feed: 1000.0,
+                    extrude: None,
+                });
                 at = to;
             }
         }
@@ -59,7 +69,8 @@ fn program(seed: u64, n: usize) -> Vec<Motion<'static>> {
 }
 
 fn field(cutter: &Cutter, o: &HeightFieldOptions, ms: &[Motion<'_>], reference: bool) -> HeightField {
-    let mut f = HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(cutter.clone()), o).unwrap();
+    let mut f =
+        HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(cutter.clone()), o).unwrap();
     if reference {
         f.use_reference_sweep();
     }

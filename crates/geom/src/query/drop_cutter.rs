@@ -139,6 +139,22 @@ impl<'a> DropCutter<'a> {
         (h > f64::NEG_INFINITY).then_some(h + self.bvh.center[2])
     }
 
+    /// [`DropCutter::height`] where it lies above `floor` (taken into the mesh's frame, so
+    /// to its rounding), else `None` (also where nothing stops the cutter): where it is
+    /// `Some`, the same value bit for bit, found sooner, as the search passes over every
+    /// part of the mesh no higher than `floor` from the start. For a caller that compares
+    /// the height with a level a little above `floor`, and asks [`DropCutter::height`]
+    /// only where this says `None`.
+    pub fn height_above(&self, x: f64, y: f64, floor: f64) -> Option<f64> {
+        if !floor.is_finite() {
+            return self.height(x, y).filter(|h| *h > floor);
+        }
+        let local = floor - self.bvh.center[2];
+        let h = self.drop_local(x, y, local, false)?;
+        // Above the (local) floor, the highest contact: what `height` finds from below.
+        (h > local).then_some(h + self.bvh.center[2])
+    }
+
     /// [`DropCutter::height`] by testing every triangle of the mesh in turn, without the
     /// BVH or its pruning: the same answer, in time proportional to the mesh. A reference
     /// for checks and the baseline of `benches/drop_cutter.rs`.

@@ -182,6 +182,20 @@ fn pruned_search_equals_the_maximum_over_triangles() {
             if let Some(g) = *b {
                 assert!(dc.interferes(p[0], p[1], g - 1e-7) && !dc.interferes(p[0], p[1], g + 1e-7));
             }
+            // The search from a floor gives the same height bit for bit above it, and
+            // nothing at or above it.
+            for floor in
+                [f64::NEG_INFINITY, -3.0, 0.0, 2.0, b.map_or(0.0, |g| g - 1e-9), b.map_or(0.0, |g| g)]
+            {
+                let above = dc.height_above(p[0], p[1], floor);
+                match *b {
+                    Some(g) if g > floor + 1e-12 => {
+                        assert_eq!(above.map(f64::to_bits), Some(g.to_bits()), "at {p:?} over {floor}")
+                    }
+                    Some(g) if g < floor - 1e-12 => assert_eq!(above, None, "at {p:?} over {floor}"),
+                    _ => assert!(above.is_none_or(|h| Some(h) == *b), "at {p:?} over {floor}: {above:?}"),
+                }
+            }
         }
     }
 }

@@ -1,0 +1,70 @@
+//! The finishing height field's sweep (s2g-voxsim `HeightField`, issue 36's surface
+//! deviation) against its baseline in the same run: `reference` visits every column of
+//! each move's box, `tiled` (the default) passes over 8 x 8 blocks of columns that the
+//! move cannot lower. Both leave the same field bit for bit (`crates/voxsim/tests/
+//! surface_sweep.rs`). The program is a bunny-like finish: a 10 mm ball end mill on a
+//! crossed raster of 0.6 mm stepover over a wavy 40 x 40 mm surface, its passes as feeds
+//! of 0.2 mm, columns 0.1 mm apart, passes marked 0.45 mm wide.
+//!
+//! Run: `cargo bench --bench height_field`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use shape2gcode::gcode::{Motion, MotionSink};
+use shape2gcode::geom::Point3;
+use shape2gcode::voxsim::{Cutter, HeightField, HeightFieldOptions, ToolTable};
+
+fn surface(x: f64, y: f64) -> f64 {
+    3.0 * (x / 6.0).sin() * (y / 8.0).cos() + 0.2 * x
+}
+
+/// The crossed raster: passes along X, then along Y, 0.6 apart, feeds of 0.2.
+fn program() -> Vec<Motion<'static>> {
+    let mut ms = Vec::new();
+    let lin =
+        |x: f64, y: f64| Motion::Linear { to: Point3::new(x, y, surface(x, y)), feed: 1000.0, extrude: None };
+    for along_x in [true, false] {
+        for k in 0..=66 {
+            let v = k as f64 * 0.6;
+            let at = |u: f64| if along_x { (u, v) } else { (v, u) };
+            let (x, y) = at(0.0);
+            ms.push(Motion::Rapid { to: Point3::new(x, y, 20.0) });
+            for s in 0..=200 {
+                let (x, y) = at(s as f64 * 0.2);
+                ms.push(lin(x, y));
+            }
+            let (x, y) = at(40.0);
+            ms.push(Motion::Rapid { to: Point3::new(x, y, 20.0) });
+        }
+    }
+    ms
+}
+
+fn sweep(ms: &[Motion<'_>], reference: bool) -> HeightField {
+    let o = HeightFieldOptions { spacing: 0.1, pass_width: Some(0.45), ..Default::default() };
+    let tools = ToolTable::single(Cutter::ball(5.0, 30.0));
+    let mut f = HeightField::new_opt([-6.0, -6.0], [46.0, 46.0], tools, &o).expect("field");
+    if reference {
+        f.use_reference_sweep();
+    }
+    for m in ms {
+        f.motion(m).expect("motion");
+    }
+    f
+}
+
+fn bench(c: &mut Criterion) {
+    let ms = program();
+    assert_eq!(
+        sweep(&ms, false).columns(),
+        sweep(&ms, true).columns(),
+        "the tiled sweep must equal the reference"
+    );
+    let mut g = c.benchmark_group("height_field_finish");
+    g.sample_size(10);
+    g.bench_function("reference", |b| b.iter(|| sweep(&ms, true)));
+    g.bench_function("tiled", |b| b.iter(|| sweep(&ms, false)));
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
