@@ -3,36 +3,57 @@
 //! each move's box, `tiled` (the default) passes over 8 x 8 blocks of columns that the
 //! move cannot lower. Both leave the same field bit for bit (`crates/voxsim/tests/
 //! surface_sweep.rs`). The program is a bunny-like finish: a 10 mm ball end mill on a
-//! crossed raster of 0.6 mm stepover over a wavy 40 x 40 mm surface, its passes as feeds
-//! of 0.2 mm, columns 0.1 mm apart, passes marked 0.45 mm wide.
+//! crossed raster of 0.6 mm stepover over a wavy 24 x 24 mm surface mesh, its tip
+//! dropped onto the mesh every 0.2 mm (drop-cutter), columns 0.1 mm apart, passes marked
+//! 0.45 mm wide.
 //!
 //! Run: `cargo bench --bench height_field`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use shape2gcode::gcode::{Motion, MotionSink};
-use shape2gcode::geom::Point3;
+use shape2gcode::geom::{DropCutter, Mesh, MeshIndex, Point3};
 use shape2gcode::voxsim::{Cutter, HeightField, HeightFieldOptions, ToolTable};
 
 fn surface(x: f64, y: f64) -> f64 {
     3.0 * (x / 6.0).sin() * (y / 8.0).cos() + 0.2 * x
 }
 
-/// The crossed raster: passes along X, then along Y, 0.6 apart, feeds of 0.2.
+/// The wavy surface over `[-6, 30]^2` as a mesh of 0.5 mm squares.
+fn mesh() -> Mesh {
+    let n = 72;
+    let at = |k: usize| -6.0 + k as f64 * 0.5;
+    let vs: Vec<Point3> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| Point3::new(at(i), at(j), surface(at(i), at(j)))))
+        .collect();
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    let fs = (0..n)
+        .flat_map(|j| {
+            (0..n).flat_map(move |i| {
+                [[id(i, j), id(i + 1, j), id(i + 1, j + 1)], [id(i, j), id(i + 1, j + 1), id(i, j + 1)]]
+            })
+        })
+        .collect();
+    Mesh::new(vs, fs).expect("mesh")
+}
+
+/// The crossed raster: passes along X, then along Y, 0.6 apart, the ball's tip dropped
+/// onto the surface every 0.2.
 fn program() -> Vec<Motion<'static>> {
+    let index = MeshIndex::new(&mesh()).expect("index");
+    let dc = DropCutter::new(&index, &Cutter::ball(5.0, 30.0)).expect("drop cutter");
     let mut ms = Vec::new();
-    let lin =
-        |x: f64, y: f64| Motion::Linear { to: Point3::new(x, y, surface(x, y)), feed: 1000.0, extrude: None };
     for along_x in [true, false] {
-        for k in 0..=66 {
+        for k in 0..=40 {
             let v = k as f64 * 0.6;
             let at = |u: f64| if along_x { (u, v) } else { (v, u) };
             let (x, y) = at(0.0);
             ms.push(Motion::Rapid { to: Point3::new(x, y, 20.0) });
-            for s in 0..=200 {
+            for s in 0..=120 {
                 let (x, y) = at(s as f64 * 0.2);
-                ms.push(lin(x, y));
+                let z = dc.height(x, y).expect("over the surface");
+                ms.push(Motion::Linear { to: Point3::new(x, y, z), feed: 1000.0, extrude: None });
             }
-            let (x, y) = at(40.0);
+            let (x, y) = at(24.0);
             ms.push(Motion::Rapid { to: Point3::new(x, y, 20.0) });
         }
     }
@@ -42,7 +63,7 @@ fn program() -> Vec<Motion<'static>> {
 fn sweep(ms: &[Motion<'_>], reference: bool) -> HeightField {
     let o = HeightFieldOptions { spacing: 0.1, pass_width: Some(0.45), ..Default::default() };
     let tools = ToolTable::single(Cutter::ball(5.0, 30.0));
-    let mut f = HeightField::new_opt([-6.0, -6.0], [46.0, 46.0], tools, &o).expect("field");
+    let mut f = HeightField::new_opt([-6.0, -6.0], [30.0, 30.0], tools, &o).expect("field");
     if reference {
         f.use_reference_sweep();
     }
