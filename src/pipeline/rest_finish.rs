@@ -113,7 +113,8 @@ impl Unfinished {
             let Ok(dc) = DropCutter::new(&e.index, &Cutter::ball(e.radius, 4.0 * e.radius)) else {
                 return false;
             };
-            dc.height(centre.x, centre.y).is_some_and(|h| h <= centre.z - e.radius + 1e-3 * e.radius)
+            // (`stops_at_most`: the same answer as comparing `height`, searched from just below.)
+            dc.stops_at_most(centre.x, centre.y, centre.z - e.radius + 1e-3 * e.radius, 3e-3 * e.radius)
         })
     }
 }

@@ -255,7 +255,9 @@ impl HeightField {
                             let m = &mut mark[off + i];
                             *m = m.min(a.z + (b.z - a.z) * u);
                         }
-                        if *t <= zmin + floor(rho) {
+                        // `floor` is never negative, so a column at most `zmin` is skipped
+                        // without it.
+                        if *t <= zmin || *t <= zmin + floor(rho) {
                             continue;
                         }
                         for p in prims {
@@ -662,17 +664,12 @@ pub fn surface_deviation_where(
 
 /// Whether the ball of radius `r` centred at `c` (the drop cutter `dc`'s ball) rests
 /// there when lowered along the axis: its drop height over `c` is at most its tip's height
-/// (to 0.1 % of the radius). The search starts from 0.2 % of the radius below that tip, as
-/// a ball resting on a surface point along its normal finds that point's contact there
-/// (and nothing lower is asked for); only where nothing lies above that start is the
-/// whole drop height asked for. The same answer as [`DropCutter::height`] compared with
-/// the tip, bit for bit.
+/// (to 0.1 % of the radius). Resting on a surface point along its normal, it touches that
+/// point with its tip at the tip's height, so the search starts 0.2 % of the radius below
+/// the tip ([`DropCutter::stops_at_most`]: the same answer as comparing
+/// [`DropCutter::height`]).
 fn rests_on(dc: &DropCutter<'_>, c: &Point3, r: f64) -> bool {
-    let level = c.z - r + 1e-3 * r;
-    match dc.height_above(c.x, c.y, c.z - r - 2e-3 * r) {
-        Some(h) => h <= level,
-        None => dc.height(c.x, c.y).is_some_and(|h| h <= level),
-    }
+    dc.stops_at_most(c.x, c.y, c.z - r + 1e-3 * r, 3e-3 * r)
 }
 
 /// Whether a feed passed over the surface point `q` (outward normal `n`) for a ball of

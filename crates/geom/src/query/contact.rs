@@ -70,6 +70,10 @@ pub(crate) fn triangle_drop(tri: &Tri, q: [f64; 2], p: &Profile, best: f64) -> f
     }
     let mut best = best;
     for v in &vs {
+        // A vertex no higher than `best` cannot raise it (the profile is never negative).
+        if !(v[2] > best) {
+            continue;
+        }
         let (dx, dy) = (v[0] - q[0], v[1] - q[1]);
         let d2 = dx * dx + dy * dy;
         if d2 <= r2 {

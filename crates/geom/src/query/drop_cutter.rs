@@ -155,6 +155,19 @@ impl<'a> DropCutter<'a> {
         (h > local).then_some(h + self.bvh.center[2])
     }
 
+    /// Whether the cutter lowered over `(x, y)` stops at or below `level`:
+    /// `self.height(x, y).is_some_and(|h| h <= level)`, the same answer always, sooner
+    /// where the height lies above `level - slack` (the search starts from there; only
+    /// where nothing lies above it is the whole height asked for). For a tool known to
+    /// touch a little below `level` (a ball resting on a surface point along its normal
+    /// touches at its tip), with `slack` a little more than that.
+    pub fn stops_at_most(&self, x: f64, y: f64, level: f64, slack: f64) -> bool {
+        match self.height_above(x, y, level - slack) {
+            Some(h) => h <= level,
+            None => self.height(x, y).is_some_and(|h| h <= level),
+        }
+    }
+
     /// [`DropCutter::height`] by testing every triangle of the mesh in turn, without the
     /// BVH or its pruning: the same answer, in time proportional to the mesh. A reference
     /// for checks and the baseline of `benches/drop_cutter.rs`.

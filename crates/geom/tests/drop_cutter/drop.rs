@@ -195,6 +195,15 @@ fn pruned_search_equals_the_maximum_over_triangles() {
                     Some(g) if g < floor - 1e-12 => assert_eq!(above, None, "at {p:?} over {floor}"),
                     _ => assert!(above.is_none_or(|h| Some(h) == *b), "at {p:?} over {floor}: {above:?}"),
                 }
+                // The comparison from a floor agrees with comparing the height.
+                for slack in [0.0, 1e-9, 0.01, 1.0] {
+                    let want = b.is_some_and(|g| g <= floor);
+                    assert_eq!(
+                        dc.stops_at_most(p[0], p[1], floor, slack),
+                        want,
+                        "at {p:?} to {floor} - {slack}"
+                    );
+                }
             }
         }
     }
