@@ -84,6 +84,9 @@ pub struct HeightField {
 /// Columns along each side of a block of [`HeightField::tile_max`].
 const TILE: usize = 8;
 
+/// A run of columns (rows of cut heights, marks or block maxima) a sweep writes.
+type Cols<'a> = &'a mut [f64];
+
 impl HeightField {
     /// [`HeightField::new_opt`] with the default options.
     pub fn new(min: [f64; 2], max: [f64; 2], tools: ToolTable) -> Result<Self> {
@@ -228,7 +231,7 @@ impl HeightField {
         let block_row = |tj: usize, rows: &mut [f64], tmax: &mut [f64], mark: &mut [f64]| {
             let (r0, r1) = ((tj * TILE).max(j0), (tj * TILE + TILE - 1).min(j1));
             let y = |j: usize| min[1] + j as f64 * s;
-            for ti in i0 / TILE..=i1 / TILE {
+            for (ti, high) in tmax.iter_mut().enumerate().take(i1 / TILE + 1).skip(i0 / TILE) {
                 let (c0, c1) = ((ti * TILE).max(i0), (ti * TILE + TILE - 1).min(i1));
                 // The block's nearest distance from the path, less a margin far above the
                 // rounding of either distance, so its bound is at most every column's.
@@ -239,7 +242,7 @@ impl HeightField {
                     [b.x, b.y],
                 );
                 let near = (near - 1e-9).max(0.0);
-                if near > w && tmax[ti] <= zmin + floor(near) {
+                if near > w && *high <= zmin + floor(near) {
                     continue;
                 }
                 let mut lowered = false;
@@ -271,9 +274,8 @@ impl HeightField {
                 }
                 if lowered {
                     let (x0, x1) = (ti * TILE, (ti * TILE + TILE).min(nx));
-                    let high =
+                    *high =
                         rows.chunks(nx).flat_map(|r| &r[x0..x1]).fold(f64::NEG_INFINITY, |m, &t| m.max(t));
-                    tmax[ti] = high;
                 }
             }
         };
@@ -285,9 +287,8 @@ impl HeightField {
         match width {
             Some(_) => {
                 let marks = &mut self.passed[top0..top1];
-                let it = |(k, ((r, m), t)): (usize, ((&mut [f64], &mut [f64]), &mut [f64]))| {
-                    block_row(tj0 + k, r, t, m)
-                };
+                let it =
+                    |(k, ((r, m), t)): (usize, ((Cols<'_>, Cols<'_>), Cols<'_>))| block_row(tj0 + k, r, t, m);
                 if parallel {
                     rows.par_chunks_mut(chunk)
                         .zip(marks.par_chunks_mut(chunk))

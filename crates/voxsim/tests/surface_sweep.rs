@@ -69,8 +69,7 @@ fn program(seed: u64, n: usize) -> Vec<Motion<'static>> {
 }
 
 fn field(cutter: &Cutter, o: &HeightFieldOptions, ms: &[Motion<'_>], reference: bool) -> HeightField {
-    let mut f =
-        HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(cutter.clone()), o).unwrap();
+    let mut f = HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(*cutter), o).unwrap();
     if reference {
         f.use_reference_sweep();
     }
