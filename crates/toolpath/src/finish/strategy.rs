@@ -91,7 +91,11 @@ impl Parallel {
             floor: None,
             // A ball's contact normal gives the point the check follows; other cutters get none.
             fill: (self.fill > 0.0 && ctx.cutter.corner_radius() >= ctx.cutter.radius * (1.0 - 1e-9))
-                .then(|| FillOptions { radius: ctx.cutter.radius, limit: self.fill * ctx.scallop, depth: 2 }),
+                .then_some(FillOptions {
+                    radius: ctx.cutter.radius,
+                    limit: self.fill * ctx.scallop,
+                    depth: 2,
+                }),
         };
         let runs = parallel_finish_opt(ctx.drop_cutter, ctx.min, ctx.max, &opts)?;
         Ok(split_at_floor(ctx.drop_cutter, runs, ctx.z_range[0]))
