@@ -234,8 +234,10 @@ fn fill_between(
             // The contact may lie beyond either pass (a slope across them): the balls
             // between the two cut it all the same.
             let p = [x - r * n[0], y - r * n[1], z + r - r * n[2]];
+            // Where neither pass has samples near (a hole, the part's outline), the passes
+            // there are not what to judge them by.
             let left = a.centre_distance(&p, r).min(b.centre_distance(&p, r)) - r;
-            left > f.limit
+            left.is_finite() && left > f.limit
         })
     };
     let flagged: Vec<f64> =
