@@ -288,7 +288,10 @@ fn crossed_rasters_keep_the_scallop_on_steep_walls_one_raster_does_not() {
     let tool = Tool::ball(2.0);
     let mut worst_of = Vec::new();
     let crossed = Crossed::default();
-    let strategies: [&dyn FinishingStrategy; 2] = [&Parallel::default(), &crossed];
+    // The rasters alone: fill passes would close the gaps either leaves.
+    let parallel = Parallel { fill: 0.0, ..Parallel::default() };
+    let crossed = Crossed { parallel, ..crossed };
+    let strategies: [&dyn FinishingStrategy; 2] = [&parallel, &crossed];
     for st in strategies {
         let opts = FinishOptions { scallop: target, floor: Some(2.0), ..Default::default() };
         let field = machined(&index, &tool, st, &opts);
@@ -520,4 +523,80 @@ fn the_edge_of_a_kept_region_keeps_the_scallop() {
             "edge {edge}: the passes reach only to {beyond} (stepover {step})"
         );
     }
+}
+
+/// A block 30 x 16 x 8 mm with a trough of radius `rho` along X in its top face (the
+/// lower half of a cylinder), closed: the trough is concave across X.
+fn trough(rho: f64, m: usize) -> Mesh {
+    let (l, w, h) = (15.0, 8.0, 8.0);
+    let arc = |j: usize| {
+        let t = -std::f64::consts::PI + std::f64::consts::PI * j as f64 / m as f64;
+        (rho * t.cos(), rho * t.sin())
+    };
+    // The profile in (y, z), counter-clockwise seen from +X.
+    let mut p = vec![(-w, -h)];
+    p.extend((0..=m).map(|j| (arc(j).0, -h)));
+    p.extend([(w, -h), (w, 0.0)]);
+    p.extend((0..=m).rev().map(arc));
+    p.push((-w, 0.0));
+    let k = p.len() as u32;
+    let v: Vec<Point3> =
+        [-l, l].iter().flat_map(|&x| p.iter().map(move |&(y, z)| Point3::new(x, y, z))).collect();
+    let mut t = Vec::new();
+    for a in 0..k {
+        let b = (a + 1) % k;
+        t.push([a, b, k + b]);
+        t.push([a, k + b, k + a]);
+    }
+    let m32 = m as u32;
+    let on_arc = |j: u32| m32 + 4 + (m32 - j);
+    let mut quads = vec![[0, 1, on_arc(0), 2 * m32 + 5], [m32 + 1, m32 + 2, m32 + 3, on_arc(m32)]];
+    quads.extend((0..m32).map(|j| [1 + j, 2 + j, on_arc(j + 1), on_arc(j)]));
+    for [a, b, c, d] in quads {
+        t.extend([[k + a, k + b, k + c], [k + a, k + c, k + d], [a, c, b], [a, d, c]]);
+    }
+    Mesh::new(v, t).unwrap()
+}
+
+/// Passes along a trough a little wider than the ball: across them the surface is concave,
+/// so the stepover for the scallop on flat ground leaves `rho / (rho - r)` times the target
+/// at the bottom (3 here). Fill passes where the passes' swept balls leave more than 1.5
+/// times the target on the contact point between them bring the bottom's worst column
+/// (slopes under 25 degrees, simulated 0.02 apart) within 1.6 times the target, where the
+/// plain raster leaves more than twice it; and the fill passes are added, not every pass
+/// moved (more passes than the raster, fewer than at half its stepover everywhere).
+#[test]
+fn fill_passes_keep_the_scallop_in_a_hollow() {
+    let (rho, r, target) = (4.5, 3.0, 0.02);
+    let mesh = trough(rho, 360);
+    let index = MeshIndex::new(&mesh).unwrap();
+    let tool = Tool::ball(r);
+    let mut worst = Vec::new();
+    for fill in [0.0, 1.5] {
+        let strategy = Parallel { tolerance: 1e-4, fill, ..Parallel::default() };
+        let opts = FinishOptions {
+            scallop: target,
+            region: Some([[-6.0, -7.0], [6.0, 7.0]]),
+            pass_lift: strategy.tolerance,
+            ..Default::default()
+        };
+        let (rec, sum) = finish(&index, &tool, &strategy, &opts);
+        let mut field = HeightField::new_opt(
+            [-4.0, -2.0],
+            [4.0, 2.0],
+            ToolTable::single(Cutter::ball(r, 30.0)),
+            &HeightFieldOptions { spacing: 0.02, ..Default::default() },
+        )
+        .unwrap();
+        replay(&rec, &mut field);
+        let d = surface_deviation(&field, &index);
+        assert!(d.gouge_depth <= 1e-4, "fill {fill}: {d:?}");
+        assert!(d.columns > 50_000, "fill {fill}: {d:?}");
+        println!("fill {fill}: {} passes, worst {}, mean {}", sum.passes, d.max, d.mean);
+        worst.push((d.max, sum.passes));
+    }
+    let ((plain, n0), (filled, n1)) = (worst[0], worst[1]);
+    assert!(plain > 2.0 * target, "the raster alone leaves {plain}");
+    assert!(filled <= 1.6 * target, "with fill passes {filled}");
+    assert!(n1 > n0 && n1 < 2 * n0, "passes {n0} -> {n1}");
 }

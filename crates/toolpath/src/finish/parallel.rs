@@ -1,7 +1,11 @@
 //! Parallel (raster) finishing: straight passes at an angle over an XY rectangle, the tip
 //! height at each point from drop-cutter, sampled adaptively: a segment is split where the
 //! drop-cutter height at its midpoint leaves the chord by more than the tolerance, so flat
-//! areas stay coarse and curved ones get the points they need.
+//! areas stay coarse and curved ones get the points they need. With [`FillOptions`], a
+//! pass is added midway between two neighbouring passes wherever the cross-section between
+//! them predicts a scallop above a limit (a hollow of the surface between them, whose
+//! scallop the flat-ground stepover does not bound), and again between it and each
+//! neighbour, to a depth.
 
 // NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -31,6 +35,32 @@ pub struct ParallelFinishOptions {
     /// The tip height where the cutter touches nothing: `None` (default) ends the polyline
     /// there and starts a new one where contact resumes; `Some(z)` uses `z`.
     pub floor: Option<f64>,
+    /// Fill passes where the stepover leaves more than a limit ([`FillOptions`]); `None`
+    /// (default): the passes `stepover` apart only.
+    pub fill: Option<FillOptions>,
+}
+
+/// Fill passes of [`parallel_finish_opt`], for a ball cutter. Between two neighbouring
+/// passes the cut is checked at every quarter of [`ParallelFinishOptions::sample_step`]
+/// along them, a quarter, half and three quarters of the way across: the ball dropped
+/// there touches the part at a point (its centre less the radius along the contact
+/// normal), and the material the two passes leave on that point is its distance from the
+/// nearer of the two passes' swept balls (the polylines of their centres, chords between
+/// samples as machined) less the radius. Where that exceeds [`FillOptions::limit`], a pass midway between them is sampled (from a quarter of
+/// the sampling step) over the stretch, grown by a sampling step each way, and the same
+/// check runs between it and each neighbour, to [`FillOptions::depth`] halvings. On flat
+/// ground the stepover for scallop `h` leaves `h` midway; a hollow of the surface between
+/// the passes (concave across them, as a scanned surface's relief often is) leaves more,
+/// and on a slope along the passes the ball touches the part far up the slope from its
+/// tip, so the check follows the contact, not the tip.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FillOptions {
+    /// The ball's radius.
+    pub radius: f64,
+    /// The most material left on a contact point without a fill pass (mm).
+    pub limit: f64,
+    /// Halvings of a gap: 1 puts a pass midway, 2 also between it and each neighbour.
+    pub depth: u32,
 }
 
 impl Default for ParallelFinishOptions {
@@ -43,6 +73,7 @@ impl Default for ParallelFinishOptions {
             min_step: 0.02,
             zigzag: true,
             floor: None,
+            fill: None,
         }
     }
 }
@@ -57,6 +88,7 @@ pub fn parallel_finish(
 }
 
 /// One pass: points `origin + t dir` for `t` in `[t0, t1]`.
+#[derive(Clone, Copy)]
 struct Pass {
     origin: [f64; 2],
     dir: [f64; 2],
@@ -98,22 +130,143 @@ pub fn parallel_finish_opt(
     if count as f64 * (diag / opts.sample_step + 1.0) > 1e7 {
         return Err(FinishError::InvalidOptions("more than ten million first samples".into()));
     }
-    let passes: Vec<Vec<Vec<Point3>>> = (0..count)
+    let line = |o: f64| {
+        let origin = [o * normal[0], o * normal[1]];
+        clip(origin, dir, min, max).map(|(t0, t1)| Pass { origin, dir, t0, t1 })
+    };
+    let sampled: Vec<Option<Line>> = (0..count)
         .into_par_iter()
         .map(|k| {
             let o = first + k as f64 * opts.stepover;
-            let origin = [o * normal[0], o * normal[1]];
-            let Some((t0, t1)) = clip(origin, dir, min, max) else { return Vec::new() };
-            let pass = Pass { origin, dir, t0, t1 };
-            let mut runs = sample(dc, &pass, opts);
-            if opts.zigzag && k % 2 == 1 {
+            line(o).map(|pass| Line { offset: o, pass, points: sample_points(dc, &pass, opts) })
+        })
+        .collect();
+    // The fill passes after each pass, between it and the next.
+    let fills: Vec<Vec<Line>> = (0..count)
+        .into_par_iter()
+        .map(|k| match (opts.fill, sampled.get(k), sampled.get(k + 1)) {
+            (Some(f), Some(Some(a)), Some(Some(b))) => fill_between(dc, opts, &f, &line, a, b, f.depth),
+            _ => Vec::new(),
+        })
+        .collect();
+    let mut out = Vec::new();
+    for (k, (main, fills)) in sampled.into_iter().zip(fills).enumerate() {
+        let lines =
+            main.into_iter().map(|l| (l, k % 2 == 1)).chain(fills.into_iter().map(|l| (l, k % 2 == 0)));
+        for (l, backwards) in lines {
+            let mut runs = to_runs(&l.pass, l.points);
+            if opts.zigzag && backwards {
                 runs.reverse();
                 runs.iter_mut().for_each(|r| r.reverse());
             }
-            runs
+            out.extend(runs);
+        }
+    }
+    Ok(out)
+}
+
+/// A sampled pass: its offset across the passes, its line and its samples `(t, height)`
+/// in increasing `t`.
+struct Line {
+    offset: f64,
+    pass: Pass,
+    points: Vec<(f64, Option<f64>)>,
+}
+
+impl Line {
+    /// The distance from `p` to the polyline of the centres of a ball of radius `r` whose
+    /// tip follows the samples (`+inf` where none lies within `2 r` along the pass).
+    fn centre_distance(&self, p: &[f64; 3], r: f64) -> f64 {
+        let d = self.pass.dir;
+        let t = p[0] * d[0] + p[1] * d[1];
+        let across = p[0] * -d[1] + p[1] * d[0] - self.offset;
+        let pts = &self.points;
+        let mut best = f64::INFINITY;
+        let start = pts.partition_point(|q| q.0 < t - 2.0 * r).saturating_sub(1);
+        for w in pts[start..].windows(2) {
+            if w[0].0 > t + 2.0 * r {
+                break;
+            }
+            let (Some(za), Some(zb)) = (w[0].1, w[1].1) else { continue };
+            let (a, b) = ([w[0].0, za + r], [w[1].0, zb + r]);
+            let e = [b[0] - a[0], b[1] - a[1]];
+            let l = e[0] * e[0] + e[1] * e[1];
+            let u =
+                if l > 0.0 { (((t - a[0]) * e[0] + (p[2] - a[1]) * e[1]) / l).clamp(0.0, 1.0) } else { 0.0 };
+            let q = [a[0] + u * e[0] - t, a[1] + u * e[1] - p[2]];
+            best = best.min((q[0] * q[0] + q[1] * q[1] + across * across).sqrt());
+        }
+        best
+    }
+}
+
+/// The fill passes between `a` and `b` (neighbours, `a` at the lower offset), in order of
+/// offset: see [`FillOptions`].
+fn fill_between(
+    dc: &DropCutter<'_>,
+    o: &ParallelFinishOptions,
+    f: &FillOptions,
+    line: &impl Fn(f64) -> Option<Pass>,
+    a: &Line,
+    b: &Line,
+    depth: u32,
+) -> Vec<Line> {
+    if depth == 0 {
+        return Vec::new();
+    }
+    let w = b.offset - a.offset;
+    let (t0, t1) = (a.pass.t0.max(b.pass.t0), a.pass.t1.min(b.pass.t1));
+    if !(w > 0.0 && t1 > t0) {
+        return Vec::new();
+    }
+    let normal = [-a.pass.dir[1], a.pass.dir[0]];
+    // A hollow of the scanned surface may be narrower than a sampling step: check a
+    // quarter step apart, and sample the fill passes that finely too.
+    let fine = ParallelFinishOptions { sample_step: 0.25 * o.sample_step, ..*o };
+    let n = ((t1 - t0) / fine.sample_step).ceil().max(1.0) as usize;
+    let r = f.radius;
+    let leaves = |t: f64| -> bool {
+        [0.25, 0.5, 0.75].iter().any(|&u| {
+            let s = a.offset + u * w;
+            let (x, y) = (s * normal[0] + t * a.pass.dir[0], s * normal[1] + t * a.pass.dir[1]);
+            let Some(z) = dc.height(x, y) else { return false };
+            let Some(n) = dc.contact_normal(x, y, z) else { return false };
+            // The contact may lie beyond either pass (a slope across them): the balls
+            // between the two cut it all the same.
+            let p = [x - r * n[0], y - r * n[1], z + r - r * n[2]];
+            // Where neither pass has samples near (a hole, the part's outline), the passes
+            // there are not what to judge them by.
+            let left = a.centre_distance(&p, r).min(b.centre_distance(&p, r)) - r;
+            left.is_finite() && left > f.limit
         })
-        .collect();
-    Ok(passes.into_iter().flatten().collect())
+    };
+    let flagged: Vec<f64> =
+        (0..=n).map(|i| t0 + (t1 - t0) * i as f64 / n as f64).filter(|&t| leaves(t)).collect();
+    // Stretches of flagged samples, each grown by a sampling step.
+    let grow = o.sample_step;
+    let mut stretches: Vec<(f64, f64)> = Vec::new();
+    for t in flagged {
+        match stretches.last_mut() {
+            Some(s) if t - grow <= s.1 => s.1 = t + grow,
+            _ => stretches.push((t - grow, t + grow)),
+        }
+    }
+    let mid = a.offset + 0.5 * w;
+    let Some(full) = line(mid) else { return Vec::new() };
+    let mut out = Vec::new();
+    for (lo, hi) in stretches {
+        let pass = Pass { t0: lo.max(full.t0), t1: hi.min(full.t1), ..full };
+        if !(pass.t1 > pass.t0) {
+            continue;
+        }
+        let m = Line { offset: mid, pass, points: sample_points(dc, &pass, &fine) };
+        let below = fill_between(dc, o, f, line, a, &m, depth - 1);
+        let above = fill_between(dc, o, f, line, &m, b, depth - 1);
+        out.extend(below);
+        out.push(m);
+        out.extend(above);
+    }
+    out
 }
 
 fn check(min: [f64; 2], max: [f64; 2], o: &ParallelFinishOptions) -> Result<(), FinishError> {
@@ -135,6 +288,13 @@ fn check(min: [f64; 2], max: [f64; 2], o: &ParallelFinishOptions) -> Result<(), 
     if !o.angle.is_finite() || o.floor.is_some_and(|z| !z.is_finite()) {
         return bad(format!("angle and floor must be finite, got {} and {:?}", o.angle, o.floor));
     }
+    if let Some(f) = o.fill
+        && !(f.radius > 0.0 && f.radius.is_finite() && f.limit > 0.0 && f.limit.is_finite() && f.depth <= 8)
+    {
+        return bad(format!(
+            "fill needs a finite radius > 0, a finite limit > 0 and at most 8 halvings, got {f:?}"
+        ));
+    }
     Ok(())
 }
 
@@ -155,8 +315,8 @@ fn clip(origin: [f64; 2], dir: [f64; 2], min: [f64; 2], max: [f64; 2]) -> Option
     (t0 <= t1).then_some((t0, t1))
 }
 
-/// One pass's polylines: uniform samples, refined, split where there is no contact.
-fn sample(dc: &DropCutter<'_>, pass: &Pass, o: &ParallelFinishOptions) -> Vec<Vec<Point3>> {
+/// One pass's samples `(t, height)`: uniform, refined where the surface bends.
+fn sample_points(dc: &DropCutter<'_>, pass: &Pass, o: &ParallelFinishOptions) -> Vec<(f64, Option<f64>)> {
     let height = |t: f64| {
         let p = pass.at(t);
         dc.height(p[0], p[1]).or(o.floor)
@@ -170,6 +330,11 @@ fn sample(dc: &DropCutter<'_>, pass: &Pass, o: &ParallelFinishOptions) -> Vec<Ve
         refine(&height, a, b, o, &mut points);
         points.push(b);
     }
+    points
+}
+
+/// A pass's polylines from its samples, split where there is no contact.
+fn to_runs(pass: &Pass, points: Vec<(f64, Option<f64>)>) -> Vec<Vec<Point3>> {
     let mut runs = Vec::new();
     let mut run = Vec::new();
     for (t, h) in points {
