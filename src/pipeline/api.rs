@@ -240,8 +240,10 @@ pub struct MillOptions {
     /// library). The paper preset ignores it. Default 2.
     pub rest_roughing: usize,
     /// Rest roughing ([`rest_roughing`](Self::rest_roughing)): a smaller tool follows a
-    /// setup's rest pass only where that pass removed at least this volume (mm³) of the
-    /// material left; the first pass always runs. Default 100 (0.1 cm³); 0 runs every pass
+    /// setup's rest pass only where at least this volume (mm³) of the material left lies
+    /// within its reach: farther from the part than the finishing allowance, no deeper
+    /// below the stock's top than the tool reaches, and seen along the setup's axis. The
+    /// first pass always runs. Default 100 (0.1 cm³); 0 runs every pass
     /// [`rest_roughing`](Self::rest_roughing) allows.
     pub rest_continue_mm3: f64,
 }

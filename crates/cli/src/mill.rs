@@ -94,11 +94,13 @@ pub struct Args {
     /// before its finishing, each with a flat end mill of the library at most 0.7 times as
     /// wide as the one before (the one whose flutes reach deepest), over the material the
     /// earlier programs left; each pass is a program of its own, the setup's finishing in
-    /// the last. A pass after the first runs only where the one before removed at least
-    /// --rest-continue mm^3. 0: one roughing tool per setup.
+    /// the last. A pass after the first runs only where at least --rest-continue mm^3 of
+    /// the material left lies within its reach. 0: one roughing tool per setup.
     #[arg(long, default_value_t = 3)]
     rest_roughing: usize,
-    /// Shop preset: the volume (mm^3) a rest pass must remove for a smaller tool to follow it.
+    /// Shop preset: the volume (mm^3) of material left within a smaller tool's reach (seen
+    /// along the setup's axis, farther from the part than the finishing allowance) for a
+    /// further rest pass.
     #[arg(long, default_value_t = 100.0)]
     rest_continue: f64,
     /// With --voxel: the most voxels the simulation grid may hold (over the part's box with

@@ -3,7 +3,8 @@
 //! flat end mills over the simulated in-process stock.
 
 use super::MillRun;
-use crate::geom::Setup;
+use crate::geom::{Point3, Setup};
+use rayon::prelude::*;
 use crate::pipeline::api::{MillError, Preset, SetupProgram, Stage};
 use crate::pipeline::job::{FinishJob, Job, stock_in_setup};
 use crate::pipeline::per_setup::machine_setup;
@@ -68,13 +69,59 @@ impl MillRun {
         (c.stickout + (top - high) - margin).clamp(c.flute_length, c.stickout)
     }
 
+    /// The material left (mm³) that a rest pass of setup `k` (0-based) with `tool` may
+    /// reach: voxels of the simulated stock less the part that lie farther from the part
+    /// than the finishing allowance and a voxel (the allowance is the finisher's), within
+    /// the tool's reach below the stock's top ([`rest_reach`](Self::rest_reach)), and seen
+    /// along the setup's tool axis (the ray from the voxel's centre towards the spindle
+    /// leaves the grid without meeting the part's voxels). Whether the tool fits where that
+    /// material lies is the planner's to find: this bounds what the pass can remove.
+    fn reachable_left(&self, k: usize, tool: &RestTool) -> f64 {
+        let Some(job) = self.jobs.iter().rev().find(|j| j.rest_of == Some(k)) else { return 0.0 };
+        let setup = job.setup;
+        let top = stock_in_setup(&self.stock, &setup).max.z;
+        let floor = top - self.rest_reach(&setup, &tool.0);
+        let spec = *self.remaining.spec();
+        let h = spec.voxel.min();
+        let o = &self.opts;
+        let allowance = o.finish.map_or(0.0, |_| o.finish_allowance[0].max(o.finish_allowance[1]));
+        let near = (allowance / h).ceil() as usize + 1;
+        let axis = setup.tool_axis().into_inner();
+        let target = &self.target;
+        let seen = |p: Point3| {
+            let mut t = 0.5 * h;
+            loop {
+                let Some([i, j, k]) = spec.index_of(&(p + axis * t)) else { return true };
+                if target.get(i, j, k) {
+                    return false;
+                }
+                t += 0.5 * h;
+            }
+        };
+        let left: Vec<[usize; 3]> = self.remaining.iter_set().collect();
+        let count = left
+            .into_par_iter()
+            .filter(|&[i, j, k]| {
+                let p = spec.center(i, j, k);
+                setup.to_setup(&p).z >= floor
+                    && !target.any_in_range(
+                        [i.saturating_sub(near), j.saturating_sub(near), k.saturating_sub(near)],
+                        [i + near, j + near, k + near],
+                    )
+                    && seen(p)
+            })
+            .count();
+        count as f64 * spec.voxel_volume()
+    }
+
     /// Rest roughing of setup `k` (0-based), just roughed by its own job, from `first`
     /// ([`first_rest_tool`](Self::first_rest_tool)) down the library: each pass machines
     /// the setup again, in its own program with the setup's fixture, action and datum, over
     /// the material the earlier programs left (the simulated stock less the part; the
     /// planner skips what is gone). A further, smaller tool follows while the passes stay
-    /// within [`MillOptions::rest_roughing`](crate::MillOptions::rest_roughing) and the last
-    /// removed at least [`MillOptions::rest_continue_mm3`](crate::MillOptions::rest_continue_mm3).
+    /// within [`MillOptions::rest_roughing`](crate::MillOptions::rest_roughing) and at least
+    /// [`MillOptions::rest_continue_mm3`](crate::MillOptions::rest_continue_mm3) of the
+    /// material left lies within its reach ([`reachable_left`](Self::reachable_left)).
     /// The setup's `finish` follows the last pass in its program: a pass after which a smaller
     /// tool may follow is cut without it, and where none follows, the simulation is wound
     /// back and the pass cut again with it. Called by
@@ -86,7 +133,6 @@ impl MillRun {
         mut finish: Option<FinishJob>,
         progress: &mut dyn FnMut(Stage),
     ) -> Result<(), MillError> {
-        let voxel = self.remaining.spec().voxel_volume();
         let (mut tool, mut n) = (first, 1);
         loop {
             let next = match n < self.opts.rest_roughing {
@@ -96,11 +142,12 @@ impl MillRun {
             let tentative = next.is_some() && finish.is_some();
             let snapshot = tentative
                 .then(|| (self.sim.borrow().clone(), self.remaining.clone(), self.times, self.jobs.len()));
-            let before = self.remaining.count();
             let mut program =
                 self.rest_pass(k, &tool, if next.is_some() { None } else { finish.take() }, progress)?;
-            let removed = before.saturating_sub(self.remaining.count()) as f64 * voxel;
-            let go_on = next.is_some() && removed >= self.opts.rest_continue_mm3;
+            let go_on = match &next {
+                Some(t) => self.reachable_left(k, t) >= self.opts.rest_continue_mm3,
+                None => false,
+            };
             if let (false, Some((sim, remaining, times, jobs))) = (go_on, snapshot) {
                 *self.sim.get_mut() = sim;
                 (self.remaining, self.times) = (remaining, times);
