@@ -626,19 +626,16 @@ impl MillRun {
 
 /// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
 /// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
-/// of at most `1/resolution` of the part's longest side, covering the stock, whose
-/// boundaries lie on the faces of the part's bounding box: on its lower face along each
-/// axis, and on both along its shortest (the voxel shrinks until a whole number of them
-/// spans it). The residual stock's mesh has its faces on voxel boundaries, so a machined
-/// flat face of the box comes out where the part has it, and a flat part's score
-/// measures its machining rather than how the grid happens to fall on its faces. (On a
-/// grid centred on the part, the pocketed plate's 15 mm at 128^3 came out 0.31 mm proud at
-/// both faces, 4 % of its volume.) A stock more than 1.25 times the part's longest side
-/// keeps the grid over the stock, which bounds the grid's size.
+/// of `1/resolution` of the part's longest side on the lattice of the scorer's grid (the
+/// part's bounding box centred in a cube of its longest side), covering the stock: the
+/// simulated part's faces then lie where the scorer puts them, and a flat part's score
+/// measures its machining rather than how the two grids happen to fall on its faces
+/// (half a voxel on each face of a 10 mm plate 50 mm long is 2 % of its volume). A stock
+/// more than 1.25 times the part's longest side keeps the grid over the stock, which
+/// bounds the grid's size.
 fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<GridSpec, MillError> {
     let cubic = GridSpec::cubic(stock, opts.resolution)?;
-    let e = part.extent();
-    let l = e.max();
+    let l = part.extent().max();
     let h = l / opts.resolution as f64;
     if (opts.preset == Preset::Paper && opts.stock == Stock::Preset)
         || !(h > 0.0 && h.is_finite())
@@ -646,11 +643,11 @@ fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<Grid
     {
         return Ok(cubic);
     }
-    let short = (0..3).filter(|&a| e[a] > 0.0).map(|a| e[a]).fold(l, f64::min);
-    let h = short / (short / h - 1e-9).ceil().max(1.0);
+    let c = part.center();
     let (mut origin, mut dims) = (stock.min, [0; 3]);
     for a in 0..3 {
-        origin[a] = part.min[a] - ((part.min[a] - stock.min[a]) / h - 1e-9).ceil() * h;
+        let base = c[a] - 0.5 * l;
+        origin[a] = base + ((stock.min[a] - base) / h + 1e-9).floor() * h;
         dims[a] = (((stock.max[a] - origin[a]) / h - 1e-9).ceil() as usize).max(1);
     }
     Ok(GridSpec { origin, voxel: Vector3::repeat(h), dims })
