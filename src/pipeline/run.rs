@@ -359,11 +359,6 @@ impl MillRun {
         (i < self.setup_count()).then_some(i)
     }
 
-    /// How many setups have their action (the jobs less the rest-roughing ones).
-    fn chosen(&self) -> usize {
-        self.jobs.iter().filter(|j| j.rest_of.is_none()).count()
-    }
-
     /// The features of the next setup (those of the last one once all are machined), with
     /// the removal fraction of the material left now.
     pub fn features(&self) -> SetupFeatures {
@@ -512,10 +507,7 @@ impl MillRun {
         let (program, remaining) = result?;
         self.setups.push(program);
         self.remaining = remaining;
-        match rest {
-            Some(first) => self.rest_rough(i, first, finish, progress),
-            None => Ok(()),
-        }
+        rest.map_or(Ok(()), |first| self.rest_rough(i, first, finish, progress))
     }
 
     /// Machines every setup still without an action with `policy`'s choice, then

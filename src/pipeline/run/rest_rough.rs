@@ -26,6 +26,11 @@ impl MillRun {
         self.setup_count() * (1 + rest)
     }
 
+    /// How many setups have their action (the jobs less the rest-roughing ones).
+    pub(super) fn chosen(&self) -> usize {
+        self.jobs.iter().filter(|j| j.rest_of.is_none()).count()
+    }
+
     /// The first rest-roughing tool of setup `k` (0-based) roughed by `job`
     /// ([`MillOptions::rest_roughing`](crate::MillOptions::rest_roughing)): a flat end mill
     /// of the library smaller than its own (`Tooling::rest_tool`). None in the paper preset,
