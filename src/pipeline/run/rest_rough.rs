@@ -185,7 +185,7 @@ impl MillRun {
         self.check_deadline(|| format!("rest roughing setup {} of {}", k + 1, self.setup_count()))?;
         // A rest pass reaches only as deep as keeps its holder above all stock
         // ([`rest_reach`](Self::rest_reach)).
-        let (mut cutter, cutting) = tool.clone();
+        let (mut cutter, cutting) = *tool;
         let (stickout, flutes) = (cutter.cutter.stickout, cutter.cutter.flute_length);
         cutter.cutter.stickout = self.rest_reach(&setup, &cutter);
         let mut job = Job::new(
