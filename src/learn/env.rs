@@ -142,8 +142,9 @@ impl Default for TrainOptions {
 }
 
 /// The machining environment: one episode mills one part of the corpus, one step one setup.
-/// The shop preset's rest roughing ([`MillOptions::rest_roughing`]), which `mill` adds after
-/// the setups, is no step of an episode: an episode's return is Eq. 13 of its setups alone.
+/// The shop preset's rest roughing ([`MillOptions::rest_roughing`]) is part of a step: a
+/// setup's rest passes follow its roughing within the setup, and an episode's return is
+/// Eq. 13 of its setups, each `R_s` after the setup's last program, as [`Milled::total_reward`](crate::Milled::total_reward).
 pub struct MachiningEnv {
     parts: Vec<(String, Mesh)>,
     /// Per part: its name, a hash of its mesh and one of the milling options.

@@ -226,8 +226,9 @@ pub struct MillOptions {
     /// Column spacing of the height field on which each finished setup's surface
     /// deviation is measured ([`SetupFinish::deviation`]), in part units. Default 0.1.
     pub surface_spacing: f64,
-    /// Shop preset, per-setup layout: after every setup is machined, rest roughing
-    /// ([`Milled::setups`] entries with [`SetupProgram::rest_of`]): each setup again, in
+    /// Shop preset, per-setup layout: rest roughing ([`Milled::setups`] entries with
+    /// [`SetupProgram::rest_of`]). Right after a setup's roughing, and before its
+    /// finishing (which moves into the last rest program), the setup is machined again, in
     /// its own program and fixture, with a smaller flat end mill of the library over the
     /// material the earlier programs left (the simulated in-process stock), as deep below
     /// the stock's top as that tool's flutes are long (its shank and holder stay above all
@@ -238,6 +239,13 @@ pub struct MillOptions {
     /// material otherwise (12 mm, then 8 and 5; 5 mm, then 3 and 2 with the shipped
     /// library). The paper preset ignores it. Default 2.
     pub rest_roughing: usize,
+    /// Rest roughing ([`rest_roughing`](Self::rest_roughing)): a smaller tool follows a
+    /// setup's rest pass only where at least this volume (mm³) of the material left lies
+    /// within its reach: farther from the part than the finishing allowance, no deeper
+    /// below the stock's top than the tool reaches, and seen along the setup's axis. The
+    /// first pass always runs. Default 100 (0.1 cm³); 0 runs every pass
+    /// [`rest_roughing`](Self::rest_roughing) allows.
+    pub rest_continue_mm3: f64,
 }
 
 impl MillOptions {
@@ -306,7 +314,8 @@ impl Default for MillOptions {
             finish: None,
             finish_allowance: [0.0, 0.0],
             surface_spacing: 0.1,
-            rest_roughing: 2,
+            rest_roughing: 3,
+            rest_continue_mm3: 100.0,
         }
     }
 }
@@ -549,7 +558,9 @@ pub struct SetupProgram {
     /// The paper's preservation `R_s` (Eq. 10) after this setup: the fraction of the part's
     /// voxels still there.
     pub preservation: f64,
-    /// The finishing after the roughing, where the run finishes ([`MillOptions::finish`]).
+    /// The finishing after the roughing, where the run finishes ([`MillOptions::finish`]):
+    /// in a setup's own program, or, where rest roughing follows it, in its last rest
+    /// program's, after the rest pass.
     pub finish: Option<SetupFinish>,
     /// A rest-roughing program ([`MillOptions::rest_roughing`]): the 1-based setup whose
     /// fixture and axis it machines again with a smaller tool. `None` for a setup's own.
@@ -693,9 +704,11 @@ impl Milled {
     /// material removed per minute of machining (the machined part's units).
     pub fn total_reward(&self, weights: &RewardWeights) -> f64 {
         // Eq. 13's setups are those the policy chose actions for, not the rest-roughing
-        // programs that follow them.
-        let chosen = self.setups.iter().filter(|s| s.rest_of.is_none());
-        weights.lambda_s * chosen.map(|s| s.preservation).sum::<f64>()
+        // programs within them: R_s is the preservation once setup s is machined whole,
+        // after its last program (its rest passes and finishing follow its roughing).
+        let last = |i: usize| self.setups.get(i + 1).is_none_or(|next| next.rest_of.is_none());
+        let ends = self.setups.iter().enumerate().filter(|&(i, _)| last(i));
+        weights.lambda_s * ends.map(|(_, s)| s.preservation).sum::<f64>()
             + weights.lambda_f * self.rewards.final_iou
             + weights.lambda_mrr * self.simulation.mrr_mm3_per_min / 1000.0
     }

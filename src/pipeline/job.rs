@@ -23,6 +23,9 @@ pub(super) struct Job {
     pub(super) finish: Option<FinishJob>,
     /// The stock box's upward faces in the setup frame ([`RoughedStock::faces`]).
     pub(super) stock_faces: [[f64; 4]; 3],
+    /// A rest-roughing job ([`MillOptions::rest_roughing`]): the 0-based setup it machines
+    /// again with a smaller tool; `None` for a setup's own.
+    pub(super) rest_of: Option<usize>,
 }
 
 /// What a setup is finished with.
@@ -30,6 +33,10 @@ pub(super) struct Job {
 pub(super) struct FinishJob {
     pub(super) choice: FinishChoice,
     pub(super) tool: Tool,
+    /// The radius of the setup's widest roughing tool, its own: below the depth its rest
+    /// passes reach, the corners keep that radius (the finisher's holder check,
+    /// [`RoughedStock::tool_radius`]).
+    pub(super) roughed_radius: f64,
 }
 
 impl Job {
@@ -72,7 +79,7 @@ impl Job {
                 axial: self.popts.layer_height
                     + self.popts.axial_allowance
                     + self.popts.arc_tolerance.unwrap_or(0.0),
-                tool_radius: self.tool.radius(),
+                tool_radius: f.roughed_radius,
                 top: self.popts.stock.map_or(f64::INFINITY, |s| s.max.z),
                 faces: self.stock_faces,
             }),
@@ -130,7 +137,16 @@ impl Job {
             None => popts,
         };
         let stock_faces = upward_faces(stock, setup);
-        Ok(Self { setup: *setup, action: *action, tool, popts, note: None, finish: None, stock_faces })
+        Ok(Self {
+            setup: *setup,
+            action: *action,
+            tool,
+            popts,
+            note: None,
+            finish: None,
+            stock_faces,
+            rest_of: None,
+        })
     }
 
     /// An upper estimate of the setup's toolpath length and machining time (hours): every

@@ -355,14 +355,14 @@ impl MillRun {
     /// The 0-based setup [`machine`](Self::machine) cuts next; `None` once every setup has
     /// its action.
     pub fn next_setup(&self) -> Option<usize> {
-        let i = self.jobs.len();
+        let i = self.chosen();
         (i < self.setup_count()).then_some(i)
     }
 
     /// The features of the next setup (those of the last one once all are machined), with
     /// the removal fraction of the material left now.
     pub fn features(&self) -> SetupFeatures {
-        let i = self.jobs.len().min(self.features.len().saturating_sub(1));
+        let i = self.chosen().min(self.features.len().saturating_sub(1));
         let mut f = self.features.get(i).cloned().unwrap_or_default();
         let stock = self.target.spec().len() as f64;
         f.removal_fraction = if stock > 0.0 { self.remaining.count() as f64 / stock } else { 0.0 };
@@ -372,7 +372,7 @@ impl MillRun {
     /// The policy's view of the next setup, given its `features`.
     pub fn context<'a>(&'a self, features: &'a SetupFeatures) -> SetupContext<'a> {
         SetupContext {
-            index: self.jobs.len(),
+            index: self.chosen(),
             setups: self.setup_count(),
             space: &self.space,
             features,
@@ -437,7 +437,9 @@ impl MillRun {
 
     /// [`machine`](Self::machine), finishing the setup after its roughing with `finish`
     /// (a policy's choice) where the run finishes ([`MillOptions::finish`]; ignored where
-    /// it does not).
+    /// it does not). In the shop preset's per-setup layout the setup's rest-roughing
+    /// programs ([`MillOptions::rest_roughing`]) follow its roughing at once, and the
+    /// finishing follows the last of them: rough, rest-rough, finish, then the next setup.
     pub fn machine_finished(
         &mut self,
         action: Action,
@@ -470,7 +472,7 @@ impl MillRun {
             if let Tooling::Planned { .. } = self.tooling {
                 self.sim.get_mut().add_tool(tool.number, tool.cutter).map_err(sim_error)?;
             }
-            job.finish = Some(FinishJob { choice, tool });
+            job.finish = Some(FinishJob { choice, tool, roughed_radius: job.tool.radius() });
         }
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
@@ -483,14 +485,19 @@ impl MillRun {
                 limit_hours: o.max_estimated_hours,
             });
         }
+        // A shop roughs, rest-roughs, then finishes each setup: where rest passes follow,
+        // the setup's finishing moves to the last of them.
+        let rest = self.first_rest_tool(i, &job)?;
+        let finish = if rest.is_some() { job.finish.take() } else { None };
         self.jobs.push(job);
         if self.placements.is_some() {
             return Ok(());
         }
+        let n = self.jobs.len() - 1;
         let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
         let result = machine_setup(
             &self.ctx(),
-            i,
+            n,
             &self.remaining,
             (i == 0 && self.keep_trace).then_some(&mut trace),
             &mut times,
@@ -500,7 +507,7 @@ impl MillRun {
         let (program, remaining) = result?;
         self.setups.push(program);
         self.remaining = remaining;
-        Ok(())
+        rest.map_or(Ok(()), |first| self.rest_rough(i, first, finish, progress))
     }
 
     /// Machines every setup still without an action with `policy`'s choice, then
@@ -522,9 +529,7 @@ impl MillRun {
         self.finish(&policy.name(), progress)
     }
 
-    /// Finishes the run: the shop preset's rest roughing is machined
-    /// ([`MillOptions::rest_roughing`]), the rotary layout's program is written and
-    /// simulated now, then
+    /// Finishes the run: the rotary layout's program is written and simulated now, then
     /// the residual stock is meshed and scored (stage [`Stage::Scoring`]). `policy` names
     /// the policy in the result. Errors when a setup has no action yet.
     pub fn finish(mut self, policy: &str, progress: &mut dyn FnMut(Stage)) -> Result<Milled, MillError> {
@@ -535,7 +540,6 @@ impl MillRun {
                 self.setup_count()
             )));
         }
-        self.rest_rough(progress)?;
         let opts = &self.opts;
         if let (ProgramLayout::Rotary(axes), Some(placements)) = (opts.layout, &self.placements) {
             // Above this height (program +Z, rotary centre at the origin) the tool clears
@@ -694,6 +698,12 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
         return Err(MillError::InvalidOption(
             "a datum is for per-setup programs; the rotary layout's origin is its rotary centre".into(),
         ));
+    }
+    if !(opts.rest_continue_mm3.is_finite() && opts.rest_continue_mm3 >= 0.0) {
+        return Err(MillError::InvalidOption(format!(
+            "the rest-roughing volume must be finite and >= 0 mm^3, got {}",
+            opts.rest_continue_mm3
+        )));
     }
     if let Some(t) = opts.arc_tolerance
         && !(t.is_finite() && t > 0.0)

@@ -22,8 +22,8 @@ fn boss(finish: Option<FinishChoice>) -> Milled {
         metric_samples: 4000,
         finish,
         surface_spacing: 0.25,
-        // Each setup's own program, roughed and finished; no rest-roughing programs after
-        // them (those are not finished; `stock.rs` tests them).
+        // Each setup's own program, roughed and finished; no rest-roughing programs (with
+        // them the finishing moves into a setup's last rest program; `stock.rs` tests them).
         rest_roughing: 0,
         ..MillOptions::default()
     };

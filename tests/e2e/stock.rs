@@ -297,3 +297,125 @@ fn rest_roughing_cuts_the_slot_the_roughing_tool_is_too_wide_for() {
     let removed = (with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3) / slot;
     assert!(removed > 0.7, "the rest pass removed {removed:.2} of the slot's volume");
 }
+
+/// The slotted block milled in the shop preset with an 8 mm end mill, `rest` passes at most
+/// and `more` mm^3 for a further one ([`MillOptions::rest_continue_mm3`]), finished where
+/// `finish` says.
+fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -> Milled {
+    let opts = MillOptions {
+        preset: Preset::Shop,
+        resolution: 64,
+        orient_points: 2048,
+        metric_samples: 2000,
+        rest_roughing: rest,
+        rest_continue_mm3: more,
+        finish,
+        surface_spacing: 0.5,
+        ..MillOptions::default()
+    };
+    let mut run = MillRun::new(part, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+    let action = shape2gcode::Action {
+        tool_radius: 4.0,
+        layer_height: 2.0,
+        strategy: shape2gcode::StrategyKind::ZIGZAG,
+    };
+    while run.next_setup().is_some() {
+        run.machine(action, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+    }
+    run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// A shop's order (issue 35): each setup roughed, rest-roughed, then finished, before the
+/// next setup. Every rest program follows its own setup's program (or an earlier rest
+/// program of the same setup), the setup's finishing is in its last program only, and in
+/// that program the rest tool cuts before the finishing tool is changed in.
+#[test]
+fn each_setup_is_rest_roughed_before_it_is_finished_and_before_the_next_setup() {
+    let choice = FinishChoice { scallop: 0.05, ..FinishChoice::default() };
+    let m = rest_run(&slotted_block(), 2, 0.0, Some(choice));
+    assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    // The programs grouped by setup, in machining order.
+    let mut groups: Vec<Vec<&shape2gcode::SetupProgram>> = Vec::new();
+    for s in &m.setups {
+        match s.rest_of {
+            None => groups.push(vec![s]),
+            Some(k) => {
+                assert_eq!(k, groups.len(), "a rest program of setup {k} after setup {}'s", groups.len());
+                groups.last_mut().expect("a rest program after its setup's").push(s);
+            }
+        }
+    }
+    assert_eq!(groups.len(), m.orientation.setups.len());
+    assert!(groups.iter().any(|g| g.len() > 1), "no setup was rest-roughed");
+    for (k, g) in groups.iter().enumerate() {
+        let last = g.len() - 1;
+        for (n, s) in g.iter().enumerate() {
+            assert_eq!(
+                s.finish.is_some(),
+                n == last,
+                "setup {}, program {n} of {}: finishing",
+                k + 1,
+                g.len()
+            );
+        }
+        if last > 0 {
+            let (rest, fin) = (g[last], g[last].finish.as_ref().expect("finished"));
+            let change = |t: u32| {
+                rest.text.find(&format!("T{t} M6")).unwrap_or_else(|| panic!("no T{t} M6 in setup {}", k + 1))
+            };
+            assert!(
+                change(rest.tool.number) < change(fin.tool.number),
+                "setup {}: the finishing tool T{} comes before the rest tool T{}",
+                k + 1,
+                fin.tool.number,
+                rest.tool.number
+            );
+            assert!(rest.tool.diameter() < g[0].tool.diameter());
+        }
+    }
+}
+
+/// A 40 x 20 x 12 mm block with a slot 2.6 mm wide and 3 mm deep along its top: narrower
+/// than the 3 mm end mill, the second rest tool after an 8 mm roughing one (8, 5, 3, 2).
+fn narrow_slot_block() -> Mesh {
+    extruded(
+        &[[0., 0.], [40., 0.], [40., 12.], [21.3, 12.], [21.3, 9.], [18.7, 9.], [18.7, 12.], [0., 12.]],
+        20.0,
+    )
+}
+
+/// The rest chain goes down the library while material it may reach is left (issue 35): a
+/// slot narrower than the second rest tool stays full with two passes, is cut by the third
+/// tool where a third pass may follow, and with a volume no leftover reaches, no setup
+/// gets a second rest pass.
+#[test]
+fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
+    let part = narrow_slot_block();
+    let slot = 2.6 * 3.0 * 20.0;
+    let two = rest_run(&part, 2, 0.0, None);
+    let three = rest_run(&part, 3, 20.0, None);
+    let capped = rest_run(&part, 3, 1e9, None);
+    for m in [&two, &three, &capped] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    }
+    let tools = |m: &Milled| m.setups.iter().map(|s| (s.rest_of, s.tool.diameter())).collect::<Vec<_>>();
+    assert!(
+        three.setups.iter().any(|s| s.tool.diameter() < 2.6),
+        "no tool fits the slot: {:?}",
+        tools(&three)
+    );
+    assert!(two.setups.iter().all(|s| s.tool.diameter() >= 3.0), "{:?}", tools(&two));
+    let removed = (three.simulation.removed_volume_mm3 - two.simulation.removed_volume_mm3) / slot;
+    assert!(
+        removed > 0.6,
+        "the third rest pass removed {removed:.2} of the slot's volume: {:?}",
+        tools(&three)
+    );
+    assert!(three.metrics.iou > two.metrics.iou, "IoU {} -> {}", two.metrics.iou, three.metrics.iou);
+    // At most one rest program per setup where no further pass may reach enough.
+    for k in 1..=capped.orientation.setups.len() {
+        let n = capped.setups.iter().filter(|s| s.rest_of == Some(k)).count();
+        assert!(n <= 1, "setup {k}: {n} rest programs: {:?}", tools(&capped));
+    }
+    assert!(capped.setups.len() < three.setups.len(), "{:?} / {:?}", tools(&capped), tools(&three));
+}

@@ -90,13 +90,19 @@ pub struct Args {
     /// along the longest side, with a note on stderr when a bound coarsens it.
     #[arg(long, conflicts_with = "res")]
     voxel: Option<f64>,
-    /// Shop preset: rest-roughing passes per setup after all setups, each with a flat end
-    /// mill of the library at most 0.7 times as wide as the one before (the one whose
-    /// flutes reach deepest; as deep as they are long), over the material the earlier
-    /// programs left; each pass of each setup is a program of its own. 0: one roughing
-    /// tool per setup.
-    #[arg(long, default_value_t = 2)]
+    /// Shop preset: the most rest-roughing passes per setup, right after its roughing and
+    /// before its finishing, each with a flat end mill of the library at most 0.7 times as
+    /// wide as the one before (the one whose flutes reach deepest), over the material the
+    /// earlier programs left; each pass is a program of its own, the setup's finishing in
+    /// the last. A pass after the first runs only where at least --rest-continue mm^3 of
+    /// the material left lies within its reach. 0: one roughing tool per setup.
+    #[arg(long, default_value_t = 3)]
     rest_roughing: usize,
+    /// Shop preset: the volume (mm^3) of material left within a smaller tool's reach (seen
+    /// along the setup's axis, farther from the part than the finishing allowance) for a
+    /// further rest pass.
+    #[arg(long, default_value_t = 100.0)]
+    rest_continue: f64,
     /// With --voxel: the most voxels the simulation grid may hold (over the part's box with
     /// the stock margin); the voxel grows until the grid fits.
     #[arg(long, default_value_t = 1 << 28)]
@@ -516,6 +522,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         finish_allowance: parse_allowance(&args.allowance)?,
         surface_spacing: args.surface_spacing,
         rest_roughing: args.rest_roughing,
+        rest_continue_mm3: args.rest_continue,
         ..MillOptions::default()
     })
 }
@@ -725,17 +732,31 @@ fn write_report(args: &Args, milled: &Milled, mesh_path: &Path, paths: &[PathBuf
 fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: ProgramLayout) {
     let m = &milled.metrics;
     let s = &milled.simulation;
-    println!("{}: {} setup(s), policy {}", mesh_path.display(), milled.setups.len(), milled.policy);
+    let own = milled.setups.iter().filter(|s| s.rest_of.is_none()).count();
+    println!(
+        "{}: {own} setup(s) in {} program(s), policy {}",
+        mesh_path.display(),
+        milled.setups.len(),
+        milled.policy
+    );
+    let mut own = 0;
     for (i, sp) in milled.setups.iter().enumerate() {
         let a = sp.setup.tool_axis();
+        // A setup's rest-roughing programs follow its own, under its number.
+        let label = match sp.rest_of {
+            Some(k) => format!("setup {k}, rest roughing"),
+            None => {
+                own += 1;
+                format!("setup {own}")
+            }
+        };
         let rotary = match (sp.rotary_deg, layout) {
             (Some([a, _, c]), ProgramLayout::Rotary(RotaryAxes::AC)) => format!(" at A{a} C{c}"),
             (Some([_, b, c]), ProgramLayout::Rotary(RotaryAxes::BC)) => format!(" at B{b} C{c}"),
             _ => String::new(),
         };
         println!(
-            "  setup {}: tool axis ({:+.3} {:+.3} {:+.3}){rotary}, radius {}, layer {:.6}, {}, {} layers -> {}",
-            i + 1,
+            "  {label}: tool axis ({:+.3} {:+.3} {:+.3}){rotary}, radius {}, layer {:.6}, {}, {} layers -> {}",
             a.x,
             a.y,
             a.z,
