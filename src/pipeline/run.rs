@@ -9,7 +9,7 @@ use super::api::{
     StageSeconds, Stock,
 };
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
-use super::per_setup::{Ctx, ProgramOutputs, machine_setup, sim_error};
+use super::per_setup::{Ctx, ProgramOutputs, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
@@ -493,21 +493,24 @@ impl MillRun {
         if self.placements.is_some() {
             return Ok(());
         }
-        let n = self.jobs.len() - 1;
-        let (mut trace, mut times) = (std::mem::take(&mut self.trace), self.times);
-        let result = machine_setup(
-            &self.ctx(),
-            n,
-            &self.remaining,
-            (i == 0 && self.keep_trace).then_some(&mut trace),
-            &mut times,
-            progress,
-        );
-        (self.trace, self.times) = (trace, times);
-        let (program, remaining) = result?;
-        self.setups.push(program);
-        self.remaining = remaining;
-        rest.map_or(Ok(()), |first| self.rest_rough(i, first, finish, progress))
+        let before =
+            (rest.is_some() && finish.is_some()).then(|| (self.sim.borrow().clone(), self.remaining.clone()));
+        self.machine_own(i, progress)?;
+        let (Some(own), mut tried) = (self.jobs.last().map(|j| j.tool), 0) else { return Ok(()) };
+        let first = self.worth_a_pass(i, &own, rest, &mut tried, finish.as_ref().map(|f| &f.tool))?;
+        if let Some(first) = first {
+            return self.rest_rough(i, first, tried, finish, progress);
+        }
+        // Nothing a rest pass is for: wound back, the setup's own program finishes it.
+        if let (Some(f), Some((sim, remaining))) = (finish, before) {
+            (*self.sim.get_mut(), self.remaining) = (sim, remaining);
+            self.setups.pop();
+            if let Some(job) = self.jobs.last_mut() {
+                job.finish = Some(f);
+            }
+            self.machine_own(i, progress)?;
+        }
+        Ok(())
     }
 
     /// Machines every setup still without an action with `policy`'s choice, then
@@ -699,10 +702,10 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
             "a datum is for per-setup programs; the rotary layout's origin is its rotary centre".into(),
         ));
     }
-    if !(opts.rest_continue_mm3.is_finite() && opts.rest_continue_mm3 >= 0.0) {
+    if !(opts.rest_continue.is_finite() && opts.rest_continue >= 0.0) {
         return Err(MillError::InvalidOption(format!(
-            "the rest-roughing volume must be finite and >= 0 mm^3, got {}",
-            opts.rest_continue_mm3
+            "the rest-roughing fraction of the part's volume must be finite and >= 0, got {}",
+            opts.rest_continue
         )));
     }
     if let Some(t) = opts.arc_tolerance

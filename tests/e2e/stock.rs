@@ -299,7 +299,7 @@ fn rest_roughing_cuts_the_slot_the_roughing_tool_is_too_wide_for() {
 }
 
 /// The slotted block milled in the shop preset with an 8 mm end mill, `rest` passes at most
-/// and `more` mm^3 for a further one ([`MillOptions::rest_continue_mm3`]), finished where
+/// and `more` of the part's volume for a pass ([`MillOptions::rest_continue`]), finished where
 /// `finish` says.
 fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -> Milled {
     let opts = MillOptions {
@@ -308,7 +308,7 @@ fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -
         orient_points: 2048,
         metric_samples: 2000,
         rest_roughing: rest,
-        rest_continue_mm3: more,
+        rest_continue: more,
         finish,
         surface_spacing: 0.5,
         ..MillOptions::default()
@@ -387,13 +387,13 @@ fn narrow_slot_block() -> Mesh {
 /// The rest chain goes down the library while material it may reach is left (issue 35): a
 /// slot narrower than the second rest tool stays full with two passes, is cut by the third
 /// tool where a third pass may follow, and with a volume no leftover reaches, no setup
-/// gets a second rest pass.
+/// gets a rest pass.
 #[test]
 fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
     let part = narrow_slot_block();
     let slot = 2.6 * 3.0 * 20.0;
     let two = rest_run(&part, 2, 0.0, None);
-    let three = rest_run(&part, 3, 20.0, None);
+    let three = rest_run(&part, 3, 0.002, None);
     let capped = rest_run(&part, 3, 1e9, None);
     for m in [&two, &three, &capped] {
         assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
@@ -412,10 +412,45 @@ fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
         tools(&three)
     );
     assert!(three.metrics.iou > two.metrics.iou, "IoU {} -> {}", two.metrics.iou, three.metrics.iou);
-    // At most one rest program per setup where no further pass may reach enough.
+    // No rest program where no pass may reach enough.
     for k in 1..=capped.orientation.setups.len() {
         let n = capped.setups.iter().filter(|s| s.rest_of == Some(k)).count();
         assert!(n <= 1, "setup {k}: {n} rest programs: {:?}", tools(&capped));
     }
     assert!(capped.setups.len() < three.setups.len(), "{:?} / {:?}", tools(&capped), tools(&three));
+}
+
+/// A rest pass runs only for material it is for (issue 35): over a block whose 12 mm slot
+/// the 8 mm roughing tool clears, what is left is the roughing's terraces and the slot's
+/// corners the finisher reaches, so with the default least volume no setup is
+/// rest-roughed and each is finished in its own program; with none asked for, every setup
+/// gets its rest pass, and the finished part is the same to within the terraces the rest
+/// pass leaves as they are.
+#[test]
+fn no_rest_pass_where_the_finisher_takes_what_is_left() {
+    let wide = extruded(
+        &[[0., 0.], [40., 0.], [40., 20.], [26., 20.], [26., 12.], [14., 12.], [14., 20.], [0., 20.]],
+        10.0,
+    );
+    let choice = FinishChoice { scallop: 0.05, ..FinishChoice::default() };
+    let default = rest_run(&wide, 3, MillOptions::default().rest_continue, Some(choice));
+    let every = rest_run(&wide, 3, 0.0, Some(choice));
+    for m in [&default, &every] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    }
+    assert!(default.setups.iter().all(|s| s.rest_of.is_none() && s.finish.is_some()));
+    assert!(every.setups.iter().any(|s| s.rest_of.is_some()), "no rest pass with none asked for");
+    assert!(
+        (default.metrics.iou - every.metrics.iou).abs() < 0.01,
+        "IoU {} without rest passes, {} with",
+        default.metrics.iou,
+        every.metrics.iou
+    );
+    let time = |m: &Milled| m.setups.iter().filter_map(|s| s.machine_time_s).sum::<f64>();
+    assert!(
+        time(&default) < time(&every),
+        "{} s without rest passes, {} s with",
+        time(&default),
+        time(&every)
+    );
 }

@@ -98,10 +98,10 @@ pub struct Args {
     /// the material left lies within its reach. 0: one roughing tool per setup.
     #[arg(long, default_value_t = 3)]
     rest_roughing: usize,
-    /// Shop preset: the volume (mm^3) of material left within a smaller tool's reach (seen
-    /// along the setup's axis, farther from the part than the finishing allowance) for a
-    /// further rest pass.
-    #[arg(long, default_value_t = 100.0)]
+    /// Shop preset: the least material left that a rest pass is for, as a fraction of the
+    /// part's volume: what its tool can take, thicker than a roughing layer, out of the
+    /// finishing tool's reach (MillOptions::rest_continue).
+    #[arg(long, default_value_t = 0.001)]
     rest_continue: f64,
     /// With --voxel: the most voxels the simulation grid may hold (over the part's box with
     /// the stock margin); the voxel grows until the grid fits.
@@ -522,7 +522,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         finish_allowance: parse_allowance(&args.allowance)?,
         surface_spacing: args.surface_spacing,
         rest_roughing: args.rest_roughing,
-        rest_continue_mm3: args.rest_continue,
+        rest_continue: args.rest_continue,
         ..MillOptions::default()
     })
 }
