@@ -245,26 +245,7 @@ fn slotted_block() -> Mesh {
 fn rest_roughing_cuts_the_slot_the_roughing_tool_is_too_wide_for() {
     let part = slotted_block();
     let slot = 4.5 * 8.0 * 10.0;
-    let run = |rest: usize| {
-        let opts = MillOptions {
-            preset: Preset::Shop,
-            resolution: 64,
-            orient_points: 2048,
-            metric_samples: 2000,
-            rest_roughing: rest,
-            ..MillOptions::default()
-        };
-        let mut run = MillRun::new(&part, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
-        let action = shape2gcode::Action {
-            tool_radius: 4.0,
-            layer_height: 2.0,
-            strategy: shape2gcode::StrategyKind::ZIGZAG,
-        };
-        while run.next_setup().is_some() {
-            run.machine(action, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
-        }
-        run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
-    };
+    let run = |rest: usize| rest_run(&part, rest, MillOptions::default().rest_continue, None);
     let (without, with) = (run(0), run(2));
     for m in [&without, &with] {
         assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());

@@ -188,6 +188,25 @@ impl HeightField {
         self.reference = true;
     }
 
+    /// What a move from `a` to `b` (`feed`: a feed, which marks the columns it passes over)
+    /// sweeps over: its segment, the tool's lower primitives, the mark width, and the
+    /// columns within the primitives' (or the marks') reach of it; `None` when none is.
+    fn reach(&self, a: Point3, b: Point3, feed: bool) -> Option<Reach> {
+        let seg = Seg::new(a, b, Vector3::z());
+        let (lower, n) = lower_prims(&self.prims);
+        let width = self.pass_width.filter(|_| feed);
+        let reach = lower[..n].iter().map(|p| p.bound().2).fold(width.unwrap_or(0.0), f64::max);
+        let (s, min) = (self.spacing, self.min);
+        let range = |lo: f64, hi: f64, m: f64, n: usize| {
+            let i0 = ((lo - reach - m) / s).ceil().max(0.0);
+            let i1 = ((hi + reach - m) / s).floor().min(n as f64 - 1.0);
+            (i0 <= i1).then_some((i0 as usize, i1 as usize))
+        };
+        let (i0, i1) = range(a.x.min(b.x), a.x.max(b.x), min[0], self.nx)?;
+        let (j0, j1) = range(a.y.min(b.y), a.y.max(b.y), min[1], self.ny)?;
+        Some(Reach { seg, lower, n, width, cols: [i0, i1, j0, j1] })
+    }
+
     /// Lowers the columns the cutter swept from `a` to `b` (part frame, axis +Z) reaches,
     /// and marks those a feed's tip path passes near ([`HeightField::passed`]): the
     /// columns of [`HeightField::sweep_reference`] in blocks of [`TILE`] x [`TILE`], a
@@ -200,22 +219,11 @@ impl HeightField {
         if self.reference {
             return self.sweep_reference(a, b, feed);
         }
-        let seg = Seg::new(a, b, Vector3::z());
-        let (lower, n) = lower_prims(&self.prims);
-        let prims = &lower[..n];
-        let width = self.pass_width.filter(|_| feed);
-        let reach = prims.iter().map(|p| p.bound().2).fold(width.unwrap_or(0.0), f64::max);
-        let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
-        let range = |lo: f64, hi: f64, m: f64, n: usize| {
-            let i0 = ((lo - reach - m) / s).ceil().max(0.0);
-            let i1 = ((hi + reach - m) / s).floor().min(n as f64 - 1.0);
-            (i0 <= i1).then_some((i0 as usize, i1 as usize))
-        };
-        let (Some((i0, i1)), Some((j0, j1))) =
-            (range(a.x.min(b.x), a.x.max(b.x), min[0], nx), range(a.y.min(b.y), a.y.max(b.y), min[1], ny))
-        else {
+        let Some(Reach { seg, lower, n, width, cols: [i0, i1, j0, j1] }) = self.reach(a, b, feed) else {
             return;
         };
+        let prims = &lower[..n];
+        let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
         let w = width.unwrap_or(-1.0);
         let (radius, rc) = self.profile;
         let floor = move |rho: f64| {
@@ -317,22 +325,11 @@ impl HeightField {
     /// The sweep of every column in the move's box, one row at a time: the baseline of
     /// [`HeightField::sweep`].
     fn sweep_reference(&mut self, a: Point3, b: Point3, feed: bool) {
-        let seg = Seg::new(a, b, Vector3::z());
-        let (lower, n) = lower_prims(&self.prims);
-        let prims = &lower[..n];
-        let width = self.pass_width.filter(|_| feed);
-        let reach = prims.iter().map(|p| p.bound().2).fold(width.unwrap_or(0.0), f64::max);
-        let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
-        let range = |lo: f64, hi: f64, m: f64, n: usize| {
-            let i0 = ((lo - reach - m) / s).ceil().max(0.0);
-            let i1 = ((hi + reach - m) / s).floor().min(n as f64 - 1.0);
-            (i0 <= i1).then_some((i0 as usize, i1 as usize))
-        };
-        let (Some((i0, i1)), Some((j0, j1))) =
-            (range(a.x.min(b.x), a.x.max(b.x), min[0], nx), range(a.y.min(b.y), a.y.max(b.y), min[1], ny))
-        else {
+        let Some(Reach { seg, lower, n, width, cols: [i0, i1, j0, j1] }) = self.reach(a, b, feed) else {
             return;
         };
+        let prims = &lower[..n];
+        let (s, nx, min) = (self.spacing, self.nx, self.min);
         let rows = &mut self.top[j0 * nx..(j1 + 1) * nx];
         let mut no_marks = [];
         let marks: &mut [f64] = match width {
@@ -436,6 +433,18 @@ fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -
     };
     let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
     corners.into_iter().map(to_seg).chain([to_rect(p), to_rect(q)]).fold(f64::INFINITY, f64::min)
+}
+
+/// What a move sweeps over ([`HeightField::reach`]).
+struct Reach {
+    seg: Seg,
+    /// The tool's lower primitives, `lower[..n]`.
+    lower: [Prim; Solids::CAPACITY],
+    n: usize,
+    /// The width of the marks a feed leaves.
+    width: Option<f64>,
+    /// The columns `[i0, i1]` by `[j0, j1]`.
+    cols: [usize; 4],
 }
 
 /// The cutting primitives that can be lowest in a column: a cylinder of the flutes above a
