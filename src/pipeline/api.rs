@@ -248,8 +248,8 @@ pub struct MillOptions {
     /// finishing allowance, standing more than the roughing layer above the part below it
     /// along the setup's axis, seen along that axis, and where the setup is finished,
     /// out of the finishing tool's reach. Default 0.001 (0.1 %: the IoU's third decimal;
-    /// on the bunny at 100 mm no setup has that much, 51 mm³ at most of 200 cm³, and the
-    /// four setups' rest passes would cost 40 minutes for no IoU); 0 runs every pass
+    /// on the bunny at 100 mm no setup has that much, 51 mm³ at most of 200 cm³, and its
+    /// rest passes would cost an hour of machining for no IoU); 0 runs every pass
     /// [`rest_roughing`](Self::rest_roughing) allows.
     pub rest_continue: f64,
 }
