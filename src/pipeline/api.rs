@@ -244,10 +244,9 @@ pub struct MillOptions {
     /// Rest roughing ([`rest_roughing`](Self::rest_roughing)): a rest pass runs, and cuts
     /// deeper than its flutes, only where the material left that it is for is at least
     /// this fraction of the part's volume: material the pass's tool can take (lowered
-    /// over the part from a place whose cutter covers it), farther from the part than the
-    /// finishing allowance, standing more than the roughing layer above the part below it
-    /// along the setup's axis, seen along that axis, and where the setup is finished,
-    /// out of the finishing tool's reach. Default 0.001 (0.1 %: the IoU's third decimal;
+    /// over the part from a place whose cutter covers it) and the wider tool before it
+    /// cannot, farther from the part than the finishing allowance, seen along the setup's
+    /// axis, and where the setup is finished, out of the finishing tool's reach. Default 0.001 (0.1 %: the IoU's third decimal;
     /// on the bunny at 100 mm no setup has that much, 51 mm³ at most of 200 cm³, and its
     /// rest passes would cost an hour of machining for no IoU); 0 runs every pass
     /// [`rest_roughing`](Self::rest_roughing) allows.

@@ -53,6 +53,17 @@ impl MillRun {
         self.setup_count() * (1 + rest)
     }
 
+    /// The index of the last setup's own job: rest passes follow their setup's own job at
+    /// once (`machine_finished`), so the setup they machine again is its.
+    fn own_job_index(&self) -> Option<usize> {
+        self.jobs.iter().rposition(|j| j.rest_of.is_none())
+    }
+
+    /// The last setup's own job ([`own_job_index`](Self::own_job_index)).
+    fn own_job(&self) -> Option<&Job> {
+        self.own_job_index().map(|i| &self.jobs[i])
+    }
+
     /// How many setups have their action (the jobs less the rest-roughing ones).
     pub(super) fn chosen(&self) -> usize {
         self.jobs.iter().filter(|j| j.rest_of.is_none()).count()
@@ -111,7 +122,7 @@ impl MillRun {
     /// setup last roughed is for: [`rest_left`](Self::rest_left) from the stock's top down
     /// to the tool's reach ([`rest_reach`](Self::rest_reach)), with the setup's `finisher`.
     pub(super) fn reachable_left(&self, tool: &Tool, wider: &Tool, finisher: Option<&Tool>) -> f64 {
-        let Some(own) = self.jobs.iter().rev().find(|j| j.rest_of.is_none()) else { return 0.0 };
+        let Some(own) = self.own_job() else { return 0.0 };
         let top = stock_in_setup(&self.stock, &own.setup).max.z;
         self.rest_left([tool, wider], [top - self.rest_reach(&own.setup, tool), f64::INFINITY], finisher)
     }
@@ -132,8 +143,7 @@ impl MillRun {
     /// 10,167 s). Whether the rest tool gets
     /// there is the planner's to find: this bounds what the pass can remove.
     fn rest_left(&self, [tool, wider]: [&Tool; 2], [lo, hi]: [f64; 2], finisher: Option<&Tool>) -> f64 {
-        // Rest passes follow their setup's own job (`machine_finished`): the last one.
-        let Some(own) = self.jobs.iter().rev().find(|j| j.rest_of.is_none()) else { return 0.0 };
+        let Some(own) = self.own_job() else { return 0.0 };
         let setup = own.setup;
         let spec = *self.remaining.spec();
         let h = spec.voxel.min();
@@ -280,7 +290,7 @@ impl MillRun {
         finisher: Option<Tool>,
         progress: &mut dyn FnMut(Stage),
     ) -> Result<SetupProgram, MillError> {
-        let own = self.jobs.iter().rposition(|j| j.rest_of.is_none()).unwrap_or(0);
+        let own = self.own_job_index().unwrap_or(0);
         let (setup, note, action) = {
             let j = &self.jobs[own];
             (j.setup, j.note.clone(), j.action)
