@@ -90,17 +90,17 @@ pub struct Args {
     /// along the longest side, with a note on stderr when a bound coarsens it.
     #[arg(long, conflicts_with = "res")]
     voxel: Option<f64>,
-    /// Shop preset: the most rest-roughing passes per setup, right after its roughing and
-    /// before its finishing, each with a flat end mill of the library at most 0.7 times as
-    /// wide as the one before (the one whose flutes reach deepest), over the material the
-    /// earlier programs left; each pass is a program of its own, the setup's finishing in
-    /// the last. A pass after the first runs only where at least --rest-continue mm^3 of
-    /// the material left lies within its reach. 0: one roughing tool per setup.
+    /// Shop preset: the most smaller tools considered for rest roughing per setup, right
+    /// after its roughing and before its finishing, each a flat end mill of the library at
+    /// most 0.7 times as wide as the one before (the one whose flutes reach deepest), over
+    /// the material the earlier programs left; each pass is a program of its own, the
+    /// setup's finishing in the last. A tool runs only where --rest-continue finds
+    /// material for it. 0: one roughing tool per setup.
     #[arg(long, default_value_t = 3)]
     rest_roughing: usize,
     /// Shop preset: the least material left that a rest pass is for, as a fraction of the
-    /// part's volume: what its tool can take, thicker than a roughing layer, out of the
-    /// finishing tool's reach (MillOptions::rest_continue).
+    /// part's volume: what its tool can take and the wider tool before it could not, out of
+    /// the finishing tool's reach (MillOptions::rest_continue).
     #[arg(long, default_value_t = 0.001)]
     rest_continue: f64,
     /// With --voxel: the most voxels the simulation grid may hold (over the part's box with
