@@ -1,5 +1,6 @@
 //! `s2g field print (MESH | --part arm|arch|bracket)
-//! --objective support-free|planar|aligned[:DIRECTIONS]|coopt[:DIRECTIONS] -o PROGRAM [--layers L.ply] [--paths P.ply] [--json]`: multi-axis printing end to end
+//! --objective support-free|planar|aligned[:DIRECTIONS]|coopt[:DIRECTIONS] -o PROGRAM [--rotary ac|bc]
+//! [--mount table|head] [--layers L.ply] [--paths P.ply] [--json]`: multi-axis printing end to end
 //! (seed 002's layers and toolpaths, closed with seed 004's reconstruction). Progress and
 //! per-stage time go to stderr; the report to stdout.
 
@@ -12,6 +13,7 @@ use s2g_field::{
     AlignDirection, PrintMeshOptions, PrintObjective, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh,
     print_mesh,
 };
+use shape2gcode::gcode::{RotaryAxes, RotaryMount};
 use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
 
 /// Arguments of `s2g field print`.
@@ -51,6 +53,15 @@ pub struct PrintArgs {
     /// Also write the toolpaths as thin tubes, e.g. `paths.ply`.
     #[arg(long)]
     paths: Option<PathBuf>,
+    /// The printer's rotary axes: `ac` (A about X, then C about Z) or `bc` (B about Y,
+    /// then C).
+    #[arg(long, value_parser = ["ac", "bc"], default_value = "ac")]
+    rotary: String,
+    /// What the rotary axes turn: `table` (a tilting and rotating platform under a
+    /// vertical nozzle) or `head` (a tilting head with tool-centre-point control over a
+    /// still platform: X, Y, Z are the tip in the part frame).
+    #[arg(long, value_parser = ["table", "head"], default_value = "table")]
+    mount: String,
     /// Print JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -128,6 +139,8 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
     options.tgc.seed = args.seed;
     options.tgc.layer_network.seed = args.seed;
     options.tgc.path_network.seed = args.seed.wrapping_add(1);
+    options.program.rotary = if args.rotary == "bc" { RotaryAxes::BC } else { RotaryAxes::AC };
+    options.program.mount = if args.mount == "head" { RotaryMount::Head } else { RotaryMount::Table };
     options.paths.layer_height = args.layer_height;
     options.paths.bead_width = args.bead_width;
     let json = args.json;
@@ -153,6 +166,8 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
             "mesh": name,
             "output": args.output.display().to_string(),
             "objective": args.objective,
+            "rotary": args.rotary,
+            "mount": args.mount,
             "layers": p.layers,
             "paths": p.paths,
             "blocks": p.blocks,

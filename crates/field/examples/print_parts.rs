@@ -1,12 +1,13 @@
 //! Multi-axis printing end to end on the parts that need curved layers (issue 39): for
 //! each part, support-free layers (Eq. 37) are optimised, the layers and their toolpaths
-//! extracted, the A/C program written and checked for collisions along its interpolated
+//! extracted, the A/C program (a turning platform's, or with `--mount head` a tilting
+//! head's) written and checked for collisions along its interpolated
 //! path, read back with the parser, rebuilt with tilted beads and scored; planar slicing
 //! of the same part beside it. Prints a Markdown table and one JSON line per part.
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,arch,bracket,bunny
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --mount table|head]
 //! ```
 //!
 //! The parts, standing on `z = 0`: the bent arm of `support_free` (radius 6, column 12,
@@ -63,6 +64,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--first-factor" => options.optimisation.constants.first_layers_factor = value.parse()?,
             "--lean" => options.optimisation.pretrain_lean_deg = value.parse()?,
             "--first-layers" => options.optimisation.constants.first_layers = value.parse()?,
+            "--mount" => {
+                options.program.mount = match value.as_str() {
+                    "table" => s2g_gcode::RotaryMount::Table,
+                    "head" => s2g_gcode::RotaryMount::Head,
+                    _ => return Err(format!("--mount {value}: table or head").into()),
+                }
+            }
             _ => return Err(format!("unknown flag {flag}").into()),
         }
     }
@@ -79,7 +87,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Where the overhang lies: the share of the failing bead samples within 2 mm of
         // the platform.
         let (o, w) = (&options.program, options.paths.bead_width);
-        let beads = read_beads(&run.program.text, o.rotary, w, o.filament_diameter)?;
+        let beads = read_beads(&run.program.text, o.rotary, o.mount, w, o.filament_diameter)?;
         let (_, misses) = overhang_misses(&beads, w, options.optimisation.constants.max_overhang_deg, 0.0);
         let low = misses.iter().filter(|q| q.z < 2.0).count();
         println!(

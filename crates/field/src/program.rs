@@ -442,7 +442,9 @@ impl Emitter {
 
 /// Joins each `G0 A.. C..` (or `G0 B.. C..`) block the writer emits for a setup with the
 /// motion block that follows it, so both happen in one simultaneous block. A following
-/// block without a motion word inherits the setup block's `G0`.
+/// block without a motion word inherits the setup block's `G0`. A rotary block followed by
+/// another stays alone (a tilting head turning about a tip that does not move: the writer
+/// leaves out the move that goes nowhere).
 pub(crate) fn merge_rotary_blocks(text: &str, axes: RotaryAxes) -> String {
     let prefix = match axes {
         RotaryAxes::AC => "G0 A",
@@ -454,7 +456,7 @@ pub(crate) fn merge_rotary_blocks(text: &str, axes: RotaryAxes) -> String {
         let is_move =
             |l: &str| l.starts_with("G0 ") || l.starts_with("G1 ") || l.starts_with(['X', 'Y', 'Z']);
         match lines.peek() {
-            Some(next) if line.starts_with(prefix) && is_move(next) => {
+            Some(next) if line.starts_with(prefix) && is_move(next) && !next.starts_with(prefix) => {
                 let rotary = &line[3..];
                 let next = lines.next().unwrap_or_default();
                 let mut merged = if next.starts_with('G') { next.to_string() } else { format!("G0 {next}") };

@@ -83,7 +83,9 @@ fn planar_arm_prints_rebuilds_and_repeats() {
     assert!(plan.layers.len() >= 40, "{} layers", plan.layers.len());
     let program = print_program(&plan, bbox.min.z, &PrintProgramOptions::default()).unwrap();
     assert_eq!(program.collisions, 0, "{} of {} poses collide", program.collisions, program.poses_checked);
-    let beads = read_beads(&program.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+    let beads =
+        read_beads(&program.text, s2g_gcode::RotaryAxes::AC, s2g_gcode::RotaryMount::Table, 1.0, 1.75)
+            .unwrap();
     let length: f64 = beads.iter().map(|b| (b.end - b.start).norm()).sum();
     assert!(
         (length - program.extruded_length).abs() < 1e-3 * length,
@@ -145,8 +147,90 @@ fn unclear_points_are_left_out_not_printed_through() {
         skipping.collisions
     );
     assert_eq!(through.unprintable_length, 0.0);
-    let beads = read_beads(&skipping.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+    let beads =
+        read_beads(&skipping.text, s2g_gcode::RotaryAxes::AC, s2g_gcode::RotaryMount::Table, 1.0, 1.75)
+            .unwrap();
     assert!(beads.iter().all(|b| b.start.z >= -1e-9 && b.end.z >= -1e-9));
+}
+
+/// The same curved layers (a bowl, `G = z + x²/60`, layers up to 34° off flat) printed by
+/// a tilting head instead of a turning platform: the head's program puts the tip in the
+/// part frame (its X and Z words stay within the part's box plus the travel hop), no pose collides along its own interpolation (the tip straight
+/// in the part frame, the nozzle turning about it), and read back as a head's program it
+/// deposits the platform's beads: the same tips and axes, within the written decimals.
+#[test]
+fn a_tilting_head_prints_the_platform_s_beads() {
+    use s2g_gcode::{RotaryAxes, RotaryMount};
+    struct Bowl;
+    impl LayerField for Bowl {
+        fn value_gradient(&self, p: &Point3) -> (f64, Vector3) {
+            (p.z + p.x * p.x / 60.0, Vector3::new(p.x / 30.0, 0.0, 1.0))
+        }
+    }
+    let mesh = Mesh::cuboid(&Aabb::new(Point3::new(-20.0, 0.0, 0.0), Point3::new(20.0, 8.0, 8.0))).unwrap();
+    let part = MeshSdf::new(&mesh).unwrap();
+    let bbox = mesh.bbox().unwrap();
+    let plan = extract_print(&Bowl, &part, &bbox, None, &PrintPathOptions::default()).unwrap();
+    let print = |rotary, mount| {
+        let o = PrintProgramOptions { rotary, mount, ..PrintProgramOptions::default() };
+        let p = print_program(&plan, 0.0, &o).unwrap();
+        let beads = read_beads(&p.text, rotary, mount, 1.0, 1.75).unwrap();
+        (p, beads)
+    };
+    for rotary in [RotaryAxes::AC, RotaryAxes::BC] {
+        let (table, table_beads) = print(rotary, RotaryMount::Table);
+        let (head, head_beads) = print(rotary, RotaryMount::Head);
+        for (name, p) in [("table", &table), ("head", &head)] {
+            assert_eq!(p.collisions, 0, "{name} {rotary:?}: {} of {} poses", p.collisions, p.poses_checked);
+            assert_eq!(p.unprintable_length, 0.0, "{name} {rotary:?}");
+        }
+        assert!(head.text != table.text);
+        assert!(head_beads.iter().any(|b| b.axis.z < 0.9), "no bead tilts");
+        // The same bead length and filament (a move whose tip rounds to the same point as
+        // the last is a turn in place on the head, a short bead on the platform) ...
+        let sums = |beads: &[s2g_field::Bead]| {
+            beads.iter().fold((0.0, 0.0), |(l, f), b| {
+                let len = (b.end - b.start).norm();
+                (l + len, f + len * b.thickness)
+            })
+        };
+        let ((lh, fh), (lt, ft)) = (sums(&head_beads), sums(&table_beads));
+        assert!(
+            (lh - lt).abs() < 1e-3 * lt && (fh - ft).abs() < 1e-3 * ft,
+            "{rotary:?}: {lh} {fh} against {lt} {ft}"
+        );
+        // ... and the same print: each head bead lies on a platform bead with its axis.
+        let on_table = |h: &s2g_field::Bead| {
+            table_beads.iter().any(|t| {
+                let d = t.end - t.start;
+                let along =
+                    |p: &Point3| ((p - t.start).dot(&d) / d.norm_squared().max(1e-18)).clamp(0.0, 1.0);
+                let off = |p: &Point3| (p - (t.start + d * along(p))).norm();
+                off(&h.start) < 0.01 && off(&h.end) < 0.01 && (h.axis - t.axis).norm() < 0.05
+            })
+        };
+        let lost = head_beads.iter().filter(|h| !on_table(h)).count();
+        assert_eq!(lost, 0, "{rotary:?}: {lost} of {} head beads on no platform bead", head_beads.len());
+        let score = |beads: &[s2g_field::Bead]| {
+            s2g_field::score_print(beads, &mesh, &s2g_field::ScoreOptions::default()).unwrap()
+        };
+        let (sh, st) = (score(&head_beads), score(&table_beads));
+        assert!(
+            (sh.iou - st.iou).abs() < 0.005 && sh.iou > 0.85,
+            "{rotary:?}: IoU {} against {}",
+            sh.iou,
+            st.iou
+        );
+        // The words: the head's X and Z within the part's box and the 60 mm hop.
+        let words = |text: &str, letter: char| -> Vec<f64> {
+            text.lines()
+                .filter(|l| l.starts_with("G0") || l.starts_with("G1"))
+                .flat_map(|l| l.split_whitespace().filter_map(|w| w.strip_prefix(letter)?.parse().ok()))
+                .collect()
+        };
+        let within = |v: &[f64], lo: f64, hi: f64| v.iter().all(|x| (lo - 61.0..=hi + 61.0).contains(x));
+        assert!(within(&words(&head.text, 'X'), -20.0, 20.0) && within(&words(&head.text, 'Z'), 0.0, 8.0));
+    }
 }
 
 /// Planar slicing of the arch and the bracket, whose layers have sharp corners, thin
@@ -169,7 +253,9 @@ fn planar_arch_and_bracket_are_spaced_and_filled() {
         assert!(spacing.median_ratio > 0.95 && spacing.median_ratio < 1.05, "{name}: {spacing:?}");
         let program = print_program(&plan, bbox.min.z, &PrintProgramOptions::default()).unwrap();
         assert_eq!(program.collisions, 0, "{name}");
-        let beads = read_beads(&program.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+        let beads =
+            read_beads(&program.text, s2g_gcode::RotaryAxes::AC, s2g_gcode::RotaryMount::Table, 1.0, 1.75)
+                .unwrap();
         let score = s2g_field::score_print(&beads, &mesh, &s2g_field::ScoreOptions::default()).unwrap();
         assert!(score.iou > 0.9, "{name}: IoU {}", score.iou);
     }
@@ -218,7 +304,8 @@ fn aligned_arm_prints_end_to_end() {
     let run = print_mesh(&arm(), &o, &mut |_| {}).unwrap();
     let p = &run.program;
     assert_eq!(p.collisions, 0);
-    let beads = read_beads(&p.text, s2g_gcode::RotaryAxes::AC, 1.0, 1.75).unwrap();
+    let beads =
+        read_beads(&p.text, s2g_gcode::RotaryAxes::AC, s2g_gcode::RotaryMount::Table, 1.0, 1.75).unwrap();
     assert!(beads.iter().any(|b| b.axis.z < 0.95), "no bead tilts");
     assert!(run.score.iou > 0.8, "IoU {}, {} mm unprintable", run.score.iou, p.unprintable_length);
 }

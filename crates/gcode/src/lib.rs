@@ -52,7 +52,9 @@ pub use crate::motion::{
 #[doc(hidden)]
 pub use crate::parser::parse_str_two_stage;
 pub use crate::parser::{ParseDialect, ParseOptions, ParseSummary, parse_file, parse_reader, parse_str};
-pub use crate::rotary::{RotaryAxes, rotary_angles, rotary_frame, rotary_twist};
+pub use crate::rotary::{
+    RotaryAxes, RotaryMount, axis_angles, rotary_angles, rotary_axis, rotary_frame, rotary_twist,
+};
 pub use crate::sink::{Tee, Transformed};
 pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};
 pub use crate::stats::{Stats, StatsOptions};

@@ -332,6 +332,8 @@ impl MotionSink for MachineTime {
                 self.stop();
                 self.pos = None;
             }
+            // The head turns about the tip, which stays put: the turn is not timed.
+            Motion::ToolAxis { .. } => self.stop(),
             Motion::Cycle(cycle) => {
                 self.stop();
                 let mut moves = Vec::new();

@@ -2,7 +2,7 @@
 
 use std::borrow::Cow;
 
-use nalgebra::{Isometry3, Point3};
+use nalgebra::{Isometry3, Point3, Vector3};
 
 /// Active arc plane (G17 / G18 / G19).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -119,6 +119,18 @@ pub enum Motion<'a> {
         /// Program frame to part frame.
         frame: Isometry3<f64>,
         /// Rotary axis values (A, B, C in degrees) that realise `frame`, when known.
+        rotary: [Option<f64>; 3],
+    },
+    /// A tilting head under tool-centre-point control turns: from now on the tool axis in
+    /// the part frame is `axis` (unit), while program coordinates stay where they are (the
+    /// tip, in the frame of the last [`Motion::Setup`]). Emitted by the parser for
+    /// rotary-axis words under [`RotaryMount::Head`](crate::RotaryMount::Head) and by
+    /// planners for head machines; a sink that cannot follow a tilted tool (a 3-axis
+    /// simulator) returns an error for an axis off `+Z` rather than cut along the wrong one.
+    ToolAxis {
+        /// Tool axis (tip toward the spindle), unit, in the program frame.
+        axis: Vector3<f64>,
+        /// Rotary axis values (A, B, C in degrees) that realise `axis`, when known.
         rotary: [Option<f64>; 3],
     },
     /// M2 / M30: end of program.
@@ -295,6 +307,7 @@ impl Motion<'_> {
             Motion::Coolant(c) => Motion::Coolant(c),
             Motion::Dwell { seconds } => Motion::Dwell { seconds },
             Motion::Setup { frame, rotary } => Motion::Setup { frame, rotary },
+            Motion::ToolAxis { axis, rotary } => Motion::ToolAxis { axis, rotary },
             Motion::End => Motion::End,
             Motion::Cycle(c) => Motion::Cycle(c),
             Motion::Stop { optional } => Motion::Stop { optional },

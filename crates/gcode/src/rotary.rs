@@ -14,6 +14,51 @@ pub enum RotaryAxes {
     BC,
 }
 
+/// What the rotary axes of [`RotaryAxes`] turn.
+///
+/// - [`RotaryMount::Table`] (the default): a table-table machine turns the part; program
+///   coordinates are in the turned table's frame, and rotary words make a
+///   [`Motion::Setup`](crate::Motion::Setup) of [`rotary_frame`].
+/// - [`RotaryMount::Head`]: a tilting head turns the tool under tool-centre-point control
+///   (LinuxCNC's TCP, `G43.4`): program coordinates are the tip in the part frame whatever
+///   the angles, and rotary words make a [`Motion::ToolAxis`](crate::Motion::ToolAxis) of
+///   [`rotary_axis`], the same angle conventions with the head turning instead of the
+///   table: the tool axis in the part frame is `R · +Z`, `R` the kinematic rotation of
+///   [`rotary_frame`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum RotaryMount {
+    /// Table-table: the part turns under a vertical tool.
+    #[default]
+    Table,
+    /// Head-head with tool-centre-point control: the tool turns over a still part.
+    Head,
+}
+
+/// The tool axis in the part frame of rotary angles `[A, B, C]` (degrees) under `axes`:
+/// `rotary_frame(axes, angles).rotation * +Z`, for either [`RotaryMount`].
+pub fn rotary_axis(axes: RotaryAxes, angles_deg: [f64; 3]) -> Vector3<f64> {
+    rotary_frame(axes, angles_deg).rotation * Vector3::z()
+}
+
+/// The rotary angles `[A, B, C]` (degrees; the unused one 0) whose [`rotary_axis`] is the
+/// unit `axis`: tilt `atan2(√(x² + y²), z)`, C as in [`rotary_angles`] (0 where the axis is
+/// vertical).
+pub fn axis_angles(axes: RotaryAxes, axis: &Vector3<f64>) -> [f64; 3] {
+    let t = axis;
+    // atan2 rather than acos(t.z): accurate near the vertical too.
+    let h = t.x.hypot(t.y);
+    let tilt = h.atan2(t.z).to_degrees();
+    let c = match axes {
+        RotaryAxes::AC => t.x.atan2(-t.y),
+        RotaryAxes::BC => t.y.atan2(t.x),
+    };
+    let c = if h < VERTICAL { 0.0 } else { c.to_degrees() };
+    match axes {
+        RotaryAxes::AC => [tilt, 0.0, c],
+        RotaryAxes::BC => [0.0, tilt, c],
+    }
+}
+
 /// Horizontal tool-axis component below which the axis counts as vertical (C is then 0).
 const VERTICAL: f64 = 1e-12;
 
@@ -71,19 +116,7 @@ pub fn rotary_frame(axes: RotaryAxes, angles_deg: [f64; 3]) -> Isometry3<f64> {
 /// setup frame under `axes` (the unused angle is 0): the inverse of [`rotary_frame`] for
 /// the tool axis. A non-finite frame gives non-finite angles.
 pub fn rotary_angles(axes: RotaryAxes, frame: &Isometry3<f64>) -> [f64; 3] {
-    let t = frame.rotation * Vector3::z();
-    // atan2 rather than acos(t.z): accurate near the vertical too.
-    let h = t.x.hypot(t.y);
-    let tilt = h.atan2(t.z).to_degrees();
-    let c = match axes {
-        RotaryAxes::AC => t.x.atan2(-t.y),
-        RotaryAxes::BC => t.y.atan2(t.x),
-    };
-    let c = if h < VERTICAL { 0.0 } else { c.to_degrees() };
-    match axes {
-        RotaryAxes::AC => [tilt, 0.0, c],
-        RotaryAxes::BC => [0.0, tilt, c],
-    }
+    axis_angles(axes, &(frame.rotation * Vector3::z()))
 }
 
 /// The twist φ in degrees, in `(−180°, 180°]`, of `frame`'s rotation about its tool axis

@@ -57,7 +57,8 @@ impl<A: MotionSink, B: MotionSink<Error = A::Error>> MotionSink for Tee<A, B> {
 ///
 /// A [`Motion::Setup`] (the program's frame in the part) becomes `frame * transform⁻¹`, so
 /// the moved program cuts the same part, or, with [`with_setup`](Self::with_setup), the
-/// frame and rotary words given (a rotary placement's kinematic frame).
+/// frame and rotary words given (a rotary placement's kinematic frame). A
+/// [`Motion::ToolAxis`] turns with the transform (its rotary words dropped if it turns).
 #[derive(Debug, Clone)]
 pub struct Transformed<S> {
     inner: S,
@@ -160,6 +161,12 @@ impl<S: MotionSink> MotionSink for Transformed<S> {
                 let (frame, rotary) = self.setup.unwrap_or((frame * t.inverse(), *rotary));
                 self.inner.motion(&Motion::Setup { frame, rotary })?;
                 self.last_out = None;
+            }
+            Motion::ToolAxis { axis, rotary } => {
+                // Rotary words name the axis in the program frame; turned, they no longer do.
+                let turned = (t.rotation.angle()) > 0.0;
+                let rotary = if turned { [None; 3] } else { *rotary };
+                self.inner.motion(&Motion::ToolAxis { axis: t.rotation * axis, rotary })?
             }
             Motion::Rapid { to } => self.inner.motion(&Motion::Rapid { to: t * to })?,
             Motion::Linear { to, feed, extrude } => {

@@ -1015,7 +1015,9 @@ fn every_dialect_round_trips_dwells_and_setups() {
 // ---------------------------------------------------------------------------
 // 3+2 rotary setups: writer and parser share `rotary_frame` / `rotary_angles`.
 
-use s2g_gcode::{RotaryAxes, rotary_angles, rotary_frame, rotary_twist};
+use s2g_gcode::{
+    RotaryAxes, RotaryMount, axis_angles, rotary_angles, rotary_axis, rotary_frame, rotary_twist,
+};
 
 /// A random rotation (normalised 4-vector, rejection of short ones) and translation.
 fn frame_strategy() -> impl Strategy<Value = Isometry3<f64>> {
@@ -1163,6 +1165,77 @@ fn rotary_setups_read_back_as_kinematic_frames() {
         .collect();
     assert_eq!(rot, [[Some(30.0), None, Some(10.0)], [Some(45.0), None, Some(-10.0)]]);
     assert_eq!(rec.motions.iter().filter(|(_, m)| m.end_point().is_some()).count(), 1);
+}
+
+/// A tilting head with tool-centre-point control: the writer puts a tool axis into rotary
+/// words without moving the tip, and the parser reads the same text back as tool axes
+/// with the points unchanged; read as a turning table instead, the points are turned.
+#[test]
+fn head_tool_axes_read_back_with_the_tip_in_the_part_frame() {
+    for axes in [RotaryAxes::AC, RotaryAxes::BC] {
+        let tilted = rotary_axis(axes, [30.0, 30.0, 60.0]);
+        let sideways = rotary_axis(axes, [90.0, 90.0, -45.0]);
+        let points = [[5.0, -2.0, 10.0], [6.0, -1.0, 9.5], [6.0, 3.0, 9.0]];
+        let ms = vec![
+            Motion::Rapid { to: Point3::from(points[0]) },
+            Motion::ToolAxis { axis: tilted, rotary: [None; 3] },
+            Motion::Linear { to: Point3::from(points[1]), feed: 600.0, extrude: Some(0.05) },
+            Motion::ToolAxis { axis: sideways, rotary: [None; 3] },
+            Motion::Linear { to: Point3::from(points[2]), feed: 600.0, extrude: Some(0.05) },
+        ];
+        let opts = WriterOptions { rotary: Some(axes), decimals: 10, ..Default::default() };
+        let text = write_program(Dialect::Marlin, opts, &ms).expect("writes");
+        let read = |mount| {
+            let mut rec = MotionRecorder::default();
+            let po = ParseOptions { rotary: Some(axes), rotary_mount: mount, ..ParseOptions::default() };
+            let summary = parse_str(&text, &po, &mut rec).expect("infallible sink");
+            assert!(summary.errors.is_empty(), "{axes:?}: {:?}\n{text}", summary.errors);
+            rec.motions.into_iter().map(|(_, m)| m).collect::<Vec<_>>()
+        };
+        let head = read(RotaryMount::Head);
+        let got_axes: Vec<Vector3<f64>> = head
+            .iter()
+            .filter_map(|m| match m {
+                Motion::ToolAxis { axis, .. } => Some(*axis),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(got_axes.len(), 2, "{axes:?}\n{text}");
+        for (got, want) in got_axes.iter().zip([tilted, sideways]) {
+            assert!((got - want).norm() < 1e-9, "{axes:?}: axis {got} against {want}\n{text}");
+        }
+        assert!(!head.iter().any(|m| matches!(m, Motion::Setup { .. })), "{axes:?}: a head turns no table");
+        let ends: Vec<Point3<f64>> = head.iter().filter_map(Motion::end_point).collect();
+        // The three moves, then the footer's lift.
+        assert_eq!(ends.len(), 4, "{axes:?}\n{text}");
+        for (e, w) in ends.iter().zip(points) {
+            assert!(close_pt(e, &Point3::from(w), 1e-9), "{axes:?}: tip {e} against {w:?}\n{text}");
+        }
+        // The angles written are the axis's.
+        let [a, b, c] = axis_angles(axes, &sideways);
+        assert!((rotary_axis(axes, [a, b, c]) - sideways).norm() < 1e-12);
+        // The same text on a turning table: setups, and the part-frame tip moves with them.
+        let table = read(RotaryMount::Table);
+        let mut frame = Isometry3::identity();
+        let mut tips = Vec::new();
+        for m in &table {
+            match m {
+                Motion::Setup { frame: f, .. } => frame = *f,
+                m => tips.extend(m.end_point().map(|p| frame * p)),
+            }
+        }
+        assert!(close_pt(&tips[0], &Point3::from(points[0]), 1e-9));
+        assert!(!close_pt(&tips[2], &Point3::from(points[2]), 1e-3), "{axes:?}: {:?}", tips[2]);
+    }
+    // Without rotary words, a tool axis is a comment, and the tip's words stay modal.
+    let ms = [
+        Motion::Linear { to: Point3::new(1.0, 2.0, 3.0), feed: 100.0, extrude: None },
+        Motion::ToolAxis { axis: Vector3::x(), rotary: [None; 3] },
+        Motion::Linear { to: Point3::new(1.0, 2.0, 4.0), feed: 100.0, extrude: None },
+    ];
+    let text = write_program(Dialect::LinuxCnc, WriterOptions::default(), &ms).expect("writes");
+    assert!(text.contains("(TOOL AXIS = +1.000000 +0.000000 +0.000000)"), "{text}");
+    assert!(text.lines().any(|l| l.trim() == "Z4"), "{text}");
 }
 
 // ---------------------------------------------------------------------------

@@ -18,6 +18,7 @@
 //!   sub-steps keeps the tool's deviation under the arc tolerance (capped by
 //!   [`SimOptions::max_substeps`]). Otherwise the setup is indexed: the rotation itself is not
 //!   simulated and the next move is a positioning move (the tool appears at its end point).
+//!   A tilting head (`Motion::ToolAxis`) is not simulated: an axis off `+Z` is an error.
 //! - **Voxel rule.** A voxel is removed iff its **centre** lies in the volume swept by the
 //!   cutter's fluted part along the move (exactly, for a fixed axis: see the `sweep` module
 //!   notes in the source). Arcs are split into chords whose sagitta is below a quarter of

@@ -699,6 +699,14 @@ impl MotionSink for Simulator {
                 self.frame = *frame;
                 Ok(())
             }
+            Motion::ToolAxis { axis, .. } => {
+                if (axis - Vector3::z()).norm() > 1e-9 {
+                    return Err(self.invalid(format!(
+                        "a tilting head's tool axis {axis} is off +Z: the simulator turns the part (setups), not the tool"
+                    )));
+                }
+                Ok(())
+            }
             Motion::End => {
                 self.flush_all();
                 Ok(())

@@ -515,6 +515,14 @@ impl MotionSink for HeightField {
                 self.pos = None;
                 Ok(())
             }
+            Motion::ToolAxis { axis, .. } if (axis - Vector3::z()).norm() > 1e-9 => {
+                Err(SimError::InvalidMotion {
+                    line: 0,
+                    message: format!(
+                        "a height field needs a 3-axis setup (tool axis +Z), got a head's axis {axis}"
+                    ),
+                })
+            }
             _ => Ok(()),
         }
     }

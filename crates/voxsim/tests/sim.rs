@@ -706,3 +706,26 @@ fn an_added_tool_cuts_with_its_own_radius() {
     check("default tool", plunge(None), PI * 1.0 * depth, 0.1 * PI * depth);
     check("tool 7", plunge(Some(7)), PI * 9.0 * depth, 0.05 * PI * 9.0 * depth);
 }
+
+/// A tilting head's tool axis (`Motion::ToolAxis`) is not simulated: along `+Z` it changes
+/// nothing, off it the simulator refuses it with a typed error instead of cutting along
+/// the wrong axis.
+#[test]
+fn a_tilted_head_is_refused_not_cut_along_z() {
+    let sim = || {
+        Simulator::new(
+            full_box(p(0., 0., 0.), p(20., 20., 10.), 40),
+            ToolTable::single(Cutter::flat(1.0, 20.0)),
+            SimOptions::default(),
+        )
+        .unwrap()
+    };
+    let plunge = [Motion::Rapid { to: p(10., 10., 15.) }, lin(p(10., 10., 5.))];
+    let plain = run(sim(), &numbered(plunge.to_vec())).report().removed_volume_mm3;
+    let vertical =
+        [vec![Motion::ToolAxis { axis: Vector3::z(), rotary: [None; 3] }], plunge.to_vec()].concat();
+    assert_eq!(run(sim(), &numbered(vertical)).report().removed_volume_mm3, plain);
+    let mut s = sim();
+    let tilted = Motion::ToolAxis { axis: Vector3::new(0.0, 0.6, 0.8), rotary: [None; 3] };
+    assert!(matches!(s.motion(&tilted), Err(SimError::InvalidMotion { .. })));
+}

@@ -1,6 +1,13 @@
-//! The multi-axis printing program: a printer whose nozzle stays vertical over a
-//! tilting and rotating platform (table-table A/C or B/C, `s2g-gcode`'s kinematics), so the
-//! part is turned until the nozzle axis (the layer normal) points up.
+//! The multi-axis printing program, for either of two five-axis printers
+//! ([`PrintProgramOptions::mount`], `s2g-gcode`'s [`RotaryMount`]):
+//!
+//! - **a tilting and rotating platform** (table-table A/C or B/C) under a vertical nozzle:
+//!   the part is turned until the nozzle axis (the layer normal) points up, and X, Y, Z are
+//!   the tip in the turned platform's frame;
+//! - **a tilting head** (head-head A/C or B/C, same angle conventions) with tool-centre-point
+//!   control over a still platform: X, Y, Z are the tip in the part frame and the angles
+//!   turn the nozzle about it. Between two poses the tip runs straight in the part frame
+//!   (on the platform machine it runs straight in the platform's frame, which turns).
 //!
 //! - **Extrusion**: `E = w · t · L / (π (d/2)²)` per move (bead width `w`, local layer
 //!   thickness `t`, length `L`, filament diameter `d`), relative (`M83`).
@@ -29,8 +36,8 @@
 //!   after it, as in the milling program.
 
 use s2g_gcode::{
-    Dialect, ExtrusionMode, FooterRetract, GcodeWriter, Motion, MotionSink, RotaryAxes, WriterOptions,
-    rotary_frame,
+    Dialect, ExtrusionMode, FooterRetract, GcodeWriter, Motion, MotionSink, RotaryAxes, RotaryMount,
+    WriterOptions, rotary_frame,
 };
 use s2g_geom::{Isometry3, Point3, Vector3};
 
@@ -49,6 +56,9 @@ pub struct PrintProgramOptions {
     pub nozzle: Tool,
     /// The machine's rotary axes. Default [`RotaryAxes::AC`].
     pub rotary: RotaryAxes,
+    /// What the rotary axes turn: the platform ([`RotaryMount::Table`], the default) or
+    /// the nozzle's head ([`RotaryMount::Head`], tool-centre-point control).
+    pub mount: RotaryMount,
     /// Filament diameter. Default `1.75`.
     pub filament_diameter: f64,
     /// Printing feed, mm/min. Default `1200`.
@@ -82,6 +92,7 @@ impl Default for PrintProgramOptions {
         Self {
             nozzle: Tool { cutter, axial_offset: 0.5, axial_step: 1.5, ring_points: 12 },
             rotary: RotaryAxes::AC,
+            mount: RotaryMount::Table,
             filament_diameter: 1.75,
             feed: 1200.0,
             retract: 0.8,
@@ -262,6 +273,15 @@ impl<'a> Emitter<'a> {
         }
     }
 
+    /// Where the program puts the tip of `s`: in the turned platform's frame, or, on a
+    /// head machine, in the part's.
+    fn program_point(&self, s: &State) -> Point3 {
+        match self.opts.mount {
+            RotaryMount::Table => self.frame(s).inverse() * s.tip,
+            RotaryMount::Head => s.tip,
+        }
+    }
+
     /// The state with the tip at `tip` and the nozzle along `axis`, C unwrapped to the
     /// nearest turn of the current C (kept where the axis is vertical).
     fn state(&self, tip: Point3, axis: &Vector3) -> State {
@@ -286,18 +306,32 @@ impl<'a> Emitter<'a> {
     }
 
     /// The poses of one block from `a` to `b` as the machine interpolates it.
+    ///
+    /// On the platform machine the program point runs straight while the platform turns
+    /// (the tip's way in the part frame bends); on a head machine the tip runs straight in
+    /// the part frame and the nozzle turns about it. Poses are at most
+    /// [`PrintProgramOptions::check_step`] apart at the tip, and at the farthest point of
+    /// what turns (the program point's distance from the rotary centre, or the carriage's
+    /// top from the tip).
     fn block_poses(&self, a: &State, b: &State) -> Vec<(Point3, Vector3)> {
         let (fa, fb) = (self.frame(a), self.frame(b));
-        let (pa, pb) = (fa.inverse() * a.tip, fb.inverse() * b.tip);
+        let (pa, pb) = (self.program_point(a), self.program_point(b));
         let angle = fa.rotation.angle_to(&fb.rotation);
-        let reach = pa.coords.norm().max(pb.coords.norm());
+        let reach = match self.opts.mount {
+            RotaryMount::Table => pa.coords.norm().max(pb.coords.norm()),
+            RotaryMount::Head => self.local.iter().map(|q| Vector3::from(*q).norm()).fold(0.0, f64::max),
+        };
         let travel = (b.tip - a.tip).norm() + angle * reach;
         let n = ((travel / self.opts.check_step).ceil() as usize).clamp(1, 1 << 16);
         (1..=n)
             .map(|k| {
                 let t = k as f64 / n as f64;
                 let r = fa.rotation.slerp(&fb.rotation, t);
-                (r * (pa + (pb - pa) * t), r * Vector3::z())
+                let tip = match self.opts.mount {
+                    RotaryMount::Table => r * (pa + (pb - pa) * t),
+                    RotaryMount::Head => pa + (pb - pa) * t,
+                };
+                (tip, r * Vector3::z())
             })
             .collect()
     }
@@ -328,7 +362,10 @@ impl<'a> Emitter<'a> {
             RotaryAxes::BC => [None, Some(s.tilt), Some(s.c)],
         };
         let frame = self.frame(s);
-        self.push(Motion::Setup { frame, rotary })
+        match self.opts.mount {
+            RotaryMount::Table => self.push(Motion::Setup { frame, rotary }),
+            RotaryMount::Head => self.push(Motion::ToolAxis { axis: frame.rotation * Vector3::z(), rotary }),
+        }
     }
 
     /// Moves to `states` in turn, split by angle; `extrude` gives the filament of a piece
@@ -338,7 +375,7 @@ impl<'a> Emitter<'a> {
             // The first move: put the part in place, then rapid to the first point.
             let s = states[0];
             self.setup(&s)?;
-            let to = self.frame(&s).inverse() * s.tip;
+            let to = self.program_point(&s);
             self.report.blocks += 1;
             self.push(Motion::Rapid { to })?;
             self.state = Some(s);
@@ -349,7 +386,7 @@ impl<'a> Emitter<'a> {
             let n = pieces.len() as f64;
             for (k, piece) in pieces.iter().enumerate() {
                 self.setup(piece)?;
-                let to = self.frame(piece).inverse() * piece.tip;
+                let to = self.program_point(piece);
                 let len = (piece.tip - prev.tip).norm();
                 self.report.blocks += 1;
                 match thickness {
@@ -499,14 +536,14 @@ impl Emitter<'_> {
         self.report.travel_collisions += travel.hits;
         self.report.raised_hops += (travel.raised && travel.hits == 0) as usize;
         let Some(cur) = self.state else { return self.go(&travel.way, None) };
-        let here = self.frame(&cur).inverse() * cur.tip;
+        let here = self.program_point(&cur);
         if self.opts.retract > 0.0 {
             self.push(Motion::Linear { to: here, feed: self.opts.feed, extrude: Some(-self.opts.retract) })?;
             self.report.filament -= self.opts.retract;
         }
         self.go(&travel.way, None)?;
         if let Some(start) = travel.way.last().filter(|_| self.opts.retract > 0.0) {
-            let to = self.frame(start).inverse() * start.tip;
+            let to = self.program_point(start);
             self.push(Motion::Linear { to, feed: self.opts.feed, extrude: Some(self.opts.retract) })?;
             self.report.filament += self.opts.retract;
         }

@@ -1,6 +1,6 @@
 //! The print rebuilt from its program (seed 004's reconstruction, with tilted beads):
 //! the program text is parsed by `s2g-gcode`'s parser with the machine's rotary
-//! kinematics, each extruding move becomes a bead in the part frame (the segment, the
+//! kinematics (a turning platform's setups or a tilting head's tool axes), each extruding move becomes a bead in the part frame (the segment, the
 //! nozzle axis of its block, the thickness that its filament gives at the bead width),
 //! and the beads are deposited into a voxel grid and scored against the part.
 //!
@@ -17,7 +17,7 @@
 
 use std::collections::HashMap;
 
-use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, RotaryAxes, parse_str};
+use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, RotaryAxes, RotaryMount, parse_str};
 use s2g_geom::{GridSpec, Isometry3, Mesh, Point3, Vector3, VoxelGrid, occupancy_iou, voxelize};
 
 use crate::error::{FieldError, Result};
@@ -38,6 +38,8 @@ pub struct Bead {
 /// Collects beads from parsed motions.
 struct BeadSink {
     frame: Isometry3,
+    /// A tilting head's nozzle axis in the program frame (`+Z` until the head turns).
+    head_axis: Vector3,
     tip: Point3,
     width: f64,
     filament_area: f64,
@@ -49,13 +51,17 @@ impl MotionSink for BeadSink {
 
     fn motion(&mut self, m: &Motion<'_>) -> std::result::Result<(), Self::Error> {
         match m {
-            Motion::Setup { frame, .. } => self.frame = *frame,
+            Motion::Setup { frame, .. } => {
+                self.frame = *frame;
+                self.head_axis = Vector3::z();
+            }
+            Motion::ToolAxis { axis, .. } => self.head_axis = *axis,
             Motion::Rapid { to } => self.tip = self.frame * to,
             Motion::Linear { to, extrude, .. } => {
                 let end = self.frame * to;
                 let len = (end - self.tip).norm();
                 if let Some(e) = extrude.filter(|e| *e > 0.0 && len > 1e-9) {
-                    let axis = self.frame.rotation * Vector3::z();
+                    let axis = self.frame.rotation * self.head_axis;
                     let thickness = e * self.filament_area / (self.width * len);
                     self.beads.push(Bead { start: self.tip, end, axis, thickness });
                 }
@@ -67,15 +73,27 @@ impl MotionSink for BeadSink {
     }
 }
 
-/// Parses `program` (Marlin words with `axes` rotary words) and returns its beads, for a
-/// bead `width` and a filament of `filament_diameter`.
+/// Parses `program` (Marlin words with `axes` rotary words turning what `mount` says) and
+/// returns its beads, for a bead `width` and a filament of `filament_diameter`.
 ///
 /// Errors: [`FieldError::Program`] when the parser reports an error.
-pub fn read_beads(program: &str, axes: RotaryAxes, width: f64, filament_diameter: f64) -> Result<Vec<Bead>> {
+pub fn read_beads(
+    program: &str,
+    axes: RotaryAxes,
+    mount: RotaryMount,
+    width: f64,
+    filament_diameter: f64,
+) -> Result<Vec<Bead>> {
     FieldError::check_positive(&[("width", width), ("filament_diameter", filament_diameter)])?;
-    let opts = ParseOptions { rotary: Some(axes), dialect: ParseDialect::Fdm, ..ParseOptions::default() };
+    let opts = ParseOptions {
+        rotary: Some(axes),
+        rotary_mount: mount,
+        dialect: ParseDialect::Fdm,
+        ..ParseOptions::default()
+    };
     let mut sink = BeadSink {
         frame: Isometry3::identity(),
+        head_axis: Vector3::z(),
         tip: Point3::origin(),
         width,
         filament_area: std::f64::consts::PI * 0.25 * filament_diameter * filament_diameter,

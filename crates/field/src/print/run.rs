@@ -182,6 +182,7 @@ fn print_field(
     let beads = read_beads(
         &program.text,
         options.program.rotary,
+        options.program.mount,
         options.paths.bead_width,
         options.program.filament_diameter,
     )?;

@@ -6,7 +6,7 @@ use super::comp::comp_refused;
 use super::interp::{AXES, Fail, Interp, Mode, OFFS, RADIUS_TOLERANCE_MM, Res, bit, hyp};
 use crate::error::GcodeErrorKind;
 use crate::motion::{ArcDirection, Motion, MotionSink, Plane};
-use crate::rotary::{RotaryAxes, rotary_frame};
+use crate::rotary::{RotaryAxes, RotaryMount, rotary_axis, rotary_frame};
 
 impl Interp<'_> {
     /// The common block `[G0|G1] [X..] [Y..] [Z..] [E..] [F..] [N..]` in G0/G1 mode, with
@@ -163,7 +163,7 @@ impl Interp<'_> {
         self.comp_straight(rapid, feed, t, sink)
     }
 
-    /// With [`ParseOptions::rotary`](crate::ParseOptions::rotary): emits the setup of the block's rotary words, if
+    /// With [`ParseOptions::rotary`](crate::ParseOptions::rotary): emits the setup (under a head, the tool axis) of the block's rotary words, if
     /// any. Returns `true` when the block has no other move words (nothing else moves).
     pub(super) fn rotary_setup<S: MotionSink>(&mut self, sink: &mut S) -> Res<bool, S::Error> {
         let Some(axes) = self.opts.rotary else { return Ok(false) };
@@ -181,8 +181,11 @@ impl Interp<'_> {
             }
         }
         let rotary = [0, 1, 2].map(|i| letters[i].map(|_| self.rot[i]));
-        let frame = rotary_frame(axes, self.rot);
-        self.emit(sink, &Motion::Setup { frame, rotary })?;
+        let turn = match self.opts.rotary_mount {
+            RotaryMount::Table => Motion::Setup { frame: rotary_frame(axes, self.rot), rotary },
+            RotaryMount::Head => Motion::ToolAxis { axis: rotary_axis(axes, self.rot), rotary },
+        };
+        self.emit(sink, &turn)?;
         let others = bit(b'x') | bit(b'y') | bit(b'z') | bit(b'u') | bit(b'v') | bit(b'w') | bit(b'e');
         Ok(self.block.mask & others == 0)
     }

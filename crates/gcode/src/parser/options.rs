@@ -1,7 +1,7 @@
 //! The parser's public options and summary.
 
 use crate::error::GcodeError;
-use crate::rotary::RotaryAxes;
+use crate::rotary::{RotaryAxes, RotaryMount};
 
 /// Which G-code flavour to interpret.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -51,6 +51,11 @@ pub struct ParseOptions {
     /// are ignored. Default `None`: rotary words are ignored, and a block of rotary words
     /// only is a zero-length move, as `rs274` reports it.
     pub rotary: Option<RotaryAxes>,
+    /// What [`ParseOptions::rotary`]'s axes turn. Default [`RotaryMount::Table`]. Under
+    /// [`RotaryMount::Head`] a block's rotary words emit a
+    /// [`Motion::ToolAxis`](crate::Motion::ToolAxis) of [`crate::rotary_axis`] instead of a
+    /// setup, and the block's X, Y, Z stay the tip in the part frame.
+    pub rotary_mount: RotaryMount,
     /// Most blocks one program may execute when it uses O-word control flow (loops and
     /// calls run lines again); past it the program stops with
     /// [`GcodeErrorKind::StepLimit`](crate::GcodeErrorKind::StepLimit) at the line
@@ -86,6 +91,7 @@ impl Default for ParseOptions {
             firmware_retract_mm: 1.0,
             max_reported: 10_000,
             rotary: None,
+            rotary_mount: RotaryMount::Table,
             max_steps: 10_000_000,
             max_call_depth: 100,
             subroutine_path: Vec::new(),

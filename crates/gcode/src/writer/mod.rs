@@ -47,6 +47,12 @@
 //! machine cuts the path turned about the tool axis by [`crate::rotary_twist`] (see
 //! [`crate::rotary_frame`]). After a setup every axis word is
 //! written again.
+//!
+//! A [`Motion::ToolAxis`] (a tilting head under tool-centre-point control) is, with a
+//! rotary option, `G0 A<a> C<c>` or `G0 B<b> C<c>`: its own `rotary` values when given,
+//! otherwise [`crate::axis_angles`] of its axis; the tip does not move, so axis words stay
+//! modal. Without a rotary option it is the comment `(TOOL AXIS = <x> <y> <z>)`, signed
+//! with six decimals.
 
 mod format;
 
@@ -969,6 +975,36 @@ impl<W: Write> Core<W> {
     }
 }
 
+impl<W: Write> Core<W> {
+    /// A tilting head's new tool axis (module docs).
+    fn tool_axis(&mut self, axis: &Vector3<f64>, rotary: &[Option<f64>; 3]) -> Result<(), WriteError> {
+        for c in axis.iter() {
+            self.check("tool axis", *c)?;
+        }
+        let Some(axes) = self.opts.rotary else {
+            let s = |v: f64| {
+                let v = if v.abs() < 5e-7 { 0.0 } else { v };
+                format!("{v:+.6}")
+            };
+            return self.comment_line(&format!("TOOL AXIS = {} {} {}", s(axis.x), s(axis.y), s(axis.z)));
+        };
+        let solved = crate::rotary::axis_angles(axes, axis);
+        let (li, letter) = match axes {
+            RotaryAxes::AC => (0, 'A'),
+            RotaryAxes::BC => (1, 'B'),
+        };
+        let a = rotary[li].unwrap_or(solved[li]);
+        let c = rotary[2].unwrap_or(solved[2]);
+        self.check("rotary angle", a)?;
+        self.check("rotary angle", c)?;
+        self.raw("G0");
+        self.motion_mode = Some(0);
+        self.word(letter, a, self.opts.decimals);
+        self.word('C', c, self.opts.decimals);
+        self.end_block()
+    }
+}
+
 impl<W: Write> MotionSink for Core<W> {
     type Error = WriteError;
 
@@ -1057,6 +1093,7 @@ impl<W: Write> MotionSink for Core<W> {
             }
             Motion::Marker(Marker::Type(t)) => self.comment_line(&format!("TYPE:{t}"))?,
             Motion::Setup { frame, rotary } => self.setup(frame, rotary)?,
+            Motion::ToolAxis { axis, rotary } => self.tool_axis(axis, rotary)?,
             Motion::End => {
                 if let Some(end) = self.spec.program_end {
                     self.raw(end);
