@@ -950,23 +950,8 @@ impl<W: Write> Core<W> {
                     self.end_block()?;
                 }
             }
-            Some(axes) => {
-                // Shared with the parser: see crate::rotary.
-                let solved = rotary_angles(axes, frame);
-                let (li, letter) = match axes {
-                    RotaryAxes::AC => (0, 'A'),
-                    RotaryAxes::BC => (1, 'B'),
-                };
-                let a = rotary[li].unwrap_or(solved[li]);
-                let c = rotary[2].unwrap_or(solved[2]);
-                self.check("rotary angle", a)?;
-                self.check("rotary angle", c)?;
-                self.raw("G0");
-                self.motion_mode = Some(0);
-                self.word(letter, a, self.opts.decimals);
-                self.word('C', c, self.opts.decimals);
-                self.end_block()?;
-            }
+            // Shared with the parser: see crate::rotary.
+            Some(axes) => self.rotary_block(axes, rotary_angles(axes, frame), rotary)?,
         }
         // The part moved: state every axis again.
         self.pos = [None; 3];
@@ -988,7 +973,16 @@ impl<W: Write> Core<W> {
             };
             return self.comment_line(&format!("TOOL AXIS = {} {} {}", s(axis.x), s(axis.y), s(axis.z)));
         };
-        let solved = crate::rotary::axis_angles(axes, axis);
+        self.rotary_block(axes, crate::rotary::axis_angles(axes, axis), rotary)
+    }
+
+    /// `G0 A<a> C<c>` (or `B<b>`): the given `rotary` values where known, else `solved`.
+    fn rotary_block(
+        &mut self,
+        axes: RotaryAxes,
+        solved: [f64; 3],
+        rotary: &[Option<f64>; 3],
+    ) -> Result<(), WriteError> {
         let (li, letter) = match axes {
             RotaryAxes::AC => (0, 'A'),
             RotaryAxes::BC => (1, 'B'),
