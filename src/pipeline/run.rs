@@ -496,10 +496,15 @@ impl MillRun {
         let before =
             (rest.is_some() && finish.is_some()).then(|| (self.sim.borrow().clone(), self.remaining.clone()));
         self.machine_own(i, progress)?;
-        let (Some(own), mut tried) = (self.jobs.last().map(|j| j.tool), 0) else { return Ok(()) };
-        let first = self.worth_a_pass(i, &own, rest, &mut tried, finish.as_ref().map(|f| &f.tool))?;
+        let (Some(own), Some(rest), mut tried) = (self.jobs.last().map(|j| j.tool), rest, 0) else {
+            return Ok(());
+        };
+        // The part indexed in the setup's frame once, for every tool the rest rule considers.
+        let scope = self.rest_scope();
+        let first =
+            self.worth_a_pass(i, &scope, &own, Some(rest), &mut tried, finish.as_ref().map(|f| &f.tool))?;
         if let Some(first) = first {
-            return self.rest_rough(i, first, tried, finish, progress);
+            return self.rest_rough(i, &scope, first, tried, finish, progress);
         }
         // Nothing a rest pass is for: wound back, the setup's own program finishes it.
         if let (Some(f), Some((sim, remaining))) = (finish, before) {

@@ -435,3 +435,44 @@ fn no_rest_pass_where_the_finisher_takes_what_is_left() {
         time(&every)
     );
 }
+
+/// A rest pass runs for a narrow groove the finisher does not enter (issue 35; the turned
+/// shaft's 2.5 mm grooves): over a 40 x 20 x 12 mm block with a groove 2.2 mm wide and 1.5
+/// mm deep along its top, finished, the groove is 3.4 voxels wide and 2.3 deep at 64 voxels,
+/// so that counted without the voxels beside the part (as before) it is a voxel's column
+/// and falls below the least volume. With the default least volume the groove is cut by a
+/// rest tool narrower than it: more than half of it is removed, and the IoU rises over a
+/// run with no rest pass.
+#[test]
+fn a_narrow_groove_the_finisher_does_not_enter_gets_its_rest_pass() {
+    let part = extruded(
+        &[[0., 0.], [40., 0.], [40., 12.], [21.1, 12.], [21.1, 10.5], [18.9, 10.5], [18.9, 12.], [0., 12.]],
+        20.0,
+    );
+    let groove = 2.2 * 1.5 * 20.0;
+    let choice = FinishChoice { scallop: 0.05, ..FinishChoice::default() };
+    let default = rest_run(&part, 3, MillOptions::default().rest_continue, Some(choice));
+    let none = rest_run(&part, 3, 1e9, Some(choice));
+    for m in [&default, &none] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    }
+    let tools = |m: &Milled| {
+        m.setups
+            .iter()
+            .map(|s| (s.rest_of, s.tool.diameter(), s.finish.as_ref().map(|f| f.tool.diameter())))
+            .collect::<Vec<_>>()
+    };
+    assert!(none.setups.iter().all(|s| s.rest_of.is_none()), "{:?}", tools(&none));
+    assert!(
+        default.setups.iter().any(|s| s.rest_of.is_some() && s.tool.diameter() < 2.2),
+        "no rest tool narrower than the groove: {:?}",
+        tools(&default)
+    );
+    let removed = (default.simulation.removed_volume_mm3 - none.simulation.removed_volume_mm3) / groove;
+    assert!(
+        removed > 0.5,
+        "the rest pass removed {removed:.2} of the groove's volume: {:?}",
+        tools(&default)
+    );
+    assert!(default.metrics.iou > none.metrics.iou, "IoU {} -> {}", none.metrics.iou, default.metrics.iou);
+}
