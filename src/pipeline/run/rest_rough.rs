@@ -118,10 +118,12 @@ impl MillRun {
         self.opts.rest_continue * self.target.count() as f64 * self.target.spec().voxel_volume()
     }
 
-    /// The [`RestScope`] of the setup last roughed (none indexed where the part is empty in
-    /// its frame: no rest pass is then worth it).
-    pub(super) fn rest_scope(&self) -> RestScope {
-        let Some(own) = self.own_job() else { return RestScope { index: None, bottom: f64::INFINITY } };
+    /// The [`RestScope`] of the setup last roughed, built once for every tool the rest rule
+    /// considers there; none indexed where no rest tool is `wanted` or the part is empty in
+    /// its frame (no rest pass is then worth it).
+    pub(super) fn rest_scope(&self, wanted: bool) -> RestScope {
+        let none = RestScope { index: None, bottom: f64::INFINITY };
+        let Some(own) = self.own_job().filter(|_| wanted) else { return none };
         let part = part_in_setup_frame(&self.part, &own.setup);
         let bottom = part.bbox().map_or(f64::INFINITY, |b| b.min.z);
         RestScope { index: MeshIndex::new(&part).ok(), bottom }
@@ -358,8 +360,11 @@ impl MillRun {
         // material in a groove the wider tool could not enter stays as terraces between
         // them (the turned shaft's 2.5 mm grooves, seen from the side, are troughs 2 mm
         // deep that a 2 mm end mill at 2 mm levels cut a fifth of).
-        let action =
-            Action { tool_radius: tool.0.radius(), layer_height: action.layer_height.min(tool.0.radius()), ..action };
+        let action = Action {
+            tool_radius: tool.0.radius(),
+            layer_height: action.layer_height.min(tool.0.radius()),
+            ..action
+        };
         self.check_deadline(|| format!("rest roughing setup {} of {}", k + 1, self.setup_count()))?;
         // A rest pass reaches only as deep as keeps its holder above all stock
         // ([`rest_reach`](Self::rest_reach)).
