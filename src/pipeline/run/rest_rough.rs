@@ -172,10 +172,10 @@ impl MillRun {
     /// the bunny at 100 mm, rest passes over that material cost an hour of machining for no
     /// IoU: 13,930 s against 10,167 s). The voxels beside the part count: in a groove a few
     /// voxels wide they are most of it (the turned shaft's 2.5 mm grooves, 4 voxels wide at
-    /// 128, counted 6 voxels a setup without them and 148 with them, 36 mm³; with
-    /// `--rest-continue 0` the passes removed 30 mm³ a setup there, by the independent
-    /// scorer). Whether the rest tool gets there is the planner's to find: this bounds what
-    /// the pass can remove.
+    /// 128: for the 2 mm tool 148 voxels a setup, 36 mm³, and 6 with the voxels beside the
+    /// part left out as before; with `--rest-continue 0` the passes removed 30 mm³ a setup
+    /// there, in 0.5 mm cells of the independent scorer). Whether the rest tool gets there
+    /// is the planner's to find: this bounds what the pass can remove.
     fn rest_left(
         &self,
         scope: &RestScope,
