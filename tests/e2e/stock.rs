@@ -436,20 +436,32 @@ fn no_rest_pass_where_the_finisher_takes_what_is_left() {
     );
 }
 
-/// A rest pass runs for a narrow groove the finisher does not enter (issue 35; the turned
-/// shaft's 2.5 mm grooves): over a 40 x 20 x 12 mm block with a groove 2.2 mm wide and 1.5
-/// mm deep along its top, finished, the groove is 3.4 voxels wide and 2.3 deep at 64 voxels,
-/// so that counted without the voxels beside the part (as before) it is a voxel's column
-/// and falls below the least volume. With the default least volume the groove is cut by a
-/// rest tool narrower than it: more than half of it is removed, and the IoU rises over a
-/// run with no rest pass.
+/// A rest pass runs for a narrow groove the finisher does not enter, and at levels that
+/// take it (issue 35; the turned shaft's 2.5 mm grooves, troughs seen from the side): over
+/// a 40 x 20 x 12 mm block with a groove 2.2 mm wide along its top, its sides 1 mm deep and
+/// its floor a V 1 mm deeper, finished, only the 2 mm end mill of the rest chain (8, then
+/// 5, 3, 2) enters the groove, and at the roughing's 2 mm levels (the top face, then 2 mm
+/// below it) it would cut none of it: above the lower level the V's flanks keep it out.
+/// With the default least volume the 2 mm pass runs at levels no farther apart than its
+/// radius and removes more than half of the groove, and the IoU rises over a run with no
+/// rest pass.
 #[test]
 fn a_narrow_groove_the_finisher_does_not_enter_gets_its_rest_pass() {
     let part = extruded(
-        &[[0., 0.], [40., 0.], [40., 12.], [21.1, 12.], [21.1, 10.5], [18.9, 10.5], [18.9, 12.], [0., 12.]],
+        &[
+            [0., 0.],
+            [40., 0.],
+            [40., 12.],
+            [21.1, 12.],
+            [21.1, 11.],
+            [20., 10.],
+            [18.9, 11.],
+            [18.9, 12.],
+            [0., 12.],
+        ],
         20.0,
     );
-    let groove = 2.2 * 1.5 * 20.0;
+    let groove = (2.2 * 1.0 + 0.5 * 2.2 * 1.0) * 20.0;
     let choice = FinishChoice { scallop: 0.05, ..FinishChoice::default() };
     let default = rest_run(&part, 3, MillOptions::default().rest_continue, Some(choice));
     let none = rest_run(&part, 3, 1e9, Some(choice));
