@@ -306,6 +306,15 @@ fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -
     run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
+/// Asserts that the run `with` more rest passes removed more than `least` of a feature of
+/// `volume` mm³ beyond what the run `without` them did, and scores a higher IoU.
+fn rest_took(with: &Milled, without: &Milled, volume: f64, least: f64) {
+    let removed = (with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3) / volume;
+    let tools = with.setups.iter().map(|s| (s.rest_of, s.tool.diameter())).collect::<Vec<_>>();
+    assert!(removed > least, "the rest passes removed {removed:.2} of the feature's volume: {tools:?}");
+    assert!(with.metrics.iou > without.metrics.iou, "IoU {} -> {}", without.metrics.iou, with.metrics.iou);
+}
+
 /// A shop's order (issue 35): each setup roughed, rest-roughed, then finished, before the
 /// next setup. Every rest program follows its own setup's program (or an earlier rest
 /// program of the same setup), the setup's finishing is in its last program only, and in
@@ -386,13 +395,7 @@ fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
         tools(&three)
     );
     assert!(two.setups.iter().all(|s| s.tool.diameter() >= 3.0), "{:?}", tools(&two));
-    let removed = (three.simulation.removed_volume_mm3 - two.simulation.removed_volume_mm3) / slot;
-    assert!(
-        removed > 0.6,
-        "the third rest pass removed {removed:.2} of the slot's volume: {:?}",
-        tools(&three)
-    );
-    assert!(three.metrics.iou > two.metrics.iou, "IoU {} -> {}", two.metrics.iou, three.metrics.iou);
+    rest_took(&three, &two, slot, 0.6);
     // No rest program where no pass may reach enough.
     for k in 1..=capped.orientation.setups.len() {
         let n = capped.setups.iter().filter(|s| s.rest_of == Some(k)).count();
@@ -480,11 +483,5 @@ fn a_narrow_groove_the_finisher_does_not_enter_gets_its_rest_pass() {
         "no rest tool narrower than the groove: {:?}",
         tools(&default)
     );
-    let removed = (default.simulation.removed_volume_mm3 - none.simulation.removed_volume_mm3) / groove;
-    assert!(
-        removed > 0.5,
-        "the rest pass removed {removed:.2} of the groove's volume: {:?}",
-        tools(&default)
-    );
-    assert!(default.metrics.iou > none.metrics.iou, "IoU {} -> {}", none.metrics.iou, default.metrics.iou);
+    rest_took(&default, &none, groove, 0.5);
 }
