@@ -245,11 +245,12 @@ pub struct MillOptions {
     /// deeper than its flutes, only where the material left that it is for is at least
     /// this fraction of the part's volume: material the pass's tool can take (lowered
     /// over the part from a place whose cutter covers it) and the wider tool before it
-    /// cannot, farther from the part than the finishing allowance, seen along the setup's
-    /// axis, and where the setup is finished, out of the finishing tool's reach. Default 0.001 (0.1 %: the IoU's third decimal;
-    /// on the bunny at 100 mm no setup has that much, 51 mm³ at most of 200 cm³, and its
-    /// rest passes would cost an hour of machining for no IoU); 0 runs every pass
-    /// [`rest_roughing`](Self::rest_roughing) allows.
+    /// cannot, farther from the part than the finishing allowance and a quarter voxel, seen
+    /// along the setup's axis, and where the setup is finished, out of the finishing tool's
+    /// reach. Default 0.0005 (0.05 %: the turned shaft's 2.5 mm grooves, 36 mm³ a setup of
+    /// its 38.7 cm³, get their 2 mm passes and IoU* 0.9805; on the bunny at 100 mm no setup
+    /// has that much, 82 mm³ at most of 200 cm³, and its rest passes would cost an hour of
+    /// machining for no IoU); 0 runs every pass [`rest_roughing`](Self::rest_roughing) allows.
     pub rest_continue: f64,
 }
 
@@ -320,7 +321,7 @@ impl Default for MillOptions {
             finish_allowance: [0.0, 0.0],
             surface_spacing: 0.1,
             rest_roughing: 3,
-            rest_continue: 0.001,
+            rest_continue: 0.0005,
         }
     }
 }

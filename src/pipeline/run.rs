@@ -485,8 +485,7 @@ impl MillRun {
                 limit_hours: o.max_estimated_hours,
             });
         }
-        // A shop roughs, rest-roughs, then finishes each setup: where rest passes follow,
-        // the setup's finishing moves to the last of them.
+        // A shop roughs, rest-roughs, then finishes each setup: the finishing moves to the last rest pass.
         let rest = self.first_rest_tool(i, &job)?;
         let finish = if rest.is_some() { job.finish.take() } else { None };
         self.jobs.push(job);
@@ -497,9 +496,10 @@ impl MillRun {
             (rest.is_some() && finish.is_some()).then(|| (self.sim.borrow().clone(), self.remaining.clone()));
         self.machine_own(i, progress)?;
         let (Some(own), mut tried) = (self.jobs.last().map(|j| j.tool), 0) else { return Ok(()) };
-        let first = self.worth_a_pass(i, &own, rest, &mut tried, finish.as_ref().map(|f| &f.tool))?;
+        let scope = self.rest_scope(rest.is_some());
+        let first = self.worth_a_pass(i, &scope, &own, rest, &mut tried, finish.as_ref().map(|f| &f.tool))?;
         if let Some(first) = first {
-            return self.rest_rough(i, first, tried, finish, progress);
+            return self.rest_rough(i, &scope, first, tried, finish, progress);
         }
         // Nothing a rest pass is for: wound back, the setup's own program finishes it.
         if let (Some(f), Some((sim, remaining))) = (finish, before) {

@@ -306,6 +306,15 @@ fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -
     run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
+/// Asserts that the run `with` more rest passes removed more than `least` of a feature of
+/// `volume` mm³ beyond what the run `without` them did, and scores a higher IoU.
+fn rest_took(with: &Milled, without: &Milled, volume: f64, least: f64) {
+    let removed = (with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3) / volume;
+    let tools = with.setups.iter().map(|s| (s.rest_of, s.tool.diameter())).collect::<Vec<_>>();
+    assert!(removed > least, "the rest passes removed {removed:.2} of the feature's volume: {tools:?}");
+    assert!(with.metrics.iou > without.metrics.iou, "IoU {} -> {}", without.metrics.iou, with.metrics.iou);
+}
+
 /// A shop's order (issue 35): each setup roughed, rest-roughed, then finished, before the
 /// next setup. Every rest program follows its own setup's program (or an earlier rest
 /// program of the same setup), the setup's finishing is in its last program only, and in
@@ -386,13 +395,7 @@ fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
         tools(&three)
     );
     assert!(two.setups.iter().all(|s| s.tool.diameter() >= 3.0), "{:?}", tools(&two));
-    let removed = (three.simulation.removed_volume_mm3 - two.simulation.removed_volume_mm3) / slot;
-    assert!(
-        removed > 0.6,
-        "the third rest pass removed {removed:.2} of the slot's volume: {:?}",
-        tools(&three)
-    );
-    assert!(three.metrics.iou > two.metrics.iou, "IoU {} -> {}", two.metrics.iou, three.metrics.iou);
+    rest_took(&three, &two, slot, 0.6);
     // No rest program where no pass may reach enough.
     for k in 1..=capped.orientation.setups.len() {
         let n = capped.setups.iter().filter(|s| s.rest_of == Some(k)).count();
@@ -434,4 +437,51 @@ fn no_rest_pass_where_the_finisher_takes_what_is_left() {
         time(&default),
         time(&every)
     );
+}
+
+/// A rest pass runs for a narrow groove the finisher does not enter, and at levels that
+/// take it (issue 35; the turned shaft's 2.5 mm grooves, troughs seen from the side): over
+/// a 40 x 20 x 12 mm block with a groove 2.2 mm wide along its top, its sides 1 mm deep and
+/// its floor a V 1 mm deeper, finished, only the 2 mm end mill of the rest chain (8, then
+/// 5, 3, 2) enters the groove, and at the roughing's 2 mm levels (the top face, then 2 mm
+/// below it) it would cut none of it: above the lower level the V's flanks keep it out.
+/// With the default least volume the 2 mm pass runs at levels no farther apart than its
+/// radius and removes more than half of the groove, and the IoU rises over a run with no
+/// rest pass.
+#[test]
+fn a_narrow_groove_the_finisher_does_not_enter_gets_its_rest_pass() {
+    let part = extruded(
+        &[
+            [0., 0.],
+            [40., 0.],
+            [40., 12.],
+            [21.1, 12.],
+            [21.1, 11.],
+            [20., 10.],
+            [18.9, 11.],
+            [18.9, 12.],
+            [0., 12.],
+        ],
+        20.0,
+    );
+    let groove = (2.2 * 1.0 + 0.5 * 2.2 * 1.0) * 20.0;
+    let choice = FinishChoice { scallop: 0.05, ..FinishChoice::default() };
+    let default = rest_run(&part, 3, MillOptions::default().rest_continue, Some(choice));
+    let none = rest_run(&part, 3, 1e9, Some(choice));
+    for m in [&default, &none] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    }
+    let tools = |m: &Milled| {
+        m.setups
+            .iter()
+            .map(|s| (s.rest_of, s.tool.diameter(), s.finish.as_ref().map(|f| f.tool.diameter())))
+            .collect::<Vec<_>>()
+    };
+    assert!(none.setups.iter().all(|s| s.rest_of.is_none()), "{:?}", tools(&none));
+    assert!(
+        default.setups.iter().any(|s| s.rest_of.is_some() && s.tool.diameter() < 2.2),
+        "no rest tool narrower than the groove: {:?}",
+        tools(&default)
+    );
+    rest_took(&default, &none, groove, 0.5);
 }

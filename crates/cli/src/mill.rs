@@ -101,7 +101,7 @@ pub struct Args {
     /// Shop preset: the least material left that a rest pass is for, as a fraction of the
     /// part's volume: what its tool can take and the wider tool before it could not, out of
     /// the finishing tool's reach (MillOptions::rest_continue).
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, default_value_t = 0.0005)]
     rest_continue: f64,
     /// With --voxel: the most voxels the simulation grid may hold (over the part's box with
     /// the stock margin); the voxel grows until the grid fits.
