@@ -23,6 +23,7 @@ use s2g_gcode::{
 };
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
 
+pub use super::guard::LeftOut;
 use super::guard::{Guard, RoughedStock};
 use super::{FinishContext, FinishingStrategy};
 use crate::error::ToolpathError;
@@ -213,6 +214,22 @@ pub fn finish_setup_keep<S: MotionSink>(
     keep: Option<&dyn KeepPoint>,
     sink: &mut S,
 ) -> Result<FinishSummary, ToolpathError<S::Error>> {
+    finish_setup_left_out(part, setup, tool, strategy, opts, keep, sink).map(|(sum, _)| sum)
+}
+
+/// [`finish_setup_keep`], also returning the pass points the shank and holder check left
+/// out ([`FinishOptions::holder_stock`]) as stretches of the passes (tip positions, setup
+/// frame; [`LeftOut`]): a measure of the finished surface does not count the surface
+/// they stand for as reached (`s2g_voxsim::HeightField::leave_out`).
+pub fn finish_setup_left_out<S: MotionSink>(
+    part: &MeshIndex,
+    setup: &Setup,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    opts: &FinishOptions,
+    keep: Option<&dyn KeepPoint>,
+    sink: &mut S,
+) -> Result<(FinishSummary, LeftOut), ToolpathError<S::Error>> {
     tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     check(opts)?;
     let cutter = profile_cutter(&tool.cutter);
@@ -244,10 +261,11 @@ pub fn finish_setup_keep<S: MotionSink>(
         Some(stock) => Guard::new(part, &tool.cutter, stock)?,
         None => None,
     };
-    let (paths, guarded_points) = match &guard {
+    let (paths, left_out) = match &guard {
         Some(g) => g.split(paths, opts.link_check_step),
-        None => (paths, 0),
+        None => (paths, LeftOut::default()),
     };
+    let guarded_points = left_out.points;
     let paths = super::order::link_order(paths);
     // The cutter grown by the stock left: where it touches the part, the cutter itself is
     // that far from it.
@@ -283,7 +301,7 @@ pub fn finish_setup_keep<S: MotionSink>(
         em.pass(path)?;
     }
     em.end()?;
-    Ok(em.sum)
+    Ok((em.sum, left_out))
 }
 
 /// The cutter the drop-cutter and the scallop formulas see: `c` with an unlimited flute
