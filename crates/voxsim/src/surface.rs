@@ -585,8 +585,10 @@ pub struct SurfaceDeviation {
     /// and (on a field with [`HeightFieldOptions::pass_width`]) passed over by a feed.
     pub columns: usize,
     /// Columns that would count but that no feed passed over ([`HeightField::passed`] at
-    /// the tip of the ball resting on the surface below them): what the finisher left out
-    /// (where its shank or holder would have met the stock). Not in `max` and `mean`.
+    /// the tip of the ball resting on the surface below them), or whose ball's tip lies in
+    /// the strip of a stretch the finisher left out ([`HeightField::leave_out`]): what the
+    /// finisher left out (where its shank or holder would have met the stock). Not in
+    /// `max` and `mean`.
     pub unpassed: usize,
     /// Their area: their count times the square of the column spacing.
     pub unpassed_area: f64,
@@ -706,7 +708,10 @@ fn rests_on(dc: &DropCutter<'_>, c: &Point3, r: f64) -> bool {
 /// radius `r` (0: the point itself): a feed's tip came within the pass width of where the
 /// ball resting on `q` has its tip, no higher than that tip plus the rise of the
 /// cutter-location surface (as steep as the part there) over the width and
-/// [`PASS_SLACK`]. Always on a field without marks.
+/// [`PASS_SLACK`] (always, on a field without marks), and that tip does not lie in the
+/// strip of a stretch the finisher left out, at a height within the same rise and slack
+/// of it ([`HeightField::leave_out`]: the column is the left-out pass's, though the pass
+/// beside it came within the pass width).
 fn passed_over(field: &HeightField, q: &Point3, n: &Vector3, r: f64) -> bool {
     let c = q + n * r;
     let nz = n.z.abs().max(0.1);
