@@ -42,7 +42,10 @@ pub struct ParallelFinishOptions {
 
 /// Fill passes of [`parallel_finish_opt`], for a ball cutter. Between two neighbouring
 /// passes the cut is checked at every quarter of [`ParallelFinishOptions::sample_step`]
-/// along them, a quarter, half and three quarters of the way across: the ball dropped
+/// along them (closer where the drop-cutter heights at the checks rise or fall more than
+/// that between two of them, so that on a wall steeper than one step crosses, up to 88
+/// degrees and more, the checks stand at most that far apart in Z too), a quarter, half
+/// and three quarters of the way across: the ball dropped
 /// there touches the part at a point (its centre less the radius along the contact
 /// normal), and the material the two passes leave on that point is its distance from the
 /// nearer of the two passes' swept balls (the polylines of their centres, chords between
