@@ -16,7 +16,7 @@ use crate::gcode::{
 };
 use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
-    FinishOptions, FinishSummary, KeepPoint, finish_setup_keep, part_in_setup_frame,
+    FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup_left_out, part_in_setup_frame,
 };
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
@@ -297,13 +297,13 @@ fn emit_finishing<W: std::io::Write>(
     finishing: Option<&Finishing>,
     writer: &mut GcodeWriter<W>,
     i: usize,
-) -> Result<Option<FinishSummary>, MillError> {
+) -> Result<Option<(FinishSummary, LeftOut)>, MillError> {
     let (Some(f), Some(fin)) = (&job.finish, finishing) else {
         return Ok(None);
     };
     let strategy = f.choice.strategy.strategy();
     let keep = fin.rest.as_ref().map(|r| r as &dyn KeepPoint);
-    finish_setup_keep(&fin.index, &job.setup, &f.tool, &*strategy, &fin.opts, keep, writer)
+    finish_setup_left_out(&fin.index, &job.setup, &f.tool, &*strategy, &fin.opts, keep, writer)
         .map(Some)
         .map_err(|source| MillError::Plan { setup: i + 1, source })
 }
@@ -312,7 +312,11 @@ fn emit_finishing<W: std::io::Write>(
 /// else the planners' estimates) and the deviation of the surface its finishing cut.
 fn finish_result(
     job: &Job,
-    (finished, surface, finishing): (Option<FinishSummary>, Option<HeightField>, Option<Finishing>),
+    (finished, surface, finishing): (
+        Option<(FinishSummary, LeftOut)>,
+        Option<HeightField>,
+        Option<Finishing>,
+    ),
     split_s: Option<f64>,
     machine_time_s: Option<f64>,
     plan: &PlanSummary,
@@ -320,8 +324,21 @@ fn finish_result(
     times: &mut StageSeconds,
 ) -> Option<SetupFinish> {
     match (&job.finish, finished, surface, finishing) {
-        (Some(f), Some(summary), Some(field), Some(Finishing { opts: fopts, index, rest })) => {
+        (
+            Some(f),
+            Some((summary, left_out)),
+            Some(mut field),
+            Some(Finishing { opts: fopts, index, rest }),
+        ) => {
             let t = Instant::now();
+            // The pass points the shank and holder check left out stand for a strip half
+            // a stepover wide each side: the surface there is not reached, though the pass
+            // beside it came within the field's pass width.
+            // (The stepover was found for the same tool and scallop when the finishing was
+            // prepared; were it not, no strip would be marked.)
+            let half = crate::toolpath::finish::stepover_for_scallop(&f.tool.cutter, f.choice.scallop, 0.0)
+                .map_or(0.0, |s| 0.5 * s);
+            field.leave_out(&left_out.stretches, half);
             // Over the surface the finishing tool can touch (a concave corner tighter than
             // it is not a region it reaches) and not below the finisher's floor (what its
             // tool reaches).

@@ -16,8 +16,8 @@ mod scallop;
 mod strategy;
 
 pub use emit::{
-    FinishOptions, FinishSummary, KeepPoint, finish_setup, finish_setup_keep, finish_setup_opt,
-    part_in_setup_frame,
+    FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup, finish_setup_keep, finish_setup_left_out,
+    finish_setup_opt, part_in_setup_frame,
 };
 pub use guard::RoughedStock;
 pub use parallel::{FillOptions, ParallelFinishOptions, parallel_finish, parallel_finish_opt};

@@ -64,6 +64,8 @@ pub struct HeightField {
     /// width).
     passed: Vec<f64>,
     pass_width: Option<f64>,
+    /// What the finisher left out ([`HeightField::leave_out`]).
+    left_out: LeftOut,
     tools: ToolTable,
     prims: ToolPrims,
     /// The current cutter's radius and corner radius: its tip profile bounds from below
@@ -126,6 +128,7 @@ impl HeightField {
             top: vec![f64::INFINITY; nx * ny],
             passed: if o.pass_width.is_some() { vec![f64::INFINITY; nx * ny] } else { Vec::new() },
             pass_width: o.pass_width,
+            left_out: LeftOut::default(),
             tools,
             prims,
             profile,
@@ -166,6 +169,23 @@ impl HeightField {
             return false;
         }
         self.passed[fy as usize * self.nx + fx as usize] <= z
+    }
+
+    /// Marks the finisher's left-out pass stretches (tip positions, setup frame: each a
+    /// segment between two consecutive pass points it left out, or one point twice), with
+    /// the `width` of the strip each stands for (half the stepover: the columns nearer it
+    /// than the passes beside it). A column whose ball rests on the surface with its tip
+    /// within `width` of one (in XY, at about its height) is not passed over: the finisher
+    /// left it out on purpose (its shank or holder would have met the stock), even where
+    /// a pass beside the stretch came within the pass width. Replaces earlier marks.
+    pub fn leave_out(&mut self, segments: &[[Point3; 2]], width: f64) {
+        self.left_out = LeftOut::new(segments, width);
+    }
+
+    /// Whether a left-out stretch ([`HeightField::leave_out`]) lies within its width of
+    /// `(x, y)` in XY, at a height in `[z_lo, z_hi]` there.
+    fn left_out_near(&self, x: f64, y: f64, z_lo: f64, z_hi: f64) -> bool {
+        self.left_out.near(x, y, z_lo, z_hi)
     }
 
     /// [`HeightFieldOptions::pass_width`].
@@ -573,8 +593,10 @@ pub struct SurfaceDeviation {
     /// and (on a field with [`HeightFieldOptions::pass_width`]) passed over by a feed.
     pub columns: usize,
     /// Columns that would count but that no feed passed over ([`HeightField::passed`] at
-    /// the tip of the ball resting on the surface below them): what the finisher left out
-    /// (where its shank or holder would have met the stock). Not in `max` and `mean`.
+    /// the tip of the ball resting on the surface below them), or whose ball's tip lies in
+    /// the strip of a stretch the finisher left out ([`HeightField::leave_out`]): what the
+    /// finisher left out (where its shank or holder would have met the stock). Not in
+    /// `max` and `mean`.
     pub unpassed: usize,
     /// Their area: their count times the square of the column spacing.
     pub unpassed_area: f64,
@@ -694,12 +716,68 @@ fn rests_on(dc: &DropCutter<'_>, c: &Point3, r: f64) -> bool {
 /// radius `r` (0: the point itself): a feed's tip came within the pass width of where the
 /// ball resting on `q` has its tip, no higher than that tip plus the rise of the
 /// cutter-location surface (as steep as the part there) over the width and
-/// [`PASS_SLACK`]. Always on a field without marks.
+/// [`PASS_SLACK`] (always, on a field without marks), and that tip does not lie in the
+/// strip of a stretch the finisher left out, at a height within the same rise and slack
+/// of it ([`HeightField::leave_out`]: the column is the left-out pass's, though the pass
+/// beside it came within the pass width).
 fn passed_over(field: &HeightField, q: &Point3, n: &Vector3, r: f64) -> bool {
     let c = q + n * r;
     let nz = n.z.abs().max(0.1);
     let rise = field.pass_width.unwrap_or(0.0) * (1.0 - nz * nz).sqrt() / nz;
-    field.passed(c.x, c.y, c.z - r + rise + PASS_SLACK)
+    let tip = c.z - r;
+    field.passed(c.x, c.y, tip + rise + PASS_SLACK)
+        && !field.left_out_near(c.x, c.y, tip - rise - PASS_SLACK, tip + rise + PASS_SLACK)
+}
+
+/// The finisher's left-out stretches ([`HeightField::leave_out`]), bucketed in XY cells of
+/// their width.
+#[derive(Debug, Clone, Default)]
+struct LeftOut {
+    segments: Vec<[Point3; 2]>,
+    width: f64,
+    cells: std::collections::HashMap<(i64, i64), Vec<usize>>,
+}
+
+impl LeftOut {
+    fn new(segments: &[[Point3; 2]], width: f64) -> Self {
+        let mut cells: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+        let finite = |s: &[Point3; 2]| s.iter().all(|p| p.coords.iter().all(|v| v.is_finite()));
+        if !(width > 0.0 && width.is_finite()) {
+            return Self::default();
+        }
+        let segments: Vec<[Point3; 2]> = segments.iter().filter(|s| finite(s)).copied().collect();
+        for (k, [a, b]) in segments.iter().enumerate() {
+            let cell = |v: f64| (v / width).floor() as i64;
+            let (i0, i1) = (cell(a.x.min(b.x) - width), cell(a.x.max(b.x) + width));
+            let (j0, j1) = (cell(a.y.min(b.y) - width), cell(a.y.max(b.y) + width));
+            // A stretch longer than a few thousand cells is a bad input: left unmarked.
+            if (i1 - i0 + 1).saturating_mul(j1 - j0 + 1) > 4096 {
+                continue;
+            }
+            for i in i0..=i1 {
+                for j in j0..=j1 {
+                    cells.entry((i, j)).or_default().push(k);
+                }
+            }
+        }
+        Self { segments, width, cells }
+    }
+
+    fn near(&self, x: f64, y: f64, z_lo: f64, z_hi: f64) -> bool {
+        if self.segments.is_empty() {
+            return false;
+        }
+        let key = ((x / self.width).floor() as i64, (y / self.width).floor() as i64);
+        let Some(ks) = self.cells.get(&key) else { return false };
+        ks.iter().any(|&k| {
+            let [a, b] = self.segments[k];
+            let (ex, ey) = (b.x - a.x, b.y - a.y);
+            let l = ex * ex + ey * ey;
+            let u = if l > 0.0 { (((x - a.x) * ex + (y - a.y) * ey) / l).clamp(0.0, 1.0) } else { 0.0 };
+            let (px, py, pz) = (a.x + u * ex, a.y + u * ey, a.z + u * (b.z - a.z));
+            (px - x).hypot(py - y) <= self.width && pz >= z_lo && pz <= z_hi
+        })
+    }
 }
 
 /// How far above the ball's tip over a surface point (and the cutter-location surface's

@@ -175,6 +175,56 @@ fn a_pass_lifted_over_the_surface_leaves_unpassed_columns_out_of_the_max() {
     assert!(d.columns == 0 && d.unpassed > 401, "{d:?}");
 }
 
+/// A stretch of pass the finisher left out ([`HeightField::leave_out`]) takes its own strip
+/// out of the reached columns: on the ball raster 1 apart with the pass at y = 10 lifted,
+/// the columns within half a stepover of it (21 rows) are reported apart, not only those
+/// farther than the pass width (0.75) from every pass (9 rows), and the max is the
+/// raster's own scallop, half a stepover from a pass; a stretch at another height than
+/// the surface's tips takes nothing out.
+#[test]
+fn a_left_out_stretch_takes_its_strip_out_of_the_reached_columns() {
+    let part = MeshIndex::new(
+        &Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(20.0, 20.0, 5.0))).unwrap(),
+    )
+    .unwrap();
+    let r = 3.0;
+    let cut = |stretch_z: Option<f64>| {
+        let o = HeightFieldOptions { pass_width: Some(0.75), ..Default::default() };
+        let mut field =
+            HeightField::new_opt([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0)), &o)
+                .unwrap();
+        let mut go = |to: Point3, rapid: bool| {
+            let m =
+                if rapid { Motion::Rapid { to } } else { Motion::Linear { to, feed: 1000.0, extrude: None } };
+            field.motion(&m).unwrap();
+        };
+        go(Point3::new(-4.0, -4.0, 25.0), true);
+        for k in 0..=28 {
+            let y = -4.0 + k as f64;
+            let z = if k == 14 { 7.0 } else { 5.0 };
+            let (a, b) = if k % 2 == 0 { (-4.0, 24.0) } else { (24.0, -4.0) };
+            go(Point3::new(a, y, z), false);
+            go(Point3::new(b, y, z), false);
+        }
+        go(Point3::new(-4.0, 24.0, 25.0), true);
+        if let Some(z) = stretch_z {
+            field.leave_out(&[[Point3::new(-4.0, 10.0, z), Point3::new(24.0, 10.0, z)]], 0.52);
+        }
+        field
+    };
+    let unmarked = surface_deviation(&cut(None), &part);
+    assert_eq!(unmarked.unpassed, 9 * 401, "{unmarked:?}");
+    let hw = r - (r * r - 0.75f64 * 0.75).sqrt();
+    assert!((unmarked.max - hw).abs() < 1e-9, "{unmarked:?}");
+    let d = surface_deviation(&cut(Some(5.0)), &part);
+    assert_eq!(d.unpassed, 21 * 401, "{d:?}");
+    assert_eq!(d.columns + d.unpassed, unmarked.columns + unmarked.unpassed);
+    let half = r - (r * r - 0.25f64).sqrt();
+    assert!((d.max - half).abs() < 1e-9, "{d:?} vs {half}");
+    // The stretch 3 above the tips there: not the columns' own.
+    assert_eq!(surface_deviation(&cut(Some(8.0)), &part), unmarked);
+}
+
 #[test]
 fn a_pass_below_the_surface_is_a_gouge_of_its_depth() {
     let part = MeshIndex::new(

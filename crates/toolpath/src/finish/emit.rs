@@ -23,6 +23,7 @@ use s2g_gcode::{
 };
 use s2g_geom::{Cutter, DropCutter, Mesh, MeshIndex, Point3, Setup, Similarity3};
 
+pub use super::guard::LeftOut;
 use super::guard::{Guard, RoughedStock};
 use super::{FinishContext, FinishingStrategy};
 use crate::error::ToolpathError;
@@ -213,6 +214,22 @@ pub fn finish_setup_keep<S: MotionSink>(
     keep: Option<&dyn KeepPoint>,
     sink: &mut S,
 ) -> Result<FinishSummary, ToolpathError<S::Error>> {
+    finish_setup_left_out(part, setup, tool, strategy, opts, keep, sink).map(|(sum, _)| sum)
+}
+
+/// [`finish_setup_keep`], also returning the pass points the shank and holder check left
+/// out ([`FinishOptions::holder_stock`]) as stretches of the passes (tip positions, setup
+/// frame; [`LeftOut`]): a measure of the finished surface does not count the surface
+/// they stand for as reached (`s2g_voxsim::HeightField::leave_out`).
+pub fn finish_setup_left_out<S: MotionSink>(
+    part: &MeshIndex,
+    setup: &Setup,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    opts: &FinishOptions,
+    keep: Option<&dyn KeepPoint>,
+    sink: &mut S,
+) -> Result<(FinishSummary, LeftOut), ToolpathError<S::Error>> {
     tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     check(opts)?;
     let cutter = profile_cutter(&tool.cutter);
@@ -244,10 +261,11 @@ pub fn finish_setup_keep<S: MotionSink>(
         Some(stock) => Guard::new(part, &tool.cutter, stock)?,
         None => None,
     };
-    let (paths, guarded_points) = match &guard {
+    let (paths, left_out) = match &guard {
         Some(g) => g.split(paths, opts.link_check_step),
-        None => (paths, 0),
+        None => (paths, LeftOut::default()),
     };
+    let guarded_points = left_out.points;
     let paths = super::order::link_order(paths);
     // The cutter grown by the stock left: where it touches the part, the cutter itself is
     // that far from it.
@@ -283,7 +301,7 @@ pub fn finish_setup_keep<S: MotionSink>(
         em.pass(path)?;
     }
     em.end()?;
-    Ok(em.sum)
+    Ok((em.sum, left_out))
 }
 
 /// The cutter the drop-cutter and the scallop formulas see: `c` with an unlimited flute
@@ -358,6 +376,15 @@ struct Emitter<'a, S: MotionSink> {
     floor: f64,
     pos: Option<Point3>,
     sum: FinishSummary,
+}
+
+/// A route between passes ([`Emitter::enter_route`]): its moves in order, each to a point
+/// at a feed (`None`: a rapid), and whether it crosses below the clearance plane (a hop)
+/// or retracts to it.
+struct Route {
+    legs: Vec<(Point3, Option<f64>)>,
+    hop: bool,
+    retract: bool,
 }
 
 impl<S: MotionSink> Emitter<'_, S> {
@@ -543,14 +570,15 @@ impl<S: MotionSink> Emitter<'_, S> {
     /// The points after `a` of a link from `a` to `b` along the drop-cutter surface over
     /// the straight line between them (raised by the pass lift, above the floor), each
     /// chord clear as a pass's must be, when its length at the feed takes less time than
-    /// entering `b` anew ([`Self::enter_time`]); `None` otherwise.
-    fn surface_link(&self, a: &Point3, b: &Point3) -> Option<Vec<Point3>> {
+    /// `enter_s`, the time entering `b` anew takes ([`Self::enter_route`]); `None`
+    /// otherwise.
+    fn surface_link(&self, a: &Point3, b: &Point3, enter_s: f64) -> Option<Vec<Point3>> {
         let d = b - a;
         let l = d.xy().norm();
         if !(l <= self.opts.max_surface_link) {
             return None;
         }
-        let budget = self.enter_time(a, b) * self.tool.feed / 60.0;
+        let budget = enter_s * self.tool.feed / 60.0;
         if !(l < budget) {
             return None;
         }
@@ -603,56 +631,93 @@ impl<S: MotionSink> Emitter<'_, S> {
         Some(out)
     }
 
-    /// The time (s) that leaving the tool's position `a` and entering a pass at `s`
-    /// takes ([`Self::enter`]): the rise and the plunge at their feeds and the rapids
-    /// between, on the way through the clearance plane when there is no stock left.
-    fn enter_time(&self, a: &Point3, s: &Point3) -> f64 {
-        let (feed, plunge, rapid) = (self.tool.feed, self.tool.plunge_feed, self.opts.rapid_feed);
+    /// The route [`Self::enter`] takes from the tool's position `from` to a pass starting at
+    /// `s`: with a stock left, feed straight up to the safe height over `from` (where the
+    /// cutter may still touch stock), cross at the highest safe height on the way (a hop;
+    /// else retract to the clearance plane and cross there), rapid down to `s`'s safe
+    /// height and plunge at the plunge feed; without, retract, rapid over `s` on the
+    /// clearance plane, down to the approach height, and plunge. Its time is
+    /// [`Route::time`]; [`Self::follow`] emits it.
+    fn enter_route(&self, from: Option<Point3>, s: Point3) -> Route {
         let clear = self.sum.clear_z;
-        let xy = (s - a).xy().norm();
-        match (self.safe_height(a.x, a.y, a.z), self.safe_height(s.x, s.y, s.z)) {
-            (Some(up), Some(down)) => {
-                let (up, down) = (up.min(clear), down.min(clear));
-                60.0 * ((up - a.z) / feed + (down - s.z) / plunge + xy / rapid)
+        let mut r = Route { legs: Vec::with_capacity(6), hop: false, retract: false };
+        // Where the route has taken the tool so far.
+        let mut at = from;
+        let go = |r: &mut Route, at: &mut Option<Point3>, to: Point3, feed: Option<f64>| {
+            r.legs.push((to, feed));
+            *at = Some(to);
+        };
+        let below = |at: Option<Point3>| at.filter(|p| p.z < clear);
+        match self.safe_height(s.x, s.y, s.z) {
+            Some(low) => {
+                // The rise.
+                if let Some(p) = below(at)
+                    && let Some(up) = self.safe_height(p.x, p.y, p.z).filter(|&h| h > p.z)
+                {
+                    go(&mut r, &mut at, Point3::new(p.x, p.y, up.min(clear)), Some(self.tool.feed));
+                }
+                let hop = below(at)
+                    .and_then(|p| self.hop_height(&p, &s).filter(|&h| h < clear).map(|h| (p, h.max(p.z))));
+                match hop {
+                    Some((p, h)) => {
+                        r.hop = true;
+                        go(&mut r, &mut at, Point3::new(p.x, p.y, h), None);
+                        go(&mut r, &mut at, Point3::new(s.x, s.y, h), None);
+                    }
+                    None => {
+                        if let Some(p) = below(at) {
+                            r.retract = true;
+                            go(&mut r, &mut at, Point3::new(p.x, p.y, clear), None);
+                        }
+                        go(&mut r, &mut at, Point3::new(s.x, s.y, clear), None);
+                    }
+                }
+                go(&mut r, &mut at, Point3::new(s.x, s.y, low.min(clear)), None);
             }
-            _ => {
+            None => {
+                if let Some(p) = below(at) {
+                    r.retract = true;
+                    go(&mut r, &mut at, Point3::new(p.x, p.y, clear), None);
+                }
+                go(&mut r, &mut at, Point3::new(s.x, s.y, clear), None);
                 let top = (s.z + self.opts.approach).min(clear);
-                60.0 * ((clear - a.z + xy + clear - top) / rapid + (top - s.z) / plunge)
+                go(&mut r, &mut at, Point3::new(s.x, s.y, top), None);
             }
         }
+        go(&mut r, &mut at, s, Some(self.tool.plunge_feed));
+        r
     }
 
-    /// Retract, rapid over `s` on the clearance plane, down to the approach height, and
-    /// plunge at the plunge feed. With a stock left: leave the current position by feeding
-    /// up to its safe height, cross at the highest safe height on the way (the clearance
-    /// plane only when that is above it), rapid down to `s`'s safe height and plunge.
-    fn enter(&mut self, s: Point3) -> Result<(), ToolpathError<S::Error>> {
-        let clear = self.sum.clear_z;
-        if let Some(low) = self.safe_height(s.x, s.y, s.z) {
-            self.rise()?;
-            let hop = match self.pos.filter(|p| p.z < clear) {
-                Some(p) => self.hop_height(&p, &s).filter(|&h| h < clear).map(|h| (p, h.max(p.z))),
-                None => None,
-            };
-            match hop {
-                Some((p, h)) => {
-                    self.sum.hops += 1;
-                    self.rapid(Point3::new(p.x, p.y, h))?;
-                    self.rapid(Point3::new(s.x, s.y, h))?;
-                }
-                None => {
-                    self.retract()?;
-                    self.rapid(Point3::new(s.x, s.y, clear))?;
-                }
-            }
-            self.rapid(Point3::new(s.x, s.y, low.min(clear)))?;
-            return self.feed(s, self.tool.plunge_feed);
+    /// The machine's time (s) for `route` from `from`, as [`Self::follow`] books it.
+    fn route_time(&self, from: Option<Point3>, route: &Route) -> f64 {
+        let (mut pos, mut length, mut time) = (from, 0.0, 0.0);
+        for &(to, feed) in &route.legs {
+            book_move(&mut pos, to, feed.unwrap_or(self.opts.rapid_feed), &mut length, &mut time);
         }
-        self.retract()?;
-        self.rapid(Point3::new(s.x, s.y, clear))?;
-        let top = (s.z + self.opts.approach).min(clear);
-        self.rapid(Point3::new(s.x, s.y, top))?;
-        self.feed(s, self.tool.plunge_feed)
+        time
+    }
+
+    /// Emits `route` ([`Self::enter_route`]): rapids, and feeds at their feeds.
+    fn follow(&mut self, route: &Route) -> Result<(), ToolpathError<S::Error>> {
+        if route.hop {
+            self.sum.hops += 1;
+        }
+        if route.retract {
+            self.sum.retracts += 1;
+        }
+        for &(to, feed) in &route.legs {
+            match feed {
+                Some(f) => self.feed(to, f)?,
+                None => self.rapid(to)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// Leaves the current position and enters a pass at `s` ([`Self::enter_route`]).
+    fn enter(&mut self, s: Point3) -> Result<(), ToolpathError<S::Error>> {
+        let route = self.enter_route(self.pos, s);
+        self.follow(&route)
     }
 
     fn pass(&mut self, path: &[Point3]) -> Result<(), ToolpathError<S::Error>> {
@@ -664,15 +729,18 @@ impl<S: MotionSink> Emitter<'_, S> {
                 self.sum.links += 1;
                 self.feed(s, self.tool.feed)?;
             }
-            Some(p) if p.z < self.sum.clear_z => match self.surface_link(&p, &s) {
-                Some(route) => {
-                    self.sum.links += 1;
-                    for q in route {
-                        self.feed(q, self.tool.feed)?;
+            Some(p) if p.z < self.sum.clear_z => {
+                let enter = self.enter_route(Some(p), s);
+                match self.surface_link(&p, &s, self.route_time(Some(p), &enter)) {
+                    Some(route) => {
+                        self.sum.links += 1;
+                        for q in route {
+                            self.feed(q, self.tool.feed)?;
+                        }
                     }
+                    None => self.follow(&enter)?,
                 }
-                None => self.enter(s)?,
-            },
+            }
             _ => self.enter(s)?,
         }
         self.sum.passes += 1;

@@ -55,6 +55,17 @@ impl RoughedStock {
     }
 }
 
+/// The pass points the check left out ([`Guard::split`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LeftOut {
+    /// How many.
+    pub points: usize,
+    /// The stretches of passes they stand for (tip positions, setup frame): a segment
+    /// between each two consecutive points of a pass left out, and a lone one as a
+    /// segment from itself to itself.
+    pub stretches: Vec<[Point3; 2]>,
+}
+
 /// One guard (the shank or the holder): a flat cutter of the radius the check needs, and
 /// where the guard's bottom lies above the tip.
 struct Part<'a> {
@@ -124,23 +135,35 @@ impl<'a> Guard<'a> {
 
     /// `paths` with every point whose guard is not clear left out, split there, and split
     /// too between two clear points where a sample of the chord `step` apart is not; runs
-    /// of fewer than two points are dropped. Returns the paths and the points left out.
-    pub(super) fn split(&self, paths: Vec<Vec<Point3>>, step: f64) -> (Vec<Vec<Point3>>, usize) {
+    /// of fewer than two points are dropped. Returns the paths and the points left out,
+    /// as stretches: a segment between each two consecutive points of a path left out,
+    /// and a lone one as a segment from itself to itself.
+    pub(super) fn split(&self, paths: Vec<Vec<Point3>>, step: f64) -> (Vec<Vec<Point3>>, LeftOut) {
         use rayon::prelude::*;
-        let parts: Vec<(Vec<Vec<Point3>>, usize)> =
+        let parts: Vec<(Vec<Vec<Point3>>, LeftOut)> =
             paths.into_par_iter().map(|p| self.split_one(&p, step)).collect();
-        let dropped = parts.iter().map(|(_, d)| d).sum();
-        (parts.into_iter().flat_map(|(p, _)| p).collect(), dropped)
+        let mut left = LeftOut::default();
+        let mut out = Vec::new();
+        for (p, l) in parts {
+            out.extend(p);
+            left.points += l.points;
+            left.stretches.extend(l.stretches);
+        }
+        (out, left)
     }
 
-    fn split_one(&self, path: &[Point3], step: f64) -> (Vec<Vec<Point3>>, usize) {
-        let (mut out, mut run, mut dropped) = (Vec::new(), Vec::new(), 0);
+    fn split_one(&self, path: &[Point3], step: f64) -> (Vec<Vec<Point3>>, LeftOut) {
+        let (mut out, mut run, mut left) = (Vec::new(), Vec::new(), LeftOut::default());
+        let mut previous: Option<Point3> = None;
         for p in path {
             if !self.clear(p) {
-                dropped += 1;
+                left.points += 1;
+                left.stretches.push([previous.unwrap_or(*p), *p]);
+                previous = Some(*p);
                 end_run(&mut run, &mut out);
                 continue;
             }
+            previous = None;
             if let Some(a) = run.last()
                 && !self.chord_clear(a, p, step)
             {
@@ -149,7 +172,7 @@ impl<'a> Guard<'a> {
             run.push(*p);
         }
         end_run(&mut run, &mut out);
-        (out, dropped)
+        (out, left)
     }
 
     /// Whether the guard is clear at samples `step` apart along `a`-`b` (ends excluded).
@@ -258,9 +281,14 @@ mod tests {
         let g = Guard::new::<()>(&part, &ball10(), STOCK).unwrap().unwrap();
         // A pass along the wall's foot then away from it.
         let path: Vec<Point3> = (0..=40).map(|i| Point3::new(4.0 + 0.25 * f64::from(i), 0.0, 0.0)).collect();
-        let (paths, dropped) = g.split(vec![path.clone()], 0.05);
-        // Points within 6.3 of the wall are left out (4.0 .. 6.25, ten of them).
+        let (paths, left) = g.split(vec![path.clone()], 0.05);
+        let dropped = left.points;
+        // Points within 6.3 of the wall are left out (4.0 .. 6.25, ten of them), the
+        // stretch between each two consecutive ones and the first on its own.
         assert_eq!(dropped, 10);
+        assert_eq!(left.stretches.len(), 10);
+        assert_eq!(left.stretches[0], [path[0], path[0]]);
+        assert!(left.stretches[1..].iter().zip(path.windows(2)).all(|(s, w)| s == &[w[0], w[1]]));
         assert_eq!(dropped, path.iter().filter(|p| p.x <= 6.3).count());
         assert_eq!(paths.len(), 1);
         assert_eq!(paths[0].len(), path.len() - 10);
