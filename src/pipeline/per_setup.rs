@@ -155,7 +155,8 @@ pub(super) fn machine_setup(
         (planned, parsed, waited)
     });
     let mut clock = tee.first.clock.take();
-    let (surface, split_s) = (tee.first.surface.take(), tee.first.split_s);
+    let swept = tee.first.take_surface();
+    let split_s = tee.first.split_s;
     if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
         && Instant::now() >= at
     {
@@ -183,6 +184,7 @@ pub(super) fn machine_setup(
     if let Some(err) = summary.errors.first() {
         return Err(MillError::program(i + 1, "re-reading the program", err.clone()));
     }
+    let surface = swept.map_err(|e| MillError::program(i + 1, "re-reading the program", e))?;
     // Flushes the simulator, so its report is complete for this setup.
     let remaining = ctx.excess()?;
     let sim = ctx.sim.borrow();
@@ -383,6 +385,27 @@ impl MotionSink for SimSink<'_> {
     }
 }
 
+/// Finishing moves the [`Watcher`] gives its height field at once.
+const SURFACE_BATCH: usize = 4096;
+
+impl Watcher<'_> {
+    /// Gives the height field the finishing moves not yet swept.
+    pub(super) fn sweep_pending(&mut self) -> Result<(), crate::voxsim::SimError> {
+        let result = match &mut self.surface {
+            Some(field) => field.motions(&self.pending),
+            None => Ok(()),
+        };
+        self.pending.clear();
+        result
+    }
+
+    /// The height field, every finishing move swept.
+    pub(super) fn take_surface(&mut self) -> Result<Option<HeightField>, crate::voxsim::SimError> {
+        self.sweep_pending()?;
+        Ok(self.surface.take())
+    }
+}
+
 /// What the simulator is fed through: the motions go to a [`Watcher`] first, then to the
 /// simulator.
 pub(super) type Simulating<'a> = Tee<Watcher<'a>, SimSink<'a>>;
@@ -403,6 +426,7 @@ pub(super) fn simulating<'a>(
             tool_changes: 0,
             split_s: None,
             surface: None,
+            pending: Vec::new(),
         },
         SimSink(sim),
     )
@@ -427,6 +451,8 @@ pub(super) struct Watcher<'a> {
     pub(super) split_s: Option<f64>,
     /// The height field the finishing moves cut, where the setup is finished.
     pub(super) surface: Option<HeightField>,
+    /// Finishing moves not yet given to `surface` ([`Watcher::sweep_pending`]).
+    pub(super) pending: Vec<Motion<'static>>,
 }
 
 /// What a [`Watcher`] reports progress with.
@@ -461,6 +487,7 @@ impl<'a> Watcher<'a> {
             tool_changes: self.tool_changes,
             split_s: self.split_s,
             surface: self.surface,
+            pending: self.pending,
         }
     }
 }
@@ -486,11 +513,13 @@ impl MotionSink for Watcher<'_> {
                 self.split_s = Some(self.clock.as_ref().map_or(0.0, MachineTime::seconds));
             }
         }
-        if self.tool_changes >= 2
-            && let Some(field) = &mut self.surface
-            && !matches!(m, Motion::Setup { .. })
-        {
-            field.motion(m)?;
+        if self.tool_changes >= 2 && self.surface.is_some() && !matches!(m, Motion::Setup { .. }) {
+            // The height field takes the finishing moves in batches (one parallel step
+            // each, the same field as one move at a time).
+            self.pending.push(m.clone().into_owned());
+            if self.pending.len() >= SURFACE_BATCH {
+                self.sweep_pending()?;
+            }
         }
         if let Some(clock) = &mut self.clock {
             let Ok(()) = clock.motion(m);

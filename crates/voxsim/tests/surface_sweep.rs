@@ -109,3 +109,47 @@ proptest! {
         prop_assert_eq!(bits(p1), bits(p2));
     }
 }
+
+/// The program of `seed` with a tool change to tool 2 a third of the way in and one back
+/// to tool 1 at two thirds, so that a batch holds moves of both tools.
+fn with_tool_changes(seed: u64, n: usize) -> Vec<Motion<'static>> {
+    let mut ms = program(seed, n);
+    ms.insert(2 * ms.len() / 3, Motion::ToolChange { tool: 1 });
+    ms.insert(ms.len() / 3, Motion::ToolChange { tool: 2 });
+    ms
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// `HeightField::motions` in batches of random sizes leaves what the moves one at a
+    /// time leave (and the reference), bit for bit, across tool changes.
+    #[test]
+    fn batches_of_moves_cut_and_mark_as_the_moves_one_by_one(
+        seed in any::<u64>(),
+        r in 0.5f64..6.0,
+        spacing in 0.04f64..0.4,
+        width in proptest::option::of(0.0f64..2.0),
+        batch in 1usize..700,
+    ) {
+        let tools = ToolTable::single(Cutter::ball(r, 30.0)).with(2, Cutter::bull(0.6 * r, 0.2 * r, 30.0));
+        let o = HeightFieldOptions { spacing, pass_width: width, ..Default::default() };
+        let ms = with_tool_changes(seed, 400);
+        let new = || HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], tools.clone(), &o).unwrap();
+        let (mut one, mut batched, mut slow) = (new(), new(), new());
+        slow.use_reference_sweep();
+        for m in &ms {
+            one.motion(m).unwrap();
+            slow.motion(m).unwrap();
+        }
+        for chunk in ms.chunks(batch) {
+            batched.motions(chunk).unwrap();
+        }
+        let ((t1, p1), (t2, p2), (t3, p3)) = (one.columns(), batched.columns(), slow.columns());
+        prop_assert!(t1.iter().filter(|t| t.is_finite()).count() > t1.len() / 10);
+        prop_assert_eq!(bits(t1), bits(t2));
+        prop_assert_eq!(bits(p1), bits(p2));
+        prop_assert_eq!(bits(t1), bits(t3));
+        prop_assert_eq!(bits(p1), bits(p3));
+    }
+}
