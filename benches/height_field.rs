@@ -1,10 +1,8 @@
 //! The finishing height field's sweep (s2g-voxsim `HeightField`, issue 36's surface
-//! deviation) against its baselines in the same run: `reference` visits every column of
-//! each move's box, `tiled` (one move at a time, each parallel over its rows of blocks)
-//! passes over 8 x 8 blocks of columns that the move cannot lower, `batched`
-//! (`HeightField::motions`, as the pipeline gives the finishing moves) sweeps the tiled way
-//! 4,096 moves at a time, parallel over the rows of blocks they reach. All three leave the
-//! same field bit for bit (`crates/voxsim/tests/surface_sweep.rs`). The program is a bunny-like finish: a 10 mm ball end mill on a
+//! deviation) against its baseline in the same run: `reference` visits every column of
+//! each move's box, `tiled` (the default) passes over 8 x 8 blocks of columns that the
+//! move cannot lower. Both leave the same field bit for bit (`crates/voxsim/tests/
+//! surface_sweep.rs`). The program is a bunny-like finish: a 10 mm ball end mill on a
 //! crossed raster of 0.6 mm stepover over a wavy 24 x 24 mm surface mesh, its tip
 //! dropped onto the mesh every 0.2 mm (drop-cutter), columns 0.1 mm apart, passes marked
 //! 0.45 mm wide.
@@ -62,44 +60,30 @@ fn program() -> Vec<Motion<'static>> {
     ms
 }
 
-/// How the moves are swept.
-#[derive(Clone, Copy, PartialEq)]
-enum Way {
-    Reference,
-    Tiled,
-    Batched,
-}
-
-fn sweep(ms: &[Motion<'_>], way: Way) -> HeightField {
+fn sweep(ms: &[Motion<'_>], reference: bool) -> HeightField {
     let o = HeightFieldOptions { spacing: 0.1, pass_width: Some(0.45), ..Default::default() };
     let tools = ToolTable::single(Cutter::ball(5.0, 30.0));
     let mut f = HeightField::new_opt([-6.0, -6.0], [30.0, 30.0], tools, &o).expect("field");
-    if way == Way::Reference {
+    if reference {
         f.use_reference_sweep();
     }
-    if way == Way::Batched {
-        for chunk in ms.chunks(4096) {
-            f.motions(chunk).expect("motions");
-        }
-    } else {
-        for m in ms {
-            f.motion(m).expect("motion");
-        }
+    for m in ms {
+        f.motion(m).expect("motion");
     }
     f
 }
 
 fn bench(c: &mut Criterion) {
     let ms = program();
-    let reference = sweep(&ms, Way::Reference);
-    for way in [Way::Tiled, Way::Batched] {
-        assert_eq!(sweep(&ms, way).columns(), reference.columns(), "every sweep must equal the reference");
-    }
+    assert_eq!(
+        sweep(&ms, false).columns(),
+        sweep(&ms, true).columns(),
+        "the tiled sweep must equal the reference"
+    );
     let mut g = c.benchmark_group("height_field_finish");
     g.sample_size(10);
-    g.bench_function("reference", |b| b.iter(|| sweep(&ms, Way::Reference)));
-    g.bench_function("tiled", |b| b.iter(|| sweep(&ms, Way::Tiled)));
-    g.bench_function("batched", |b| b.iter(|| sweep(&ms, Way::Batched)));
+    g.bench_function("reference", |b| b.iter(|| sweep(&ms, true)));
+    g.bench_function("tiled", |b| b.iter(|| sweep(&ms, false)));
     g.finish();
 }
 

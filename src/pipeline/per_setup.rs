@@ -49,6 +49,9 @@ pub(super) struct Ctx<'a> {
     /// Surface samples of the part (point, outward normal; part frame) at which the
     /// finished surface's deviation is measured; empty when the run does not finish.
     pub(super) samples: &'a [(Point3, crate::geom::Vector3)],
+    /// Whether the part is closed and consistently wound
+    /// ([`DeviationOptions::closed_part`]).
+    pub(super) part_closed: bool,
 }
 
 /// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
@@ -155,8 +158,7 @@ pub(super) fn machine_setup(
         (planned, parsed, waited)
     });
     let mut clock = tee.first.clock.take();
-    let swept = tee.first.take_surface();
-    let split_s = tee.first.split_s;
+    let (surface, split_s) = (tee.first.surface.take(), tee.first.split_s);
     if let (Some((at, limit_s)), Err(_)) = (ctx.deadline, &parsed)
         && Instant::now() >= at
     {
@@ -184,7 +186,6 @@ pub(super) fn machine_setup(
     if let Some(err) = summary.errors.first() {
         return Err(MillError::program(i + 1, "re-reading the program", err.clone()));
     }
-    let surface = swept.map_err(|e| MillError::program(i + 1, "re-reading the program", e))?;
     // Flushes the simulator, so its report is complete for this setup.
     let remaining = ctx.excess()?;
     let sim = ctx.sim.borrow();
@@ -200,7 +201,7 @@ pub(super) fn machine_setup(
         c.seconds()
     });
     let fin = (finished, surface, finishing);
-    let finish = finish_result(job, fin, split_s, machine_time_s, &plan, ctx.samples, times);
+    let finish = finish_result(job, fin, split_s, machine_time_s, &plan, ctx, times);
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
@@ -318,9 +319,10 @@ fn finish_result(
     split_s: Option<f64>,
     machine_time_s: Option<f64>,
     plan: &PlanSummary,
-    samples: &[(Point3, crate::geom::Vector3)],
+    ctx: &Ctx<'_>,
     times: &mut StageSeconds,
 ) -> Option<SetupFinish> {
+    let (samples, closed_part) = (ctx.samples, ctx.part_closed);
     match (&job.finish, finished, surface, finishing) {
         (Some(f), Some(summary), Some(field), Some(Finishing { opts: fopts, index, rest })) => {
             let t = Instant::now();
@@ -330,6 +332,7 @@ fn finish_result(
             let dopts = DeviationOptions {
                 ball_radius: Some(f.tool.radius()),
                 floor: fopts.floor,
+                closed_part,
                 ..DeviationOptions::default()
             };
             // Where this setup finishes: not where an earlier one did.
@@ -385,27 +388,6 @@ impl MotionSink for SimSink<'_> {
     }
 }
 
-/// Finishing moves the [`Watcher`] gives its height field at once.
-const SURFACE_BATCH: usize = 4096;
-
-impl Watcher<'_> {
-    /// Gives the height field the finishing moves not yet swept.
-    pub(super) fn sweep_pending(&mut self) -> Result<(), crate::voxsim::SimError> {
-        let result = match &mut self.surface {
-            Some(field) => field.motions(&self.pending),
-            None => Ok(()),
-        };
-        self.pending.clear();
-        result
-    }
-
-    /// The height field, every finishing move swept.
-    pub(super) fn take_surface(&mut self) -> Result<Option<HeightField>, crate::voxsim::SimError> {
-        self.sweep_pending()?;
-        Ok(self.surface.take())
-    }
-}
-
 /// What the simulator is fed through: the motions go to a [`Watcher`] first, then to the
 /// simulator.
 pub(super) type Simulating<'a> = Tee<Watcher<'a>, SimSink<'a>>;
@@ -426,7 +408,6 @@ pub(super) fn simulating<'a>(
             tool_changes: 0,
             split_s: None,
             surface: None,
-            pending: Vec::new(),
         },
         SimSink(sim),
     )
@@ -451,8 +432,6 @@ pub(super) struct Watcher<'a> {
     pub(super) split_s: Option<f64>,
     /// The height field the finishing moves cut, where the setup is finished.
     pub(super) surface: Option<HeightField>,
-    /// Finishing moves not yet given to `surface` ([`Watcher::sweep_pending`]).
-    pub(super) pending: Vec<Motion<'static>>,
 }
 
 /// What a [`Watcher`] reports progress with.
@@ -487,7 +466,6 @@ impl<'a> Watcher<'a> {
             tool_changes: self.tool_changes,
             split_s: self.split_s,
             surface: self.surface,
-            pending: self.pending,
         }
     }
 }
@@ -513,13 +491,11 @@ impl MotionSink for Watcher<'_> {
                 self.split_s = Some(self.clock.as_ref().map_or(0.0, MachineTime::seconds));
             }
         }
-        if self.tool_changes >= 2 && self.surface.is_some() && !matches!(m, Motion::Setup { .. }) {
-            // The height field takes the finishing moves in batches (one parallel step
-            // each, the same field as one move at a time).
-            self.pending.push(m.clone().into_owned());
-            if self.pending.len() >= SURFACE_BATCH {
-                self.sweep_pending()?;
-            }
+        if self.tool_changes >= 2
+            && let Some(field) = &mut self.surface
+            && !matches!(m, Motion::Setup { .. })
+        {
+            field.motion(m)?;
         }
         if let Some(clock) = &mut self.clock {
             let Ok(()) = clock.motion(m);

@@ -92,6 +92,8 @@ pub struct MillRun {
     /// Where the run finishes: surface samples of the part (point, outward normal) at
     /// which the finished surface's deviation is measured ([`PartDeviation`]).
     deviation_samples: Vec<(Point3, Vector3)>,
+    /// Whether the part is closed and consistently wound (finishing runs only).
+    part_closed: bool,
 }
 
 /// Where the run finishes: the surface samples (point, outward normal; part frame) at which
@@ -147,7 +149,7 @@ impl MillRun {
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
         let spec = simulation_grid(&stock, &part_box, opts)?;
-        let (orientation, (target, index, samples, beside)) = rayon::join(
+        let (orientation, (target, index, samples, part_closed, beside)) = rayon::join(
             || select_setups(&part, &body, &oopts, opts.stock_removal),
             || {
                 let t = Instant::now();
@@ -155,7 +157,13 @@ impl MillRun {
                 let voxelized = t.elapsed();
                 let index = MeshIndex::new(&part);
                 let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed);
-                (target, index, samples, [voxelized, t.elapsed() - voxelized])
+                // A closed part lets the surface deviation's gouge test pass over cut points
+                // with nothing of the part above them (DeviationOptions::closed_part).
+                let closed = opts.finish.is_some() && {
+                    let r = crate::geom::report(&part);
+                    r.closed && r.consistently_oriented
+                };
+                (target, index, samples, closed, [voxelized, t.elapsed() - voxelized])
             },
         );
         let orientation = orientation?;
@@ -254,6 +262,7 @@ impl MillRun {
             // Appendix A.1: start 0.1 (of the normalised part) above the top.
             clearance: 0.1 * stock.extent().max(),
             deviation_samples,
+            part_closed,
         })
     }
 
@@ -273,6 +282,7 @@ impl MillRun {
             machine: self.tooling.machine(),
             surface_spacing: self.opts.surface_spacing,
             samples: &self.deviation_samples,
+            part_closed: self.part_closed,
         }
     }
 

@@ -79,8 +79,6 @@ pub struct HeightField {
     /// Sweep every column of the move's box ([`HeightField::sweep_reference`]), the
     /// baseline the tiled sweep is tested and benched against.
     reference: bool,
-    /// Where [`HeightField::motions`] collects its moves' sweeps before applying them.
-    batch: Option<Vec<Sweep>>,
 }
 
 /// Columns along each side of a block of [`HeightField::tile_max`].
@@ -136,7 +134,6 @@ impl HeightField {
             arc_tolerance: o.arc_tolerance,
             tile_max: vec![f64::INFINITY; nx.div_ceil(TILE) * ny.div_ceil(TILE)],
             reference: false,
-            batch: None,
         })
     }
 
@@ -222,87 +219,114 @@ impl HeightField {
         if self.reference {
             return self.sweep_reference(a, b, feed);
         }
-        let Some(reach) = self.reach(a, b, feed) else {
+        let Some(Reach { seg, lower, n, width, cols: [i0, i1, j0, j1] }) = self.reach(a, b, feed) else {
             return;
         };
-        let mv = Sweep { a, b, reach, profile: self.profile };
-        if let Some(batch) = &mut self.batch {
-            batch.push(mv);
-            return;
-        }
-        let [i0, i1, j0, j1] = mv.reach.cols;
-        let parallel = (i1 - i0 + 1) * (j1 - j0 + 1) > 4096;
-        self.apply(std::slice::from_ref(&mv), [j0 / TILE, j1 / TILE], parallel);
-    }
-
-    /// Applies `moves` in their order to the rows of blocks `tj[0]..=tj[1]` (every move's
-    /// rows among them), each row of blocks on its own (in parallel when asked): a column
-    /// sees the moves in the same order, so the field is the same bit for bit whatever the
-    /// batch.
-    fn apply(&mut self, moves: &[Sweep], [tj0, tj1]: [usize; 2], parallel: bool) {
-        let g = Grid { min: self.min, spacing: self.spacing, nx: self.nx };
-        let (nx, ny) = (self.nx, self.ny);
+        let prims = &lower[..n];
+        let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
+        let w = width.unwrap_or(-1.0);
+        let (radius, rc) = self.profile;
+        let floor = move |rho: f64| {
+            let d = rho.min(radius) - (radius - rc);
+            if d <= 0.0 { 0.0 } else { rc - (rc * rc - d * d).max(0.0).sqrt() }
+        };
+        let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
+        let ab2 = ab.norm_squared();
         let tnx = nx.div_ceil(TILE);
-        let (top0, top1) = (tj0 * TILE * nx, ((tj1 + 1) * TILE).min(ny) * nx);
-        let rows = &mut self.top[top0..top1];
-        let tmax = &mut self.tile_max[tj0 * tnx..(tj1 + 1) * tnx];
-        let chunk = TILE * nx;
-        let row = |tj: usize, r: Cols<'_>, t: Cols<'_>, m: Cols<'_>| {
-            for mv in moves {
-                let [_, _, j0, j1] = mv.reach.cols;
-                if j0 / TILE <= tj && tj <= j1 / TILE {
-                    sweep_block_row(&g, mv, tj, r, t, m);
+        let (tj0, tj1) = (j0 / TILE, j1 / TILE);
+        // One row of blocks: its columns' rows, its blocks' maxima and its marks (empty
+        // without marks).
+        let block_row = |tj: usize, rows: &mut [f64], tmax: &mut [f64], mark: &mut [f64]| {
+            let (r0, r1) = ((tj * TILE).max(j0), (tj * TILE + TILE - 1).min(j1));
+            let y = |j: usize| min[1] + j as f64 * s;
+            for (ti, high) in tmax.iter_mut().enumerate().take(i1 / TILE + 1).skip(i0 / TILE) {
+                let (c0, c1) = ((ti * TILE).max(i0), (ti * TILE + TILE - 1).min(i1));
+                // The block's nearest distance from the path, less a margin far above the
+                // rounding of either distance, so its bound is at most every column's.
+                let near = rect_segment_distance(
+                    [min[0] + c0 as f64 * s, y(r0)],
+                    [min[0] + c1 as f64 * s, y(r1)],
+                    [a.x, a.y],
+                    [b.x, b.y],
+                );
+                let near = (near - 1e-9).max(0.0);
+                if near > w && *high <= zmin + floor(near) {
+                    continue;
+                }
+                let mut lowered = false;
+                // No mark falls in a block farther than the mark width from the path.
+                let marks = near <= w;
+                for j in r0..=r1 {
+                    let off = (j - tj * TILE) * nx;
+                    let row = &mut rows[off..off + nx];
+                    for (i, t) in row.iter_mut().enumerate().take(c1 + 1).skip(c0) {
+                        // A column at most `zmin` is left as it is (`floor` is never
+                        // negative), and without marks nothing else is done to it.
+                        if !marks && *t <= zmin {
+                            continue;
+                        }
+                        let base = Point3::new(min[0] + i as f64 * s, y(j), 0.0);
+                        let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
+                        let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
+                        let rho = (ap - ab * u).norm();
+                        if rho <= w {
+                            let m = &mut mark[off + i];
+                            *m = m.min(a.z + (b.z - a.z) * u);
+                        }
+                        // `floor` is never negative, so a column at most `zmin` is skipped
+                        // without it.
+                        if *t <= zmin || *t <= zmin + floor(rho) {
+                            continue;
+                        }
+                        for p in prims {
+                            if let Some((lo, _)) = p.column(&seg, &base) {
+                                let old = *t;
+                                *t = t.min(lo);
+                                lowered |= *t != old;
+                            }
+                        }
+                    }
+                }
+                if lowered {
+                    let (x0, x1) = (ti * TILE, (ti * TILE + TILE).min(nx));
+                    *high =
+                        rows.chunks(nx).flat_map(|r| &r[x0..x1]).fold(f64::NEG_INFINITY, |m, &t| m.max(t));
                 }
             }
         };
-        if self.passed.is_empty() {
-            let it = |(k, (r, t)): (usize, (Cols<'_>, Cols<'_>))| row(tj0 + k, r, t, &mut []);
-            if parallel {
-                rows.par_chunks_mut(chunk).zip(tmax.par_chunks_mut(tnx)).enumerate().for_each(it);
-            } else {
-                rows.chunks_mut(chunk).zip(tmax.chunks_mut(tnx)).enumerate().for_each(it);
+        let (top0, top1) = (tj0 * TILE * nx, ((tj1 + 1) * TILE).min(ny) * nx);
+        let rows = &mut self.top[top0..top1];
+        let tmax = &mut self.tile_max[tj0 * tnx..(tj1 + 1) * tnx];
+        let parallel = (i1 - i0 + 1) * (j1 - j0 + 1) > 4096;
+        let chunk = TILE * nx;
+        match width {
+            Some(_) => {
+                let marks = &mut self.passed[top0..top1];
+                let it =
+                    |(k, ((r, m), t)): (usize, ((Cols<'_>, Cols<'_>), Cols<'_>))| block_row(tj0 + k, r, t, m);
+                if parallel {
+                    rows.par_chunks_mut(chunk)
+                        .zip(marks.par_chunks_mut(chunk))
+                        .zip(tmax.par_chunks_mut(tnx))
+                        .enumerate()
+                        .for_each(it);
+                } else {
+                    rows.chunks_mut(chunk)
+                        .zip(marks.chunks_mut(chunk))
+                        .zip(tmax.chunks_mut(tnx))
+                        .enumerate()
+                        .for_each(it);
+                }
             }
-        } else {
-            let marks = &mut self.passed[top0..top1];
-            let it = |(k, ((r, m), t)): (usize, ((Cols<'_>, Cols<'_>), Cols<'_>))| row(tj0 + k, r, t, m);
-            if parallel {
-                rows.par_chunks_mut(chunk)
-                    .zip(marks.par_chunks_mut(chunk))
-                    .zip(tmax.par_chunks_mut(tnx))
-                    .enumerate()
-                    .for_each(it);
-            } else {
-                rows.chunks_mut(chunk)
-                    .zip(marks.chunks_mut(chunk))
-                    .zip(tmax.chunks_mut(tnx))
-                    .enumerate()
-                    .for_each(it);
+            None => {
+                let it = |(k, (r, t)): (usize, (&mut [f64], &mut [f64]))| block_row(tj0 + k, r, t, &mut []);
+                if parallel {
+                    rows.par_chunks_mut(chunk).zip(tmax.par_chunks_mut(tnx)).enumerate().for_each(it);
+                } else {
+                    rows.chunks_mut(chunk).zip(tmax.chunks_mut(tnx)).enumerate().for_each(it);
+                }
             }
         }
-    }
-
-    /// Applies `moves` in order, as [`MotionSink::motion`] on each would, the same bit for
-    /// bit, but as one batch: the moves' sweeps are prepared in order, then every row of
-    /// [`TILE`] x [`TILE`] blocks they reach takes them all in order, the rows in parallel
-    /// (rayon). A program's many short finishing moves then cost one parallel step per
-    /// batch instead of one per move. Stops at the first move [`MotionSink::motion`]
-    /// refuses, with its error, after applying those before it.
-    pub fn motions(&mut self, moves: &[Motion<'_>]) -> Result<()> {
-        if self.reference {
-            return moves.iter().try_for_each(|m| self.motion(m));
-        }
-        self.batch = Some(Vec::with_capacity(moves.len()));
-        let done = moves.iter().try_for_each(|m| self.motion(m));
-        let batch = self.batch.take().unwrap_or_default();
-        let rows = batch.iter().fold(None, |r: Option<[usize; 2]>, mv| {
-            let [_, _, j0, j1] = mv.reach.cols;
-            let (a, b) = (j0 / TILE, j1 / TILE);
-            Some(r.map_or([a, b], |[c, d]| [c.min(a), d.max(b)]))
-        });
-        if let Some(rows) = rows {
-            self.apply(&batch, rows, rows[1] > rows[0]);
-        }
-        done
     }
 
     /// The sweep of every column in the move's box, one row at a time: the baseline of
@@ -380,103 +404,6 @@ impl HeightField {
     }
 }
 
-/// The grid a sweep writes: its origin, column spacing and columns along X.
-struct Grid {
-    min: [f64; 2],
-    spacing: f64,
-    nx: usize,
-}
-
-/// One move's sweep, prepared ([`HeightField::reach`]), with the cutter's tip profile.
-#[derive(Debug, Clone)]
-struct Sweep {
-    a: Point3,
-    b: Point3,
-    reach: Reach,
-    profile: (f64, f64),
-}
-
-/// Lowers the columns of the row of blocks `tj` (`rows`: its rows of cut heights, `tmax`:
-/// its blocks' maxima, `mark`: its marks, empty without) that `mv` reaches, and marks
-/// those its tip path passes near: the columns of [`HeightField::sweep_reference`] in
-/// blocks of [`TILE`] x [`TILE`], a block left out where its highest column lies no higher
-/// than the cutter's lowest possible reach over the block (the tip profile at the block's
-/// nearest distance from the path) and no mark can fall in it. A column it skips the
-/// reference skips too, and every other column is computed by the same expressions, so
-/// the field is the same bit for bit.
-fn sweep_block_row(g: &Grid, mv: &Sweep, tj: usize, rows: Cols<'_>, tmax: Cols<'_>, mark: Cols<'_>) {
-    let Sweep { a, b, ref reach, profile: (radius, rc) } = *mv;
-    let Reach { ref seg, ref lower, n, width, cols: [i0, i1, j0, j1] } = *reach;
-    let prims = &lower[..n];
-    let (s, nx, min) = (g.spacing, g.nx, g.min);
-    let w = width.unwrap_or(-1.0);
-    let floor = move |rho: f64| {
-        let d = rho.min(radius) - (radius - rc);
-        if d <= 0.0 { 0.0 } else { rc - (rc * rc - d * d).max(0.0).sqrt() }
-    };
-    let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
-    let ab2 = ab.norm_squared();
-    let (r0, r1) = ((tj * TILE).max(j0), (tj * TILE + TILE - 1).min(j1));
-    let y = |j: usize| min[1] + j as f64 * s;
-    for (ti, high) in tmax.iter_mut().enumerate().take(i1 / TILE + 1).skip(i0 / TILE) {
-        let (c0, c1) = ((ti * TILE).max(i0), (ti * TILE + TILE - 1).min(i1));
-        // The block's nearest distance from the path, less a margin far above the
-        // rounding of either distance, so its bound is at most every column's.
-        let near = rect_segment_distance(
-            [min[0] + c0 as f64 * s, y(r0)],
-            [min[0] + c1 as f64 * s, y(r1)],
-            [a.x, a.y],
-            [b.x, b.y],
-        );
-        let near = (near - 1e-9).max(0.0);
-        if near > w && *high <= zmin + floor(near) {
-            continue;
-        }
-        let mut lowered = false;
-        // No mark falls in a block farther than the mark width from the path.
-        let marks = near <= w;
-        for j in r0..=r1 {
-            let off = (j - tj * TILE) * nx;
-            let row = &mut rows[off..off + nx];
-            for (i, t) in row.iter_mut().enumerate().take(c1 + 1).skip(c0) {
-                // A column at most `zmin` is left as it is (`floor` is never negative),
-                // and without marks nothing else is done to it.
-                if !marks && *t <= zmin {
-                    continue;
-                }
-                let base = Point3::new(min[0] + i as f64 * s, y(j), 0.0);
-                let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
-                let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
-                let rho = (ap - ab * u).norm();
-                if rho <= w {
-                    let m = &mut mark[off + i];
-                    *m = m.min(a.z + (b.z - a.z) * u);
-                }
-                if *t <= zmin || *t <= zmin + floor(rho) {
-                    continue;
-                }
-                for p in prims {
-                    if let Some((lo, _)) = p.column(seg, &base) {
-                        let old = *t;
-                        *t = t.min(lo);
-                        lowered |= *t != old;
-                    }
-                }
-            }
-        }
-        if lowered {
-            let (x0, x1) = (ti * TILE, (ti * TILE + TILE).min(nx));
-            let mut m = f64::NEG_INFINITY;
-            for r in rows.chunks(nx) {
-                for &t in &r[x0..x1] {
-                    m = m.max(t);
-                }
-            }
-            *high = m;
-        }
-    }
-}
-
 /// The distance from the rectangle `[lo, hi]` to the segment `p q` in the plane (0 where
 /// they meet).
 fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
@@ -516,7 +443,6 @@ fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -
 }
 
 /// What a move sweeps over ([`HeightField::reach`]).
-#[derive(Debug, Clone)]
 struct Reach {
     seg: Seg,
     /// The tool's lower primitives, `lower[..n]`.
@@ -623,11 +549,17 @@ pub struct DeviationOptions {
     /// [`ball_radius`](Self::ball_radius), the tip of the ball resting on that point along
     /// its normal, else the point itself. `None` (default): any height.
     pub floor: Option<f64>,
+    /// The part is closed and consistently wound (`s2g_geom::check::report`'s `closed`
+    /// and `consistently_oriented`): its winding number is 0 wherever a ray straight up
+    /// leaves it without crossing it, so a cut point with nothing of the part above it is
+    /// outside without its winding number being summed (the gouge test's answer is the
+    /// same, found sooner). Default `false`: every cut point's winding number is summed.
+    pub closed_part: bool,
 }
 
 impl Default for DeviationOptions {
     fn default() -> Self {
-        Self { reach: 1.0, on_surface: 1e-6, ball_radius: None, floor: None }
+        Self { reach: 1.0, on_surface: 1e-6, ball_radius: None, floor: None, closed_part: false }
     }
 }
 
@@ -677,14 +609,48 @@ pub fn surface_deviation_opt(
 /// outward normal, in the field's frame) `counts` accepts as well: a setup that finishes
 /// only part of what it sees (rest finishing, where earlier setups finished the rest)
 /// is measured where it finishes.
+///
+/// On a [`DeviationOptions::closed_part`] the gouge test passes over cut points with
+/// nothing of the part above them: the same result as [`surface_deviation_reference`].
 pub fn surface_deviation_where(
     field: &HeightField,
     part: &MeshIndex,
     o: &DeviationOptions,
     counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
 ) -> SurfaceDeviation {
+    deviation_rows(field, part, o, counts, true)
+}
+
+/// [`surface_deviation_where`] with every cut point's winding number summed (whatever
+/// [`DeviationOptions::closed_part`] says): the baseline it is tested and benched against.
+#[doc(hidden)]
+pub fn surface_deviation_reference(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+    counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
+) -> SurfaceDeviation {
+    deviation_rows(field, part, o, counts, false)
+}
+
+/// [`surface_deviation_where`] (`fast`) or [`surface_deviation_reference`].
+fn deviation_rows(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+    counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
+    fast: bool,
+) -> SurfaceDeviation {
     let down = Vector3::new(0.0, 0.0, -1.0);
     let drop = o.ball_radius.and_then(|r| DropCutter::new(part, &Cutter::ball(r, 4.0 * r)).ok());
+    let up = Vector3::z();
+    // Of a closed part, a point with nothing of it straight above is outside.
+    let inside = |p: &Point3| {
+        if fast && o.closed_part && !part.ray_hits_any(p, &up, f64::INFINITY) {
+            return false;
+        }
+        part.contains(p)
+    };
     let per_row: Vec<Tally> = (0..field.ny)
         .into_par_iter()
         .map(|j| {
@@ -697,7 +663,7 @@ pub fn surface_deviation_where(
                 let [x, y] = field.column(i, j);
                 let p = Point3::new(x, y, t);
                 let d = part.closest_point(&p).distance;
-                if d > o.on_surface && part.contains(&p) {
+                if d > o.on_surface && inside(&p) {
                     a.gouge = a.gouge.max(d);
                     continue;
                 }
