@@ -279,7 +279,7 @@ impl HeightField {
                             continue;
                         }
                         for p in prims {
-                            if let Some((lo, _)) = p.column(&seg, &base) {
+                            if let Some(lo) = p.column_low(&seg, &base) {
                                 let old = *t;
                                 *t = t.min(lo);
                                 lowered |= *t != old;
@@ -611,7 +611,8 @@ pub fn surface_deviation_opt(
 /// is measured where it finishes.
 ///
 /// On a [`DeviationOptions::closed_part`] the gouge test passes over cut points with
-/// nothing of the part above them: the same result as [`surface_deviation_reference`].
+/// nothing of the part above them, and their distance from the part is found only where
+/// they count: the same result as [`surface_deviation_reference`].
 pub fn surface_deviation_where(
     field: &HeightField,
     part: &MeshIndex,
@@ -644,13 +645,6 @@ fn deviation_rows(
     let down = Vector3::new(0.0, 0.0, -1.0);
     let drop = o.ball_radius.and_then(|r| DropCutter::new(part, &Cutter::ball(r, 4.0 * r)).ok());
     let up = Vector3::z();
-    // Of a closed part, a point with nothing of it straight above is outside.
-    let inside = |p: &Point3| {
-        if fast && o.closed_part && !part.ray_hits_any(p, &up, f64::INFINITY) {
-            return false;
-        }
-        part.contains(p)
-    };
     let per_row: Vec<Tally> = (0..field.ny)
         .into_par_iter()
         .map(|j| {
@@ -662,10 +656,17 @@ fn deviation_rows(
                 }
                 let [x, y] = field.column(i, j);
                 let p = Point3::new(x, y, t);
-                let d = part.closest_point(&p).distance;
-                if d > o.on_surface && inside(&p) {
-                    a.gouge = a.gouge.max(d);
-                    continue;
+                // Of a closed part, a cut point with nothing of it straight above is
+                // outside: no gouge, and its distance is wanted only where it counts.
+                let outside = fast && o.closed_part && !part.ray_hits_any(&p, &up, f64::INFINITY);
+                let mut dist = None;
+                if !outside {
+                    let d = part.closest_point(&p).distance;
+                    if d > o.on_surface && part.contains(&p) {
+                        a.gouge = a.gouge.max(d);
+                        continue;
+                    }
+                    dist = Some(d);
                 }
                 // Outside the part, the first surface straight below is its top there (the
                 // ray starts a little above, so that a point on the surface finds it).
@@ -687,6 +688,7 @@ fn deviation_rows(
                     && o.ball_radius.is_none_or(touches)
                     && counts(&hit.point, &hit.normal)
                 {
+                    let d = dist.unwrap_or_else(|| part.closest_point(&p).distance);
                     if passed_over(field, &hit.point, &hit.normal, r) {
                         a.max = a.max.max(d);
                         a.sum += d;
