@@ -112,8 +112,13 @@ fn bunny_finish() -> (MeshIndex, HeightField) {
     let dc = DropCutter::new(&index, &ball).expect("drop cutter");
     let (lo, n) = ([c.x - 20.0, c.y - 20.0], 80);
     let o = HeightFieldOptions { spacing: 0.1, ..Default::default() };
-    let mut f = HeightField::new_opt([lo[0] - 6.0, lo[1] - 6.0], [lo[0] + 46.0, lo[1] + 46.0], ToolTable::single(ball), &o)
-        .expect("field");
+    let mut f = HeightField::new_opt(
+        [lo[0] - 6.0, lo[1] - 6.0],
+        [lo[0] + 46.0, lo[1] + 46.0],
+        ToolTable::single(ball),
+        &o,
+    )
+    .expect("field");
     for along_x in [true, false] {
         for k in 0..=n {
             let v = k as f64 * 0.5;

@@ -54,6 +54,31 @@ pub(super) struct Ctx<'a> {
     pub(super) part_closed: bool,
 }
 
+/// What a finishing run measures its finished surface against: the part's surface samples
+/// (point, outward normal; part frame) at which the deviation is measured
+/// ([`PartDeviation`](super::api::PartDeviation)), and whether the part is closed and
+/// consistently wound ([`DeviationOptions::closed_part`]); no samples and not closed where
+/// the run does not finish.
+#[derive(Clone)]
+pub(super) struct FinishingPart {
+    pub(super) samples: Vec<(Point3, crate::geom::Vector3)>,
+    pub(super) closed: bool,
+}
+
+impl FinishingPart {
+    pub(super) fn new(part: &Mesh, opts: &super::api::MillOptions) -> Result<Self, MillError> {
+        if opts.finish.is_none() {
+            return Ok(Self { samples: Vec::new(), closed: false });
+        }
+        let s = crate::geom::sample_surface(part, super::api::PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
+        let r = crate::geom::report(part);
+        Ok(Self {
+            samples: s.points.into_iter().zip(s.normals).collect(),
+            closed: r.closed && r.consistently_oriented,
+        })
+    }
+}
+
 /// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
 pub(super) type ProgramOutputs =
     Arc<dyn Fn(usize) -> std::io::Result<Box<dyn std::io::Write + Send>> + Send + Sync>;

@@ -9,7 +9,7 @@ use super::api::{
     StageSeconds, Stock,
 };
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
-use super::per_setup::{Ctx, ProgramOutputs, sim_error};
+use super::per_setup::{Ctx, FinishingPart, ProgramOutputs, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
@@ -91,19 +91,7 @@ pub struct MillRun {
     clearance: f64,
     /// Where the run finishes: surface samples of the part (point, outward normal) at
     /// which the finished surface's deviation is measured ([`PartDeviation`]).
-    deviation_samples: Vec<(Point3, Vector3)>,
-    /// Whether the part is closed and consistently wound (finishing runs only).
-    part_closed: bool,
-}
-
-/// Where the run finishes: the surface samples (point, outward normal; part frame) at which
-/// the finished surface's deviation is measured ([`PartDeviation`]); none otherwise.
-fn deviation_samples(part: &Mesh, opts: &MillOptions) -> Result<Vec<(Point3, Vector3)>, MillError> {
-    if opts.finish.is_none() {
-        return Ok(Vec::new());
-    }
-    let s = sample_surface(part, PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
-    Ok(s.points.into_iter().zip(s.normals).collect())
+    deviation_samples: FinishingPart,
 }
 
 impl MillRun {
@@ -149,7 +137,7 @@ impl MillRun {
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
         let spec = simulation_grid(&stock, &part_box, opts)?;
-        let (orientation, (target, index, samples, part_closed, beside)) = rayon::join(
+        let (orientation, (target, index, samples, beside)) = rayon::join(
             || select_setups(&part, &body, &oopts, opts.stock_removal),
             || {
                 let t = Instant::now();
@@ -157,13 +145,7 @@ impl MillRun {
                 let voxelized = t.elapsed();
                 let index = MeshIndex::new(&part);
                 let samples = sample_surface(&part, 4096, opts.seed ^ 0x5eed);
-                // A closed part lets the surface deviation's gouge test pass over cut points
-                // with nothing of the part above them (DeviationOptions::closed_part).
-                let closed = opts.finish.is_some() && {
-                    let r = crate::geom::report(&part);
-                    r.closed && r.consistently_oriented
-                };
-                (target, index, samples, closed, [voxelized, t.elapsed() - voxelized])
+                (target, index, samples, [voxelized, t.elapsed() - voxelized])
             },
         );
         let orientation = orientation?;
@@ -217,7 +199,7 @@ impl MillRun {
         remaining.andnot(&target).map_err(|e| MillError::Simulation(e.into()))?;
         times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
-        let deviation_samples = deviation_samples(&part, opts)?;
+        let deviation_samples = FinishingPart::new(&part, opts)?;
         Ok(Self {
             opts: opts.clone(),
             unit_part: mesh.transformed(&unit.as_similarity()),
@@ -262,7 +244,6 @@ impl MillRun {
             // Appendix A.1: start 0.1 (of the normalised part) above the top.
             clearance: 0.1 * stock.extent().max(),
             deviation_samples,
-            part_closed,
         })
     }
 
@@ -281,8 +262,8 @@ impl MillRun {
             deadline: self.deadline,
             machine: self.tooling.machine(),
             surface_spacing: self.opts.surface_spacing,
-            samples: &self.deviation_samples,
-            part_closed: self.part_closed,
+            samples: &self.deviation_samples.samples,
+            part_closed: self.deviation_samples.closed,
         }
     }
 

@@ -215,7 +215,8 @@ fn bad_grids_and_tilted_setups_are_errors() {
 /// A ball of radius `r` as an outward-wound closed mesh (UV sphere, `n` bands).
 fn uv_sphere(c: Point3, r: f64, n: usize) -> Mesh {
     let at = |i: usize, j: usize| {
-        let (th, ph) = (std::f64::consts::PI * i as f64 / n as f64, std::f64::consts::TAU * j as f64 / n as f64);
+        let (th, ph) =
+            (std::f64::consts::PI * i as f64 / n as f64, std::f64::consts::TAU * j as f64 / n as f64);
         c + r * nalgebra::Vector3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
     };
     let mut t = Vec::new();
