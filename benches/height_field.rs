@@ -7,12 +7,23 @@
 //! dropped onto the mesh every 0.2 mm (drop-cutter), columns 0.1 mm apart, passes marked
 //! 0.45 mm wide.
 //!
+//! Group `surface_deviation_closed_part`: the deviation of such a finish from the part
+//! (s2g-voxsim `surface_deviation_opt`, a 5 mm ball's reach as in the pipeline) on the
+//! bundled bunny at 100 mm, a closed part, against its baseline `reference`
+//! (`surface_deviation_reference`: every cut point's closest point and winding number);
+//! `closed_part` passes over the winding number of cut points with nothing of the part
+//! above them, and their closest point where they do not count. Both give the same
+//! deviation (asserted here and in `crates/voxsim/tests/surface.rs`).
+//!
 //! Run: `cargo bench --bench height_field`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use shape2gcode::gcode::{Motion, MotionSink};
-use shape2gcode::geom::{DropCutter, Mesh, MeshIndex, Point3};
-use shape2gcode::voxsim::{Cutter, HeightField, HeightFieldOptions, ToolTable};
+use shape2gcode::geom::{DropCutter, Mesh, MeshIndex, Point3, Similarity3, Vector3, load_mesh};
+use shape2gcode::voxsim::{
+    Cutter, DeviationOptions, HeightField, HeightFieldOptions, ToolTable, surface_deviation_opt,
+    surface_deviation_reference,
+};
 
 fn surface(x: f64, y: f64) -> f64 {
     3.0 * (x / 6.0).sin() * (y / 8.0).cos() + 0.2 * x
@@ -87,5 +98,60 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The bunny at 100 mm, and the field a 5 mm ball's crossed raster (0.5 mm stepover, its
+/// tip dropped every 0.2 mm) cuts over the middle 40 x 40 mm of its top, columns 0.1 mm
+/// apart.
+fn bunny_finish() -> (MeshIndex, HeightField) {
+    let mesh = load_mesh(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/stanford_bunny.stl")).expect("bunny");
+    let b = mesh.bbox().expect("a non-empty mesh");
+    let s = 100.0 / b.extent().max();
+    let part = mesh.transformed(&Similarity3::new(-b.min.coords * s, Vector3::zeros(), s));
+    let index = MeshIndex::new(&part).expect("index");
+    let c = part.bbox().expect("a non-empty mesh").center();
+    let ball = Cutter::ball(5.0, 30.0);
+    let dc = DropCutter::new(&index, &ball).expect("drop cutter");
+    let (lo, n) = ([c.x - 20.0, c.y - 20.0], 80);
+    let o = HeightFieldOptions { spacing: 0.1, ..Default::default() };
+    let mut f = HeightField::new_opt(
+        [lo[0] - 6.0, lo[1] - 6.0],
+        [lo[0] + 46.0, lo[1] + 46.0],
+        ToolTable::single(ball),
+        &o,
+    )
+    .expect("field");
+    for along_x in [true, false] {
+        for k in 0..=n {
+            let v = k as f64 * 0.5;
+            let at = |u: f64| if along_x { (lo[0] + u, lo[1] + v) } else { (lo[0] + v, lo[1] + u) };
+            let (x, y) = at(0.0);
+            f.motion(&Motion::Rapid { to: Point3::new(x, y, 200.0) }).expect("motion");
+            for s in 0..=200 {
+                let (x, y) = at(s as f64 * 0.2);
+                if let Some(z) = dc.height(x, y) {
+                    f.motion(&Motion::Linear { to: Point3::new(x, y, z), feed: 1000.0, extrude: None })
+                        .expect("motion");
+                }
+            }
+            let (x, y) = at(40.0);
+            f.motion(&Motion::Rapid { to: Point3::new(x, y, 200.0) }).expect("motion");
+        }
+    }
+    (index, f)
+}
+
+fn deviation(c: &mut Criterion) {
+    let (index, field) = bunny_finish();
+    let o = DeviationOptions { ball_radius: Some(5.0), closed_part: true, ..Default::default() };
+    let all = |_: &Point3, _: &Vector3| true;
+    let want = surface_deviation_reference(&field, &index, &o, &all);
+    assert!(want.columns > 10_000, "{want:?}");
+    assert_eq!(surface_deviation_opt(&field, &index, &o), want, "the quick test must equal the reference");
+    let mut g = c.benchmark_group("surface_deviation_closed_part");
+    g.sample_size(10);
+    g.bench_function("reference", |b| b.iter(|| surface_deviation_reference(&field, &index, &o, &all)));
+    g.bench_function("closed_part", |b| b.iter(|| surface_deviation_opt(&field, &index, &o)));
+    g.finish();
+}
+
+criterion_group!(benches, bench, deviation);
 criterion_main!(benches);

@@ -49,6 +49,34 @@ pub(super) struct Ctx<'a> {
     /// Surface samples of the part (point, outward normal; part frame) at which the
     /// finished surface's deviation is measured; empty when the run does not finish.
     pub(super) samples: &'a [(Point3, crate::geom::Vector3)],
+    /// Whether the part is closed and consistently wound
+    /// ([`DeviationOptions::closed_part`]).
+    pub(super) part_closed: bool,
+}
+
+/// What a finishing run measures its finished surface against: the part's surface samples
+/// (point, outward normal; part frame) at which the deviation is measured
+/// ([`PartDeviation`](super::api::PartDeviation)), and whether the part is closed and
+/// consistently wound ([`DeviationOptions::closed_part`]); no samples and not closed where
+/// the run does not finish.
+#[derive(Clone)]
+pub(super) struct FinishingPart {
+    pub(super) samples: Vec<(Point3, crate::geom::Vector3)>,
+    pub(super) closed: bool,
+}
+
+impl FinishingPart {
+    pub(super) fn new(part: &Mesh, opts: &super::api::MillOptions) -> Result<Self, MillError> {
+        if opts.finish.is_none() {
+            return Ok(Self { samples: Vec::new(), closed: false });
+        }
+        let s = crate::geom::sample_surface(part, super::api::PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
+        let r = crate::geom::report(part);
+        Ok(Self {
+            samples: s.points.into_iter().zip(s.normals).collect(),
+            closed: r.closed && r.consistently_oriented,
+        })
+    }
 }
 
 /// Opens the writer of each per-setup program ([`MillRun::stream_programs`]).
@@ -198,7 +226,7 @@ pub(super) fn machine_setup(
         c.seconds()
     });
     let fin = (finished, surface, finishing);
-    let finish = finish_result(job, fin, split_s, machine_time_s, &plan, ctx.samples, times);
+    let finish = finish_result(job, fin, split_s, machine_time_s, &plan, ctx, times);
     let program = SetupProgram {
         setup: job.setup,
         action: job.action,
@@ -320,9 +348,10 @@ fn finish_result(
     split_s: Option<f64>,
     machine_time_s: Option<f64>,
     plan: &PlanSummary,
-    samples: &[(Point3, crate::geom::Vector3)],
+    ctx: &Ctx<'_>,
     times: &mut StageSeconds,
 ) -> Option<SetupFinish> {
+    let (samples, closed_part) = (ctx.samples, ctx.part_closed);
     match (&job.finish, finished, surface, finishing) {
         (
             Some(f),
@@ -345,6 +374,7 @@ fn finish_result(
             let dopts = DeviationOptions {
                 ball_radius: Some(f.tool.radius()),
                 floor: fopts.floor,
+                closed_part,
                 ..DeviationOptions::default()
             };
             // Where this setup finishes: not where an earlier one did.

@@ -9,7 +9,7 @@ use super::api::{
     StageSeconds, Stock,
 };
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
-use super::per_setup::{Ctx, ProgramOutputs, sim_error};
+use super::per_setup::{Ctx, FinishingPart, ProgramOutputs, sim_error};
 use super::rotary::{Placement, mill_rotary};
 use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
@@ -91,17 +91,7 @@ pub struct MillRun {
     clearance: f64,
     /// Where the run finishes: surface samples of the part (point, outward normal) at
     /// which the finished surface's deviation is measured ([`PartDeviation`]).
-    deviation_samples: Vec<(Point3, Vector3)>,
-}
-
-/// Where the run finishes: the surface samples (point, outward normal; part frame) at which
-/// the finished surface's deviation is measured ([`PartDeviation`]); none otherwise.
-fn deviation_samples(part: &Mesh, opts: &MillOptions) -> Result<Vec<(Point3, Vector3)>, MillError> {
-    if opts.finish.is_none() {
-        return Ok(Vec::new());
-    }
-    let s = sample_surface(part, PartDeviation::SAMPLES, opts.seed ^ 0xde71)?;
-    Ok(s.points.into_iter().zip(s.normals).collect())
+    deviation_samples: FinishingPart,
 }
 
 impl MillRun {
@@ -209,7 +199,7 @@ impl MillRun {
         remaining.andnot(&target).map_err(|e| MillError::Simulation(e.into()))?;
         times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
-        let deviation_samples = deviation_samples(&part, opts)?;
+        let deviation_samples = FinishingPart::new(&part, opts)?;
         Ok(Self {
             opts: opts.clone(),
             unit_part: mesh.transformed(&unit.as_similarity()),
@@ -272,7 +262,8 @@ impl MillRun {
             deadline: self.deadline,
             machine: self.tooling.machine(),
             surface_spacing: self.opts.surface_spacing,
-            samples: &self.deviation_samples,
+            samples: &self.deviation_samples.samples,
+            part_closed: self.deviation_samples.closed,
         }
     }
 

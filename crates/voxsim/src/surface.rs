@@ -274,10 +274,17 @@ impl HeightField {
                     continue;
                 }
                 let mut lowered = false;
+                // No mark falls in a block farther than the mark width from the path.
+                let marks = near <= w;
                 for j in r0..=r1 {
                     let off = (j - tj * TILE) * nx;
                     let row = &mut rows[off..off + nx];
                     for (i, t) in row.iter_mut().enumerate().take(c1 + 1).skip(c0) {
+                        // A column at most `zmin` is left as it is (`floor` is never
+                        // negative), and without marks nothing else is done to it.
+                        if !marks && *t <= zmin {
+                            continue;
+                        }
                         let base = Point3::new(min[0] + i as f64 * s, y(j), 0.0);
                         let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
                         let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
@@ -292,7 +299,7 @@ impl HeightField {
                             continue;
                         }
                         for p in prims {
-                            if let Some((lo, _)) = p.column(&seg, &base) {
+                            if let Some(lo) = p.column_low(&seg, &base) {
                                 let old = *t;
                                 *t = t.min(lo);
                                 lowered |= *t != old;
@@ -570,11 +577,17 @@ pub struct DeviationOptions {
     /// [`ball_radius`](Self::ball_radius), the tip of the ball resting on that point along
     /// its normal, else the point itself. `None` (default): any height.
     pub floor: Option<f64>,
+    /// The part is closed and consistently wound (`s2g_geom::check::report`'s `closed`
+    /// and `consistently_oriented`): its winding number is 0 wherever a ray straight up
+    /// leaves it without crossing it, so a cut point with nothing of the part above it is
+    /// outside without its winding number being summed (the gouge test's answer is the
+    /// same, found sooner). Default `false`: every cut point's winding number is summed.
+    pub closed_part: bool,
 }
 
 impl Default for DeviationOptions {
     fn default() -> Self {
-        Self { reach: 1.0, on_surface: 1e-6, ball_radius: None, floor: None }
+        Self { reach: 1.0, on_surface: 1e-6, ball_radius: None, floor: None, closed_part: false }
     }
 }
 
@@ -626,14 +639,42 @@ pub fn surface_deviation_opt(
 /// outward normal, in the field's frame) `counts` accepts as well: a setup that finishes
 /// only part of what it sees (rest finishing, where earlier setups finished the rest)
 /// is measured where it finishes.
+///
+/// On a [`DeviationOptions::closed_part`] the gouge test passes over cut points with
+/// nothing of the part above them, and their distance from the part is found only where
+/// they count: the same result as [`surface_deviation_reference`].
 pub fn surface_deviation_where(
     field: &HeightField,
     part: &MeshIndex,
     o: &DeviationOptions,
     counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
 ) -> SurfaceDeviation {
+    deviation_rows(field, part, o, counts, true)
+}
+
+/// [`surface_deviation_where`] with every cut point's winding number summed (whatever
+/// [`DeviationOptions::closed_part`] says): the baseline it is tested and benched against.
+#[doc(hidden)]
+pub fn surface_deviation_reference(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+    counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
+) -> SurfaceDeviation {
+    deviation_rows(field, part, o, counts, false)
+}
+
+/// [`surface_deviation_where`] (`fast`) or [`surface_deviation_reference`].
+fn deviation_rows(
+    field: &HeightField,
+    part: &MeshIndex,
+    o: &DeviationOptions,
+    counts: &(dyn Fn(&Point3, &Vector3) -> bool + Sync),
+    fast: bool,
+) -> SurfaceDeviation {
     let down = Vector3::new(0.0, 0.0, -1.0);
     let drop = o.ball_radius.and_then(|r| DropCutter::new(part, &Cutter::ball(r, 4.0 * r)).ok());
+    let up = Vector3::z();
     let per_row: Vec<Tally> = (0..field.ny)
         .into_par_iter()
         .map(|j| {
@@ -645,10 +686,17 @@ pub fn surface_deviation_where(
                 }
                 let [x, y] = field.column(i, j);
                 let p = Point3::new(x, y, t);
-                let d = part.closest_point(&p).distance;
-                if d > o.on_surface && part.contains(&p) {
-                    a.gouge = a.gouge.max(d);
-                    continue;
+                // Of a closed part, a cut point with nothing of it straight above is
+                // outside: no gouge, and its distance is wanted only where it counts.
+                let outside = fast && o.closed_part && !part.ray_hits_any(&p, &up, f64::INFINITY);
+                let mut dist = None;
+                if !outside {
+                    let d = part.closest_point(&p).distance;
+                    if d > o.on_surface && part.contains(&p) {
+                        a.gouge = a.gouge.max(d);
+                        continue;
+                    }
+                    dist = Some(d);
                 }
                 // Outside the part, the first surface straight below is its top there (the
                 // ray starts a little above, so that a point on the surface finds it).
@@ -670,6 +718,7 @@ pub fn surface_deviation_where(
                     && o.ball_radius.is_none_or(touches)
                     && counts(&hit.point, &hit.normal)
                 {
+                    let d = dist.unwrap_or_else(|| part.closest_point(&p).distance);
                     if passed_over(field, &hit.point, &hit.normal, r) {
                         a.max = a.max.max(d);
                         a.sum += d;

@@ -167,6 +167,49 @@ impl Prim {
             }
         }
     }
+
+    /// The lower end of [`Prim::column`]'s interval, by the same expressions (so the same
+    /// bits), without computing its upper end: what a height field keeps.
+    #[inline]
+    pub fn column_low(&self, sg: &Seg, base: &Point3) -> Option<f64> {
+        let (wa, wp) = sg.split(base);
+        match *self {
+            Prim::Cyl { h0, r, .. } | Prim::Slab { h0, hw: r, .. } => {
+                let (t0, t1) = sg.radial(&wp, r)?;
+                let (m0, m1) = (t0 * sg.da, t1 * sg.da);
+                Some(h0 - wa + m0.min(m1))
+            }
+            Prim::Capsule { c, r } => {
+                let (t0, t1) = sg.radial(&wp, r)?;
+                let cc = wp.norm_squared();
+                let b = wp.dot(&sg.dp);
+                let half = |t: f64| (r * r - (cc - 2.0 * t * b + t * t * sg.aa)).max(0.0).sqrt();
+                let centre = |t: f64| c - wa + t * sg.da;
+                if sg.aa < 1e-24 {
+                    let h = half(t0);
+                    let (m0, m1) = (centre(t0), centre(t1));
+                    return Some(m0.min(m1) - h);
+                }
+                let tm = b / sg.aa;
+                let k = (r * r - (cc - b * b / sg.aa)).max(0.0);
+                let off = sg.da * (k / sg.aa).sqrt() / sg.dd.sqrt();
+                let tlo = (tm - off).clamp(t0, t1);
+                Some(centre(tlo) - half(tlo))
+            }
+            Prim::RDisc { c, rp, rc } => {
+                let (t0, t1) = sg.radial(&wp, rp + rc)?;
+                let cc = wp.norm_squared();
+                let b = wp.dot(&sg.dp);
+                let half = |t: f64| {
+                    let rho = (cc - 2.0 * t * b + t * t * sg.aa).max(0.0).sqrt();
+                    let y = (rho - rp).max(0.0);
+                    (rc * rc - y * y).max(0.0).sqrt()
+                };
+                let lo = |t: f64| c - wa + t * sg.da - half(t);
+                Some(lo(golden_min(lo, t0, t1)))
+            }
+        }
+    }
 }
 
 /// Minimiser of a convex function on `[a, b]` by golden-section search.

@@ -4,7 +4,10 @@
 
 use s2g_gcode::{Motion, MotionSink};
 use s2g_geom::{Aabb, Mesh, MeshIndex, Point3};
-use s2g_voxsim::{Cutter, HeightField, HeightFieldOptions, SimError, ToolTable, surface_deviation};
+use s2g_voxsim::{
+    Cutter, DeviationOptions, HeightField, HeightFieldOptions, SimError, ToolTable, surface_deviation,
+    surface_deviation_opt, surface_deviation_reference,
+};
 
 /// Rectangles `[x0, x1] x [y0, y1]` at height `z`, facing up (`up`) or down.
 fn quad(tris: &mut Vec<[Point3; 3]>, a: Point3, b: Point3, c: Point3, d: Point3) {
@@ -257,4 +260,75 @@ fn bad_grids_and_tilted_setups_are_errors() {
     assert!(matches!(e, Err(SimError::InvalidMotion { .. })), "{e:?}");
     let e = field.motion(&Motion::Rapid { to: Point3::new(f64::NAN, 0.0, 0.0) });
     assert!(e.is_err());
+}
+
+/// A ball of radius `r` as an outward-wound closed mesh (UV sphere, `n` bands).
+fn uv_sphere(c: Point3, r: f64, n: usize) -> Mesh {
+    let at = |i: usize, j: usize| {
+        let (th, ph) =
+            (std::f64::consts::PI * i as f64 / n as f64, std::f64::consts::TAU * j as f64 / n as f64);
+        c + r * nalgebra::Vector3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
+    };
+    let mut t = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let (a, b, cc, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            if i > 0 {
+                t.push([a, b, d]);
+            }
+            if i + 1 < n {
+                t.push([b, cc, d]);
+            }
+        }
+    }
+    Mesh::from_soup(&t).unwrap()
+}
+
+/// The deviation with each row's closest-point searches bounded by its last cut point,
+/// and with the gouge test of a closed part (`closed_part`: a cut point with nothing of
+/// the part above it is outside without its winding number), is the reference's (every
+/// search over the whole part, every winding number summed), field for field: rasters at random heights, some through the part (a
+/// block and a sphere half sunk into it, two overlapping closed bodies), with passes
+/// plunging into it.
+#[test]
+fn a_closed_part_s_quick_gouge_test_gives_the_same_deviation() {
+    let block = Mesh::cuboid(&Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(30.0, 30.0, 8.0))).unwrap();
+    let mut soup: Vec<[Point3; 3]> =
+        block.triangles().iter().map(|f| f.map(|k| block.vertices()[k as usize])).collect();
+    let ball = uv_sphere(Point3::new(15.0, 15.0, 8.0), 4.0, 24);
+    soup.extend(ball.triangles().iter().map(|f| f.map(|k| ball.vertices()[k as usize])));
+    let part = Mesh::from_soup(&soup).unwrap();
+    let r = s2g_geom::report(&part);
+    assert!(r.closed && r.consistently_oriented, "{r:?}");
+    let index = MeshIndex::new(&part).unwrap();
+    let mut g = s2g_geom::SplitMix64::new(36, 7);
+    let (mut gouged, mut columns) = (0, 0);
+    for k in 0..6 {
+        let cutter = if k % 2 == 0 { Cutter::ball(2.0, 20.0) } else { Cutter::flat(1.5, 20.0) };
+        let mut field = HeightField::new_opt(
+            [-3.0, -3.0],
+            [33.0, 33.0],
+            ToolTable::single(cutter),
+            &HeightFieldOptions { spacing: 0.2, ..Default::default() },
+        )
+        .unwrap();
+        raster(&mut field, [-2.0, 32.0], [-2.0, 32.0], 1.3, g.uniform(7.0, 13.0));
+        for _ in 0..4 {
+            let to = Point3::new(g.uniform(0.0, 30.0), g.uniform(0.0, 30.0), g.uniform(3.0, 16.0));
+            field.motion(&Motion::Linear { to, feed: 500.0, extrude: None }).unwrap();
+        }
+        for ball_radius in [None, Some(2.0)] {
+            let o = DeviationOptions { ball_radius, ..DeviationOptions::default() };
+            let quick = DeviationOptions { closed_part: true, ..o };
+            let all = |_: &Point3, _: &nalgebra::Vector3<f64>| true;
+            let a = surface_deviation_reference(&field, &index, &o, &all);
+            assert_eq!(a, surface_deviation_opt(&field, &index, &o), "program {k}, ball {ball_radius:?}");
+            assert_eq!(a, surface_deviation_opt(&field, &index, &quick), "program {k}, ball {ball_radius:?}");
+            gouged += usize::from(a.gouge_depth > 0.0);
+            columns += a.columns;
+        }
+    }
+    // Both kinds of cut point are there: inside (gouges) and outside (measured columns).
+    assert!(gouged >= 4, "{gouged} of 12 deviations find a gouge");
+    assert!(columns > 10_000, "{columns} columns measured");
 }
