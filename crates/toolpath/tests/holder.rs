@@ -35,6 +35,12 @@ fn tool(number: u32, mut cutter: Cutter, stickout: f64) -> Tool {
     Tool { number, ..Tool::new(cutter) }
 }
 
+/// What the boss's roughing left: a 0.3 mm radial allowance, stock up to 2.3 mm above the
+/// part under a cleared position, a 12 mm end mill, the stock's top at 51.
+fn boss_roughed() -> RoughedStock {
+    RoughedStock { radial: 0.3, axial: 2.3, tool_radius: 6.0, top: 51.0, faces: [[0.0, 0.0, 1.0, 51.0]; 3] }
+}
+
 /// Roughs the part, then finishes it with `holder_stock`; the simulator's report, the
 /// finisher's summary and the finished surface's deviation (columns a pass went over and
 /// the finisher did not leave out; with `mark_left_out` false, the left-out stretches
@@ -111,13 +117,7 @@ fn mill_marked(
 
 #[test]
 fn the_finishers_shank_keeps_off_the_allowance_on_a_wall_taller_than_its_flutes() {
-    let stock = RoughedStock {
-        radial: 0.3,
-        axial: 2.3,
-        tool_radius: 6.0,
-        top: 51.0,
-        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
-    };
+    let stock = boss_roughed();
     let (checked, summary, dev) = mill(Some(stock));
     assert_eq!(checked.gouge_voxels, 0);
     assert!(
@@ -152,13 +152,7 @@ fn the_finishers_shank_keeps_off_the_allowance_on_a_wall_taller_than_its_flutes(
 /// the check had left out, the nearest kept one 0.43 mm).
 #[test]
 fn the_strip_the_shank_check_leaves_out_is_not_reached() {
-    let stock = RoughedStock {
-        radial: 0.3,
-        axial: 2.3,
-        tool_radius: 6.0,
-        top: 51.0,
-        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
-    };
+    let stock = boss_roughed();
     let (_, _, marked) = mill_marked(Some(stock), true);
     let (_, _, unmarked) = mill_marked(Some(stock), false);
     println!("left-out stretches unmarked: {unmarked:?}\nmarked: {marked:?}");

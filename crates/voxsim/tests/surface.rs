@@ -108,6 +108,30 @@ fn a_ball_raster_on_a_plane_leaves_the_analytic_scallop() {
     }
 }
 
+/// A ball of radius `r` rastered along X 1 apart over the 20 x 20 top at z 5, its pass at
+/// y = 10 lifted 2 over the surface (as a finisher lifts over a stretch its shank check
+/// left out), with pass marks of `width`.
+fn lifted_raster(r: f64, width: Option<f64>) -> HeightField {
+    let o = HeightFieldOptions { pass_width: width, ..Default::default() };
+    let mut field =
+        HeightField::new_opt([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0)), &o)
+            .unwrap();
+    let mut go = |to: Point3, rapid: bool| {
+        let m = if rapid { Motion::Rapid { to } } else { Motion::Linear { to, feed: 1000.0, extrude: None } };
+        field.motion(&m).unwrap();
+    };
+    go(Point3::new(-4.0, -4.0, 25.0), true);
+    for k in 0..=28 {
+        let y = -4.0 + k as f64;
+        let z = if k == 14 { 7.0 } else { 5.0 };
+        let (a, b) = if k % 2 == 0 { (-4.0, 24.0) } else { (24.0, -4.0) };
+        go(Point3::new(a, y, z), false);
+        go(Point3::new(b, y, z), false);
+    }
+    go(Point3::new(-4.0, 24.0, 25.0), true);
+    field
+}
+
 #[test]
 fn a_pass_lifted_over_the_surface_leaves_unpassed_columns_out_of_the_max() {
     // A ball raster 1 apart on a plane, its pass at y = 10 lifted 2 over the surface (as a
@@ -117,27 +141,7 @@ fn a_pass_lifted_over_the_surface_leaves_unpassed_columns_out_of_the_max() {
     )
     .unwrap();
     let (r, s, w) = (3.0, 1.0, 0.75);
-    let cut = |width: Option<f64>| {
-        let o = HeightFieldOptions { pass_width: width, ..Default::default() };
-        let mut field =
-            HeightField::new_opt([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0)), &o)
-                .unwrap();
-        let mut go = |to: Point3, rapid: bool| {
-            let m =
-                if rapid { Motion::Rapid { to } } else { Motion::Linear { to, feed: 1000.0, extrude: None } };
-            field.motion(&m).unwrap();
-        };
-        go(Point3::new(-4.0, -4.0, 25.0), true);
-        for k in 0..=28 {
-            let y = -4.0 + k as f64;
-            let z = if k == 14 { 7.0 } else { 5.0 };
-            let (a, b) = if k % 2 == 0 { (-4.0, 24.0) } else { (24.0, -4.0) };
-            go(Point3::new(a, y, z), false);
-            go(Point3::new(b, y, z), false);
-        }
-        go(Point3::new(-4.0, 24.0, 25.0), true);
-        field
-    };
+    let cut = |width: Option<f64>| lifted_raster(r, width);
     // Without marks the strip under the lifted pass counts: its middle is a stepover of 2.
     let full = surface_deviation(&cut(None), &part);
     let h2 = r - (r * r - 1.0f64).sqrt();
@@ -192,24 +196,7 @@ fn a_left_out_stretch_takes_its_strip_out_of_the_reached_columns() {
     .unwrap();
     let r = 3.0;
     let cut = |stretch_z: Option<f64>| {
-        let o = HeightFieldOptions { pass_width: Some(0.75), ..Default::default() };
-        let mut field =
-            HeightField::new_opt([-5.0, -5.0], [25.0, 25.0], ToolTable::single(Cutter::ball(r, 20.0)), &o)
-                .unwrap();
-        let mut go = |to: Point3, rapid: bool| {
-            let m =
-                if rapid { Motion::Rapid { to } } else { Motion::Linear { to, feed: 1000.0, extrude: None } };
-            field.motion(&m).unwrap();
-        };
-        go(Point3::new(-4.0, -4.0, 25.0), true);
-        for k in 0..=28 {
-            let y = -4.0 + k as f64;
-            let z = if k == 14 { 7.0 } else { 5.0 };
-            let (a, b) = if k % 2 == 0 { (-4.0, 24.0) } else { (24.0, -4.0) };
-            go(Point3::new(a, y, z), false);
-            go(Point3::new(b, y, z), false);
-        }
-        go(Point3::new(-4.0, 24.0, 25.0), true);
+        let mut field = lifted_raster(r, Some(0.75));
         if let Some(z) = stretch_z {
             field.leave_out(&[[Point3::new(-4.0, 10.0, z), Point3::new(24.0, 10.0, z)]], 0.52);
         }
