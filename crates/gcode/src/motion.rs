@@ -121,9 +121,9 @@ pub enum Motion<'a> {
         /// Rotary axis values (A, B, C in degrees) that realise `frame`, when known.
         rotary: [Option<f64>; 3],
     },
-    /// A tilting head under tool-centre-point control turns: from now on the tool axis in
-    /// the part frame is `axis` (unit), while program coordinates stay where they are (the
-    /// tip, in the frame of the last [`Motion::Setup`]). Emitted by the parser for
+    /// A tilting head under tool-centre-point control turns: from now on the tool axis is
+    /// `axis` (unit, in the program frame: the part frame turned by the last
+    /// [`Motion::Setup`], if any), while program coordinates stay the tip's. Emitted by the parser for
     /// rotary-axis words under [`RotaryMount::Head`](crate::RotaryMount::Head) and by
     /// planners for head machines; a sink that cannot follow a tilted tool (a 3-axis
     /// simulator) returns an error for an axis off `+Z` rather than cut along the wrong one.

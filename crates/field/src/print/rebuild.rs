@@ -1,8 +1,9 @@
 //! The print rebuilt from its program (seed 004's reconstruction, with tilted beads):
 //! the program text is parsed by `s2g-gcode`'s parser with the machine's rotary
-//! kinematics (a turning platform's setups or a tilting head's tool axes), each extruding move becomes a bead in the part frame (the segment, the
-//! nozzle axis of its block, the thickness that its filament gives at the bead width),
-//! and the beads are deposited into a voxel grid and scored against the part.
+//! kinematics (a turning platform's setups or a tilting head's tool axes), each extruding
+//! move becomes a bead in the part frame (the segment, the nozzle axis of its block, the
+//! thickness that its filament gives at the bead width), and the beads are deposited into
+//! a voxel grid and scored against the part.
 //!
 //! - **Deposit**: a bead is the set of points whose distance to its segment, measured
 //!   across the nozzle axis, is at most `w/2`, and which lie between the tip and `t` below

@@ -163,8 +163,10 @@ impl Interp<'_> {
         self.comp_straight(rapid, feed, t, sink)
     }
 
-    /// With [`ParseOptions::rotary`](crate::ParseOptions::rotary): emits the setup (under a head, the tool axis) of the block's rotary words, if
-    /// any. Returns `true` when the block has no other move words (nothing else moves).
+    /// With [`ParseOptions::rotary`](crate::ParseOptions::rotary): emits the setup (on a
+    /// head, [`ParseOptions::rotary_mount`](crate::ParseOptions::rotary_mount), the tool
+    /// axis) of the block's rotary words, if any. Returns `true` when the block has no
+    /// other move words (nothing else moves).
     pub(super) fn rotary_setup<S: MotionSink>(&mut self, sink: &mut S) -> Res<bool, S::Error> {
         let Some(axes) = self.opts.rotary else { return Ok(false) };
         let letters: [Option<u8>; 3] = match axes {
