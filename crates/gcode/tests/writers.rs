@@ -1238,6 +1238,55 @@ fn head_tool_axes_read_back_with_the_tip_in_the_part_frame() {
     assert!(text.lines().any(|l| l.trim() == "Z4"), "{text}");
 }
 
+/// Any tool axis (random unit vectors, the lower half included) written by the writer at
+/// ten decimals reads back as the same axis on a head, and the tip between two turns as
+/// the same point: [`axis_angles`] and [`rotary_axis`] invert each other through the text.
+#[test]
+fn any_head_axis_round_trips() {
+    for axes in [RotaryAxes::AC, RotaryAxes::BC] {
+        seeded(64)
+            .run(&(frame_strategy(), frame_strategy()), |(f1, f2)| {
+                let (a1, a2) = (f1.rotation * Vector3::z(), f2.rotation * Vector3::z());
+                let (p1, p2) = (Point3::from(f1.translation.vector), Point3::from(f2.translation.vector));
+                let ms = [
+                    Motion::ToolAxis { axis: a1, rotary: [None; 3] },
+                    Motion::Linear { to: p1, feed: 300.0, extrude: None },
+                    Motion::ToolAxis { axis: a2, rotary: [None; 3] },
+                    Motion::Linear { to: p2, feed: 300.0, extrude: None },
+                ];
+                let opts = WriterOptions { rotary: Some(axes), decimals: 10, ..Default::default() };
+                let text = write_program(Dialect::LinuxCnc, opts, &ms).expect("writes");
+                let mut rec = MotionRecorder::default();
+                let po = ParseOptions {
+                    rotary: Some(axes),
+                    rotary_mount: RotaryMount::Head,
+                    ..ParseOptions::default()
+                };
+                let summary = parse_str(&text, &po, &mut rec).expect("infallible sink");
+                prop_assert!(summary.errors.is_empty(), "{:?}\n{}", summary.errors, text);
+                let got: Vec<Vector3<f64>> = rec
+                    .motions
+                    .iter()
+                    .filter_map(|(_, m)| match m {
+                        Motion::ToolAxis { axis, .. } => Some(*axis),
+                        _ => None,
+                    })
+                    .collect();
+                prop_assert_eq!(got.len(), 2);
+                prop_assert!(
+                    (got[0] - a1).norm() < 1e-8 && (got[1] - a2).norm() < 1e-8,
+                    "{:?}\n{}",
+                    got,
+                    text
+                );
+                let ends: Vec<Point3<f64>> = rec.motions.iter().filter_map(|(_, m)| m.end_point()).collect();
+                prop_assert!(close_pt(&ends[0], &p1, 1e-8) && close_pt(&ends[1], &p2, 1e-8), "{:?}", ends);
+                Ok(())
+            })
+            .unwrap_or_else(|e| panic!("{axes:?}: {e}"));
+    }
+}
+
 // ---------------------------------------------------------------------------
 // Drill cycles and tool changes through the writer (and back through the parser).
 
