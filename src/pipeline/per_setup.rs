@@ -46,12 +46,8 @@ pub(super) struct Ctx<'a> {
     pub(super) machine: Option<&'a MachineProfile>,
     /// Column spacing of the finished surface's height field.
     pub(super) surface_spacing: f64,
-    /// Surface samples of the part (point, outward normal; part frame) at which the
-    /// finished surface's deviation is measured; empty when the run does not finish.
-    pub(super) samples: &'a [(Point3, crate::geom::Vector3)],
-    /// Whether the part is closed and consistently wound
-    /// ([`DeviationOptions::closed_part`]).
-    pub(super) part_closed: bool,
+    /// What the finished surface is measured against ([`FinishingPart`]).
+    pub(super) finishing_part: &'a FinishingPart,
 }
 
 /// What a finishing run measures its finished surface against: the part's surface samples
@@ -304,7 +300,7 @@ fn prepare_finishing(
                     .map_err(sim_error)?,
             );
             let rest = Unfinished::new(ctx.part, ctx.jobs, i)?;
-            Some(Finishing { opts: job.finish_options(f, [lo.z, hi.z]), index, rest })
+            Some(Finishing { opts: job.finish_options(f, [lo.z, hi.z]), index, rest, stepover })
         }
         None => None,
     })
@@ -317,6 +313,9 @@ pub(super) struct Finishing {
     index: MeshIndex,
     /// What earlier setups finished, left out here.
     rest: Option<Unfinished>,
+    /// The raster's stepover for the choice's scallop on flat ground, the height field's
+    /// marks are sized by.
+    stepover: f64,
 }
 
 /// The finishing of setup `i` (0-based) into `writer`, after its roughing.
@@ -351,23 +350,19 @@ fn finish_result(
     ctx: &Ctx<'_>,
     times: &mut StageSeconds,
 ) -> Option<SetupFinish> {
-    let (samples, closed_part) = (ctx.samples, ctx.part_closed);
+    let (samples, closed_part) = (&ctx.finishing_part.samples, ctx.finishing_part.closed);
     match (&job.finish, finished, surface, finishing) {
         (
             Some(f),
             Some((summary, left_out)),
             Some(mut field),
-            Some(Finishing { opts: fopts, index, rest }),
+            Some(Finishing { opts: fopts, index, rest, stepover }),
         ) => {
             let t = Instant::now();
             // The pass points the shank and holder check left out stand for a strip half
             // a stepover wide each side: the surface there is not reached, though the pass
             // beside it came within the field's pass width.
-            // (The stepover was found for the same tool and scallop when the finishing was
-            // prepared; were it not, no strip would be marked.)
-            let half = crate::toolpath::finish::stepover_for_scallop(&f.tool.cutter, f.choice.scallop, 0.0)
-                .map_or(0.0, |s| 0.5 * s);
-            field.leave_out(&left_out.stretches, half);
+            field.leave_out(&left_out.stretches, 0.5 * stepover);
             // Over the surface the finishing tool can touch (a concave corner tighter than
             // it is not a region it reaches) and not below the finisher's floor (what its
             // tool reaches).

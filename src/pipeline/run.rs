@@ -89,9 +89,9 @@ pub struct MillRun {
     feed: f64,
     rapid: f64,
     clearance: f64,
-    /// Where the run finishes: surface samples of the part (point, outward normal) at
-    /// which the finished surface's deviation is measured ([`PartDeviation`]).
-    deviation_samples: FinishingPart,
+    /// What the finished surface is measured against ([`PartDeviation`]'s surface samples,
+    /// and whether the part is closed); empty where the run does not finish.
+    finishing_part: FinishingPart,
 }
 
 impl MillRun {
@@ -199,7 +199,7 @@ impl MillRun {
         remaining.andnot(&target).map_err(|e| MillError::Simulation(e.into()))?;
         times.simulation += (t.elapsed() + beside[0]).as_secs_f64();
 
-        let deviation_samples = FinishingPart::new(&part, opts)?;
+        let finishing_part = FinishingPart::new(&part, opts)?;
         Ok(Self {
             opts: opts.clone(),
             unit_part: mesh.transformed(&unit.as_similarity()),
@@ -243,7 +243,7 @@ impl MillRun {
             rapid,
             // Appendix A.1: start 0.1 (of the normalised part) above the top.
             clearance: 0.1 * stock.extent().max(),
-            deviation_samples,
+            finishing_part,
         })
     }
 
@@ -262,8 +262,7 @@ impl MillRun {
             deadline: self.deadline,
             machine: self.tooling.machine(),
             surface_spacing: self.opts.surface_spacing,
-            samples: &self.deviation_samples.samples,
-            part_closed: self.deviation_samples.closed,
+            finishing_part: &self.finishing_part,
         }
     }
 
