@@ -182,12 +182,6 @@ impl HeightField {
         self.left_out = LeftOut::new(segments, width);
     }
 
-    /// Whether a left-out stretch ([`HeightField::leave_out`]) lies within its width of
-    /// `(x, y)` in XY, at a height in `[z_lo, z_hi]` there.
-    fn left_out_near(&self, x: f64, y: f64, z_lo: f64, z_hi: f64) -> bool {
-        self.left_out.near(x, y, z_lo, z_hi)
-    }
-
     /// [`HeightFieldOptions::pass_width`].
     pub fn pass_width(&self) -> Option<f64> {
         self.pass_width
@@ -775,7 +769,7 @@ fn passed_over(field: &HeightField, q: &Point3, n: &Vector3, r: f64) -> bool {
     let rise = field.pass_width.unwrap_or(0.0) * (1.0 - nz * nz).sqrt() / nz;
     let tip = c.z - r;
     field.passed(c.x, c.y, tip + rise + PASS_SLACK)
-        && !field.left_out_near(c.x, c.y, tip - rise - PASS_SLACK, tip + rise + PASS_SLACK)
+        && !field.left_out.near(c.x, c.y, tip - rise - PASS_SLACK, tip + rise + PASS_SLACK)
 }
 
 /// The finisher's left-out stretches ([`HeightField::leave_out`]), bucketed in XY cells of
@@ -812,6 +806,8 @@ impl LeftOut {
         Self { segments, width, cells }
     }
 
+    /// Whether a stretch lies within the width of `(x, y)` in XY, at a height in
+    /// `[z_lo, z_hi]` there.
     fn near(&self, x: f64, y: f64, z_lo: f64, z_hi: f64) -> bool {
         if self.segments.is_empty() {
             return false;

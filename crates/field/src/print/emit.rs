@@ -204,6 +204,8 @@ pub(crate) struct Emitter<'a> {
     lattice: &'a Lattice,
     platform: f64,
     local: Vec<[f64; 3]>,
+    /// The farthest of `local` from the tip: how far what a tilting head turns reaches.
+    head_reach: f64,
     /// [`cone`] of [`AXIS_STEP_DEG`].
     cone: Vec<[f64; 3]>,
     writer: GcodeWriter<Vec<u8>>,
@@ -224,6 +226,7 @@ impl<'a> Emitter<'a> {
         bead_width: f64,
     ) -> Result<Self> {
         opts.validate()?;
+        let local = opts.nozzle.points(0.0);
         let wopts = WriterOptions {
             rotary: Some(opts.rotary),
             comments: false,
@@ -235,7 +238,8 @@ impl<'a> Emitter<'a> {
             opts,
             lattice,
             platform,
-            local: opts.nozzle.points(0.0),
+            head_reach: local.iter().map(|q| Vector3::from(*q).norm()).fold(0.0, f64::max),
+            local,
             cone: cone(AXIS_STEP_DEG),
             writer: GcodeWriter::new(Vec::new(), Dialect::Marlin, wopts),
             state: None,
@@ -319,7 +323,7 @@ impl<'a> Emitter<'a> {
         let angle = fa.rotation.angle_to(&fb.rotation);
         let reach = match self.opts.mount {
             RotaryMount::Table => pa.coords.norm().max(pb.coords.norm()),
-            RotaryMount::Head => self.local.iter().map(|q| Vector3::from(*q).norm()).fold(0.0, f64::max),
+            RotaryMount::Head => self.head_reach,
         };
         let travel = (b.tip - a.tip).norm() + angle * reach;
         let n = ((travel / self.opts.check_step).ceil() as usize).clamp(1, 1 << 16);
