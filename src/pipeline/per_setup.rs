@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use super::api::{MillError, SetupFinish, SetupProgram, Stage, StageSeconds};
 use super::job::Job;
-use super::pipe::chunk_channel;
+use super::pipe::{ChunkWriter, chunk_channel};
 use super::rest_finish::Unfinished;
 use crate::gcode::{
     Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, Tee, ToolChange,
@@ -96,6 +96,12 @@ pub(super) fn sim_error(e: crate::voxsim::SimError) -> MillError {
 
 /// Setup `i` as its own 3-axis program: plans it against `remaining`, writes it, parses the
 /// text back into the simulator. Returns the setup's program and the material left after it.
+///
+/// With `finish_if`, a finished setup's finishing is tentative: once its roughing is
+/// simulated, `finish_if` is asked (the simulator holds the roughing's outcome then) and
+/// the program goes on with the finishing where it says yes, else ends after the roughing,
+/// as it would have without the finishing. Either way the program is planned, written and
+/// simulated once.
 pub(super) fn machine_setup(
     ctx: &Ctx<'_>,
     i: usize,
@@ -103,6 +109,7 @@ pub(super) fn machine_setup(
     trace: Option<&mut PathTrace>,
     times: &mut StageSeconds,
     progress: &mut dyn FnMut(Stage),
+    finish_if: Option<FinishIf<'_>>,
 ) -> Result<(SetupProgram, VoxelGrid), MillError> {
     let job = &ctx.jobs[i];
     let setups = ctx.setups;
@@ -137,10 +144,24 @@ pub(super) fn machine_setup(
     // link's rapids rest on the levels above having cut it (ARCHITECTURE.md, finishing).
     let watch = PlanProgress::default();
     let mut tee = Tee::new(tee.first.watching(&mut *progress, &watch, i + 1, setups), tee.second);
+    // The answer to `finish_if`, from the reader's checkpoint to the planner.
+    let (verdict_tx, verdict) = match finish_if {
+        Some(f) => {
+            let (tx, rx) = std::sync::mpsc::channel();
+            (Some((f, tx)), Some(rx))
+        }
+        None => (None, None),
+    };
     let (planned, parsed, waited) = std::thread::scope(|scope| {
         let (mut out, mut reader) = chunk_channel(keep);
         out.copy = copy;
         reader.deadline = ctx.deadline.map(|(at, _)| at);
+        reader.checkpoint = verdict_tx.map(|(finish_if, tx)| {
+            Box::new(move || {
+                // A planner gone (it failed) needs no answer.
+                let _ = tx.send(finish_if());
+            }) as Box<dyn FnMut() + '_>
+        });
         let (watch, finishing) = (&watch, &finishing);
         let planner = scope.spawn(move || {
             let t = Instant::now();
@@ -156,7 +177,10 @@ pub(super) fn machine_setup(
                     .map_err(|source| MillError::Plan { setup: i + 1, source });
             plan.and_then(|plan| {
                 // The finishing follows the roughing in the same program.
-                let finished = emit_finishing(job, finishing.as_ref(), &mut writer, i)?;
+                let finished = match finish_follows(&mut writer, verdict, i)? {
+                    true => emit_finishing(job, finishing.as_ref(), &mut writer, i)?,
+                    false => None,
+                };
                 writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
                 let (text, blocked) = writer
                     .into_inner()
@@ -166,6 +190,8 @@ pub(super) fn machine_setup(
             })
         });
         let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
+        // A planner still waiting at a checkpoint (the program ended before it) is told no.
+        reader.checkpoint = None;
         if parsed.is_ok() {
             // The parser stops at the program end; the writer may still send what follows.
             while reader.rx.recv().is_ok() {}
@@ -240,6 +266,30 @@ pub(super) fn machine_setup(
         rest_of: None,
     };
     Ok((program, remaining))
+}
+
+/// What [`machine_setup`] asks, once a setup's roughing is simulated, whether its
+/// finishing follows.
+pub(super) type FinishIf<'a> = &'a mut dyn FnMut() -> bool;
+
+/// Whether the finishing follows the roughing `writer` has written: without a `verdict`
+/// to wait for it does; with one, the roughing is passed on whole with a checkpoint after
+/// it, and the answer the reader sends from there, once it has simulated the roughing,
+/// says (a reader gone says no).
+fn finish_follows(
+    writer: &mut GcodeWriter<ChunkWriter>,
+    verdict: Option<std::sync::mpsc::Receiver<bool>>,
+    i: usize,
+) -> Result<bool, MillError> {
+    let Some(verdict) = verdict else { return Ok(true) };
+    writer.flush_blocks().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
+    let out = writer.get_mut();
+    out.checkpoint().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
+    // Waiting for the reader is not planning.
+    let t = Instant::now();
+    let yes = verdict.recv().unwrap_or(false);
+    out.blocked += t.elapsed();
+    Ok(yes)
 }
 
 /// The lines of `now` not in `before`.

@@ -12,7 +12,7 @@ pub(super) const CHUNKS_IN_FLIGHT: usize = 8;
 /// chunks of [`CHUNK_BYTES`], at most [`CHUNKS_IN_FLIGHT`] of them waiting: memory stays
 /// bounded whatever the program's size. With `keep`, the writer also keeps every byte
 /// and [`ChunkWriter::finish`] returns them.
-pub(super) fn chunk_channel(keep: bool) -> (ChunkWriter, ChunkReader) {
+pub(super) fn chunk_channel<'a>(keep: bool) -> (ChunkWriter, ChunkReader<'a>) {
     let (tx, rx) = std::sync::mpsc::sync_channel(CHUNKS_IN_FLIGHT);
     let writer = ChunkWriter {
         buf: Vec::with_capacity(CHUNK_BYTES),
@@ -21,7 +21,15 @@ pub(super) fn chunk_channel(keep: bool) -> (ChunkWriter, ChunkReader) {
         copy: None,
         blocked: std::time::Duration::ZERO,
     };
-    (writer, ChunkReader { rx, chunk: Vec::new(), pos: 0, waited: std::time::Duration::ZERO, deadline: None })
+    let reader = ChunkReader {
+        rx,
+        chunk: Vec::new(),
+        pos: 0,
+        waited: std::time::Duration::ZERO,
+        deadline: None,
+        checkpoint: None,
+    };
+    (writer, reader)
 }
 
 /// The writing end of [`chunk_channel`]. A write fails once the reader has hung up.
@@ -53,6 +61,16 @@ impl ChunkWriter {
         sent.map_err(|_| std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the program's reader stopped"))
     }
 
+    /// Sends what is buffered, then a checkpoint: the reader, once it has returned every
+    /// byte before it, calls its [`ChunkReader::checkpoint`].
+    pub(super) fn checkpoint(&mut self) -> std::io::Result<()> {
+        self.send()?;
+        let t = Instant::now();
+        let sent = self.tx.send(Vec::new());
+        self.blocked += t.elapsed();
+        sent.map_err(|_| std::io::Error::new(std::io::ErrorKind::BrokenPipe, "the program's reader stopped"))
+    }
+
     /// Sends what is buffered and closes the stream; returns the kept bytes (empty
     /// without `keep`) and the time spent waiting for the reader.
     pub(super) fn finish(mut self) -> std::io::Result<(Vec<u8>, std::time::Duration)> {
@@ -79,7 +97,7 @@ impl std::io::Write for ChunkWriter {
 }
 
 /// The reading end of [`chunk_channel`]: ends when the writer is dropped.
-pub(super) struct ChunkReader {
+pub(super) struct ChunkReader<'a> {
     pub(super) rx: std::sync::mpsc::Receiver<Vec<u8>>,
     pub(super) chunk: Vec<u8>,
     pub(super) pos: usize,
@@ -87,15 +105,18 @@ pub(super) struct ChunkReader {
     pub(super) waited: std::time::Duration,
     /// Reading fails with [`std::io::ErrorKind::TimedOut`] from this time on.
     pub(super) deadline: Option<Instant>,
+    /// Called at each [`ChunkWriter::checkpoint`], every byte before it read (its time
+    /// counts as waiting).
+    pub(super) checkpoint: Option<Box<dyn FnMut() + 'a>>,
 }
 
-impl Read for ChunkReader {
+impl Read for ChunkReader<'_> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         read_from_buffer(self, buf)
     }
 }
 
-impl BufRead for ChunkReader {
+impl BufRead for ChunkReader<'_> {
     fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
         while self.pos == self.chunk.len() {
             let t = Instant::now();
@@ -115,12 +136,21 @@ impl BufRead for ChunkReader {
                 },
                 None => self.rx.recv().map_err(|_| ()),
             };
-            self.waited += t.elapsed();
             match next {
+                // Sent empty, a chunk is a checkpoint: every byte before it has been read.
+                Ok(chunk) if chunk.is_empty() => {
+                    if let Some(at_checkpoint) = &mut self.checkpoint {
+                        at_checkpoint();
+                    }
+                }
                 Ok(chunk) => (self.chunk, self.pos) = (chunk, 0),
                 // The writer is gone: the end of the program.
-                Err(()) => return Ok(&[]),
+                Err(()) => {
+                    self.waited += t.elapsed();
+                    return Ok(&[]);
+                }
             }
+            self.waited += t.elapsed();
         }
         Ok(&self.chunk[self.pos..])
     }
@@ -179,6 +209,50 @@ mod tests {
         assert_eq!(text, "G0 X1\n");
         let (w, _r) = chunk_channel(false);
         assert!(w.finish().unwrap().0.is_empty());
+    }
+
+    /// A checkpoint reaches the reader after every byte written before it and before any
+    /// written after it, whatever the chunking: its hook sees exactly the bytes before it
+    /// read, and the writer may wait there for the hook's answer.
+    #[test]
+    fn a_checkpoint_comes_after_the_bytes_before_it() {
+        let before: Vec<u8> = (0..2 * CHUNK_BYTES + 777).map(|i| (i * 13 % 251) as u8).collect();
+        let after = b"after the checkpoint".to_vec();
+        let (mut w, mut r) = chunk_channel(true);
+        let (answer_tx, answer_rx) = std::sync::mpsc::channel();
+        let read = std::rc::Rc::new(std::cell::Cell::new(0usize));
+        let (seen, count) = (std::rc::Rc::new(std::cell::Cell::new(None)), read.clone());
+        let seen_in_hook = seen.clone();
+        r.checkpoint = Some(Box::new(move || {
+            seen_in_hook.set(Some(count.get()));
+            answer_tx.send(count.get()).unwrap();
+        }));
+        let (answer, kept, text) = std::thread::scope(|s| {
+            let (first, then) = (&before, &after);
+            let writer = s.spawn(move || {
+                w.write_all(first).unwrap();
+                w.checkpoint().unwrap();
+                let answer = answer_rx.recv().unwrap();
+                w.write_all(then).unwrap();
+                (answer, w.finish().unwrap().0)
+            });
+            let mut text = Vec::new();
+            let mut piece = [0u8; 1000];
+            loop {
+                let n = r.read(&mut piece).unwrap();
+                if n == 0 {
+                    break;
+                }
+                text.extend_from_slice(&piece[..n]);
+                read.set(text.len());
+            }
+            let (answer, kept) = writer.join().unwrap();
+            (answer, kept, text)
+        });
+        assert_eq!(seen.get(), Some(before.len()), "the hook ran once every byte before it was read");
+        assert_eq!(answer, before.len());
+        assert!(text == [before.as_slice(), after.as_slice()].concat(), "bytes differ");
+        assert!(kept == text, "the kept copy holds no checkpoint");
     }
 
     /// A reader that hangs up makes the writer fail instead of blocking for ever.

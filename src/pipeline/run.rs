@@ -477,28 +477,40 @@ impl MillRun {
         }
         // A shop roughs, rest-roughs, then finishes each setup: the finishing moves to the last rest pass.
         let rest = self.first_rest_tool(i, &job)?;
-        let finish = if rest.is_some() { job.finish.take() } else { None };
+        let finisher = job.finish.as_ref().map(|f| f.tool);
         self.jobs.push(job);
         if self.placements.is_some() {
             return Ok(());
         }
-        let before =
-            (rest.is_some() && finish.is_some()).then(|| (self.sim.borrow().clone(), self.remaining.clone()));
-        self.machine_own(i, progress)?;
-        let (Some(own), mut tried) = (self.jobs.last().map(|j| j.tool), 0) else { return Ok(()) };
-        let scope = self.rest_scope(rest.is_some());
-        let first = self.worth_a_pass(i, &scope, &own, rest, &mut tried, finish.as_ref().map(|f| &f.tool))?;
-        if let Some(first) = first {
-            return self.rest_rough(i, &scope, first, tried, finish, progress);
-        }
-        // Nothing a rest pass is for: wound back, the setup's own program finishes it.
-        if let (Some(f), Some((sim, remaining))) = (finish, before) {
-            (*self.sim.get_mut(), self.remaining) = (sim, remaining);
-            self.setups.pop();
-            if let Some(job) = self.jobs.last_mut() {
-                job.finish = Some(f);
+        let verdict = match (rest.is_some(), finisher) {
+            // Whether a rest pass follows is known once the roughing is simulated: the
+            // program goes on with its finishing where none does, and ends after the
+            // roughing where one does (the pass then finishes the setup).
+            (true, Some(finisher)) => {
+                let mut verdict = None;
+                let mut finish_if = |run: &Self| {
+                    let v =
+                        run.ctx().excess().and_then(|left| run.rest_verdict(&left, i, rest, Some(&finisher)));
+                    let finish_here = matches!(v, Ok((None, ..)));
+                    verdict = Some(v);
+                    finish_here
+                };
+                self.machine_own(i, Some(&mut finish_if), progress)?;
+                verdict
             }
-            self.machine_own(i, progress)?;
+            _ => {
+                self.machine_own(i, None, progress)?;
+                None
+            }
+        };
+        let verdict = match verdict {
+            Some(v) => v?,
+            None => self.rest_verdict(&self.remaining, i, rest, finisher.as_ref())?,
+        };
+        if let (Some(first), tried, scope) = verdict {
+            // The rest passes carry the setup's finishing, which its own program left out.
+            let finish = self.jobs.last_mut().and_then(|j| j.finish.take());
+            return self.rest_rough(i, &scope, first, tried, finish, progress);
         }
         Ok(())
     }

@@ -361,8 +361,47 @@ fn each_setup_is_rest_roughed_before_it_is_finished_and_before_the_next_setup() 
                 rest.tool.number
             );
             assert!(rest.tool.diameter() < g[0].tool.diameter());
+            // The programs before the last do not change to the finishing tool either: the
+            // own program's finishing, tentative until its roughing is simulated, was left
+            // out once a rest pass was found worth it.
+            for s in &g[..last] {
+                let fin_change = format!("T{} M6", fin.tool.number);
+                assert!(
+                    !s.text.contains(&fin_change),
+                    "setup {}: {fin_change} before its last program",
+                    k + 1
+                );
+            }
         }
     }
+}
+
+/// A setup whose rest rule finds no pass worth it (no material is enough for one) is planned,
+/// written and simulated once, its finishing following its roughing in the program once the
+/// roughing is simulated: its programs, the simulated stock, the report and the finished
+/// surface's deviation are those of the run without rest roughing, which finishes each
+/// setup's program with no question asked.
+#[test]
+fn a_setup_no_rest_pass_is_for_cuts_what_the_run_without_rest_roughing_cuts() {
+    let choice = FinishChoice { scallop: 0.05, ..FinishChoice::default() };
+    let part = slotted_block();
+    let asked = rest_run(&part, 2, 1e6, Some(choice));
+    let plain = rest_run(&part, 0, 1e6, Some(choice));
+    assert!(asked.setups.iter().all(|s| s.rest_of.is_none() && s.finish.is_some()));
+    assert_eq!(asked.programs.len(), plain.programs.len());
+    for (k, (a, b)) in asked.programs.iter().zip(&plain.programs).enumerate() {
+        assert!(a == b, "setup {}: the programs differ", k + 1);
+    }
+    assert_eq!(asked.simulation.removed_voxels, plain.simulation.removed_voxels);
+    assert_eq!(asked.simulation.gouge_voxels, plain.simulation.gouge_voxels);
+    assert_eq!(asked.residual.vertices(), plain.residual.vertices());
+    let deviation = |m: &Milled| {
+        m.setups
+            .iter()
+            .map(|s| s.finish.as_ref().map(|f| (f.deviation.max.to_bits(), f.deviation.mean.to_bits())))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(deviation(&asked), deviation(&plain));
 }
 
 /// A 40 x 20 x 12 mm block with a slot 2.6 mm wide and 3 mm deep along its top: narrower

@@ -303,6 +303,11 @@ impl<S: MotionSink> ArcFitter<S> {
         &self.inner
     }
 
+    /// The wrapped sink, mutably (what it is sent directly comes before the held run).
+    pub fn inner_mut(&mut self) -> &mut S {
+        &mut self.inner
+    }
+
     fn forward(&mut self, m: &Motion<'_>) -> Result<(), S::Error> {
         if m.end_point().is_some() {
             self.moves_out += 1;

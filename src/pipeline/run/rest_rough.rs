@@ -4,7 +4,7 @@
 //! are for is left.
 
 use super::MillRun;
-use crate::geom::{DropCutter, MeshIndex, Point3, Setup};
+use crate::geom::{DropCutter, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::pipeline::api::{MillError, Preset, SetupProgram, Stage};
 use crate::pipeline::job::{FinishJob, Job, stock_in_setup};
 use crate::pipeline::per_setup::machine_setup;
@@ -17,21 +17,31 @@ use rayon::prelude::*;
 
 impl MillRun {
     /// Machines the last job, setup `i`'s own (0-based): planned, written and simulated;
-    /// the material left is updated. The first setup's toolpath is traced when asked.
-    pub(super) fn machine_own(&mut self, i: usize, progress: &mut dyn FnMut(Stage)) -> Result<(), MillError> {
+    /// the material left is updated. The first setup's toolpath is traced when asked. With
+    /// `finish_if`, the job's finishing follows its roughing where `finish_if`, asked of
+    /// the run once the roughing is simulated, says yes ([`machine_setup`]).
+    pub(super) fn machine_own(
+        &mut self,
+        i: usize,
+        finish_if: Option<&mut dyn FnMut(&Self) -> bool>,
+        progress: &mut dyn FnMut(Stage),
+    ) -> Result<(), MillError> {
         let n = self.jobs.len() - 1;
         let mut trace = std::mem::take(&mut self.trace);
         if i == 0 {
             trace = PathTrace::default();
         }
         let mut times = self.times;
+        let run = &*self;
+        let mut ask = finish_if.map(|f| move || f(run));
         let result = machine_setup(
-            &self.ctx(),
+            &run.ctx(),
             n,
-            &self.remaining,
-            (i == 0 && self.keep_trace).then_some(&mut trace),
+            &run.remaining,
+            (i == 0 && run.keep_trace).then_some(&mut trace),
             &mut times,
             progress,
+            ask.as_mut().map(|a| a as &mut dyn FnMut() -> bool),
         );
         (self.trace, self.times) = (trace, times);
         let (program, remaining) = result?;
@@ -130,10 +140,12 @@ impl MillRun {
     }
 
     /// The material left (mm³) that a rest pass with `tool` after one with `wider` in the
-    /// setup last roughed is for: [`rest_left`](Self::rest_left) from the stock's top down
-    /// to the tool's reach ([`rest_reach`](Self::rest_reach)), with the setup's `finisher`.
+    /// setup last roughed is for: [`rest_left`](Self::rest_left) of `remaining` from the
+    /// stock's top down to the tool's reach ([`rest_reach`](Self::rest_reach)), with the
+    /// setup's `finisher`.
     pub(super) fn reachable_left(
         &self,
+        remaining: &VoxelGrid,
         scope: &RestScope,
         tool: &Tool,
         wider: &Tool,
@@ -142,6 +154,7 @@ impl MillRun {
         let Some(own) = self.own_job() else { return 0.0 };
         let top = stock_in_setup(&self.stock, &own.setup).max.z;
         self.rest_left(
+            remaining,
             scope,
             [tool, wider],
             [top - self.rest_reach(&own.setup, tool), f64::INFINITY],
@@ -151,7 +164,7 @@ impl MillRun {
 
     /// The material left (mm³) in the setup last roughed, between heights `[lo, hi]` of its
     /// frame, that a rest pass with `tool` after one with `wider` is for (classic rest
-    /// machining): voxels of the simulated stock less the part, seen along the setup's tool
+    /// machining): voxels of `remaining` (the simulated stock less the part), seen along the setup's tool
     /// axis (the ray from the voxel's centre towards the spindle leaves the grid without
     /// meeting the part's voxels), no lower than the part's lowest point in the setup (where
     /// its layers stop), farther from the part than the finishing allowance and a quarter
@@ -178,6 +191,7 @@ impl MillRun {
     /// is the planner's to find: this bounds what the pass can remove.
     fn rest_left(
         &self,
+        remaining: &VoxelGrid,
         scope: &RestScope,
         [tool, wider]: [&Tool; 2],
         [lo, hi]: [f64; 2],
@@ -186,7 +200,7 @@ impl MillRun {
         let Some(own) = self.own_job() else { return 0.0 };
         let Some(index) = scope.index.as_ref() else { return 0.0 };
         let setup = own.setup;
-        let spec = *self.remaining.spec();
+        let spec = *remaining.spec();
         let h = spec.voxel.min();
         let o = &self.opts;
         let allowance = o.finish.map_or(0.0, |_| o.finish_allowance[0].max(o.finish_allowance[1]));
@@ -241,7 +255,7 @@ impl MillRun {
         // Farther from the part than the allowance and a quarter voxel: what the rest tool
         // cuts to size.
         let clear = allowance + 0.25 * h;
-        let left: Vec<[usize; 3]> = self.remaining.iter_set().collect();
+        let left: Vec<[usize; 3]> = remaining.iter_set().collect();
         let count = left
             .into_par_iter()
             .filter(|&[i, j, k]| {
@@ -261,13 +275,15 @@ impl MillRun {
 
     /// The rest tool of setup `k` (0-based) after a pass with `wider`: down the library
     /// from `candidate` ([`smaller_tool`](Self::smaller_tool) after each), the first one
-    /// that at least [`rest_volume`](Self::rest_volume) of the material left is for
-    /// ([`reachable_left`](Self::reachable_left), with the setup's `finisher`), of at most
+    /// that at least [`rest_volume`](Self::rest_volume) of the material left (`remaining`)
+    /// is for ([`reachable_left`](Self::reachable_left), with the setup's `finisher`), of at most
     /// [`MillOptions::rest_roughing`](crate::MillOptions::rest_roughing) tools considered in
     /// the setup (`tried` counts them). A tool too wide for what is left is passed over
     /// for a smaller one: a 5 mm end mill cuts nothing of a 4.5 mm slot, a 3 mm one does.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn worth_a_pass(
         &self,
+        remaining: &VoxelGrid,
         k: usize,
         scope: &RestScope,
         wider: &Tool,
@@ -280,12 +296,32 @@ impl MillRun {
                 break;
             }
             *tried += 1;
-            if self.reachable_left(scope, &t.0, wider, finisher) >= self.rest_volume() {
+            if self.reachable_left(remaining, scope, &t.0, wider, finisher) >= self.rest_volume() {
                 return Ok(Some(t));
             }
             candidate = self.smaller_tool(k, t.0.radius())?;
         }
         Ok(None)
+    }
+
+    /// The rest rule's verdict on setup `k` (0-based), just roughed by its own job, the
+    /// last, leaving `remaining` ([`worth_a_pass`](Self::worth_a_pass) from its first rest
+    /// tool `rest`): the first rest tool worth a pass, if any, the tools considered, and
+    /// the setup's [`RestScope`] for the passes.
+    pub(super) fn rest_verdict(
+        &self,
+        remaining: &VoxelGrid,
+        k: usize,
+        rest: Option<RestTool>,
+        finisher: Option<&Tool>,
+    ) -> Result<RestVerdict, MillError> {
+        let Some(own) = self.jobs.last().map(|j| j.tool) else {
+            return Ok((None, 0, self.rest_scope(false)));
+        };
+        let scope = self.rest_scope(rest.is_some());
+        let mut tried = 0;
+        let first = self.worth_a_pass(remaining, k, &scope, &own, rest, &mut tried, finisher)?;
+        Ok((first, tried, scope))
     }
 
     /// Rest roughing of setup `k` (0-based), just roughed by its own job, from `first`
@@ -325,7 +361,15 @@ impl MillRun {
                 finisher,
                 progress,
             )?;
-            let next = self.worth_a_pass(k, scope, &tool.0, smaller, &mut tried, finisher.as_ref())?;
+            let next = self.worth_a_pass(
+                &self.remaining,
+                k,
+                scope,
+                &tool.0,
+                smaller,
+                &mut tried,
+                finisher.as_ref(),
+            )?;
             if let (None, Some((sim, remaining, jobs))) = (&next, snapshot) {
                 (*self.sim.get_mut(), self.remaining) = (sim, remaining);
                 self.jobs.truncate(jobs);
@@ -375,8 +419,15 @@ impl MillRun {
         let reach = self.rest_reach(&setup, &cutter);
         let top = stock_in_setup(&self.stock, &setup).max.z;
         let wider = self.jobs[own].tool;
-        let deep_left =
-            || self.rest_left(scope, [&cutter, &wider], [top - reach, top - flutes], finisher.as_ref());
+        let deep_left = || {
+            self.rest_left(
+                &self.remaining,
+                scope,
+                [&cutter, &wider],
+                [top - reach, top - flutes],
+                finisher.as_ref(),
+            )
+        };
         cutter.cutter.stickout = match reach > flutes && deep_left() >= self.rest_volume() {
             true => reach,
             false => flutes,
@@ -404,12 +455,12 @@ impl MillRun {
         let deep = self.jobs[at].tool.cutter.stickout > flutes;
         let before = deep.then(|| self.sim.borrow().clone());
         let mut times = self.times;
-        let result = machine_setup(&self.ctx(), at, &self.remaining, None, &mut times, progress);
+        let result = machine_setup(&self.ctx(), at, &self.remaining, None, &mut times, progress, None);
         let result = match (result, before) {
             (Ok((program, _)), Some(before)) if !program.holder_collision_lines.is_empty() => {
                 *self.sim.get_mut() = before;
                 self.jobs[at].tool.cutter.stickout = flutes;
-                machine_setup(&self.ctx(), at, &self.remaining, None, &mut times, progress)
+                machine_setup(&self.ctx(), at, &self.remaining, None, &mut times, progress, None)
             }
             (result, _) => result,
         };
@@ -425,6 +476,9 @@ impl MillRun {
 
 /// A rest-roughing tool and its cutting data.
 pub(super) type RestTool = (Tool, Option<Cutting>);
+
+/// The rest rule's verdict on a setup just roughed ([`MillRun::rest_verdict`]).
+pub(super) type RestVerdict = (Option<RestTool>, usize, RestScope);
 
 /// What the rest rule ([`MillRun::rest_left`]) asks of one setup's part and does not change
 /// between its passes, built once per setup ([`MillRun::rest_scope`]) and shared by every

@@ -259,6 +259,29 @@ impl<W: Write> GcodeWriter<W> {
         self.core().lines
     }
 
+    /// The output. Bytes written to it directly land between the blocks written so far and
+    /// those after only once [`flush_blocks`](Self::flush_blocks) has passed the former on.
+    pub fn get_mut(&mut self) -> &mut W {
+        match &mut self.inner {
+            Inner::Plain(c) => &mut c.out,
+            Inner::Fitted(f) => &mut f.inner_mut().out,
+        }
+    }
+
+    /// Passes every block finished so far to the output and flushes it, so that a reader at
+    /// its other end has them all; the text is the same as without it. An arc-fitting
+    /// writer's open run of moves stays held (a later move may yet extend it).
+    pub fn flush_blocks(&mut self) -> Result<(), WriteError> {
+        let core = match &mut self.inner {
+            Inner::Plain(c) => c,
+            Inner::Fitted(f) => f.inner_mut(),
+        };
+        core.out.write_all(core.buf.as_bytes())?;
+        core.buf.clear();
+        core.out.flush()?;
+        Ok(())
+    }
+
     /// The output (call [`MotionSink::finish`] first, or buffered text is lost).
     pub fn into_inner(self) -> W {
         match self.inner {
