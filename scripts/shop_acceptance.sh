@@ -9,11 +9,12 @@
 # material, holder collisions, whether `rs274` ran every program clean, and the machine's
 # time. Exits non-zero if any run fails, is unsafe or any program fails in `rs274`.
 #
-#   scripts/shop_acceptance.sh [S2G] [RES] [CHECK_RES]
+#   scripts/shop_acceptance.sh [S2G] [RES] [CHECK_RES] [CHECK_RES2]
 #
 # S2G defaults to target/release/s2g (`cargo build --release -p shape2gcode-cli`), RES (the
 # simulation's voxels along the stock's longest side) to 128, CHECK_RES (the independent
-# scorer's) to 64. EXTRA adds arguments to every `s2g mill` (say EXTRA="--arc-tolerance 0"
+# scorer's) to 64; CHECK_RES2 (a second column, IoU** by the same scorer) to RES, so the
+# score is also read at the simulation's own resolution (0 leaves it out). EXTRA adds arguments to every `s2g mill` (say EXTRA="--arc-tolerance 0"
 # for straight programs; the preset fits arcs at 0.005 mm). ONLY="name name ..." runs those
 # parts alone (file names without .stl).
 #
@@ -27,23 +28,32 @@ cd "$(dirname "$0")/.."
 s2g=${1:-target/release/s2g}
 res=${2:-128}
 check_res=${3:-64}
+check_res2=${4:-$res}
 extra=${EXTRA:-}
 meshes=(tests/data/meshes/openscad/*.stl tests/data/meshes/classic/gearwheel_40t.bin.stl
     tests/data/meshes/classic/stanford_bunny.stl tests/data/meshes/stress/*.stl
     tests/data/meshes/shop/*.stl)
-out=$(mktemp -d)
-trap 'rm -rf "$out"' EXIT
+# KEEP=DIR keeps each part's programs, report and residual under DIR/NAME.
+if [ -n "${KEEP:-}" ]; then
+    out=$KEEP
+    mkdir -p "$out"
+else
+    out=$(mktemp -d)
+    trap 'rm -rf "$out"' EXIT
+fi
 bad=0
-printf '| %-28s | %6s | %6s | %6s | %6s | %6s | %-7s | %9s |\n' part IoU "IoU*" gouges rapids holder rs274 "time (s)"
-printf '| %-28s | %6s | %6s | %6s | %6s | %6s | %-7s | %9s |\n' --- ---: ---: ---: ---: ---: --- ---:
+printf '| %-28s | %6s | %6s | %6s | %6s | %6s | %6s | %-7s | %9s |\n' part IoU "IoU*" "IoU**" gouges rapids holder rs274 "time (s)"
+printf '| %-28s | %6s | %6s | %6s | %6s | %6s | %6s | %-7s | %9s |\n' --- ---: ---: ---: ---: ---: ---: --- ---:
 for m in "${meshes[@]}"; do
     name=$(basename "$m" .stl)
     if [ -n "${ONLY:-}" ] && ! [[ " $ONLY " == *" $name "* ]]; then continue; fi
     grid=(--res "$res")
     check_args=("$check_res")
+    check_args2=("$check_res2")
     case "$name" in long_bar | long_tube | thin_walls)
         grid=(--voxel 0.1)
         check_args=(--cell 0.05 --columns)
+        check_args2=(0)
         ;;
     esac
     size=()
@@ -65,27 +75,30 @@ for m in "${meshes[@]}"; do
         fi
     done
     # The residual is in the input mesh's units; scale the part as the run did.
-    check=$(python3 - "$m" "$dir" "${check_args[@]}" <<'PY'
+    score() {
+        python3 - "$m" "$dir" "$@" <<'PY'
 import json, os, subprocess, sys
 mesh, d, args = sys.argv[1], sys.argv[2], sys.argv[3:]
-if not os.path.exists(os.path.join(d, "residual.stl")):
+if args == ["0"] or not os.path.exists(os.path.join(d, "residual.stl")):
     print("-")
     sys.exit()
 r = subprocess.run([sys.executable, "scripts/iou_check.py", mesh, os.path.join(d, "residual.stl"), *args],
                    capture_output=True, text=True)
 print(r.stdout.split()[0] if r.returncode == 0 and r.stdout else "err")
 PY
-)
-    row=$(python3 - "$dir/r.json" "$dir/e.txt" "$name" "$rc" "$clean" "$check" <<'PY'
+    }
+    check=$(score "${check_args[@]}")
+    check2=$(score "${check_args2[@]}")
+    row=$(python3 - "$dir/r.json" "$dir/e.txt" "$name" "$rc" "$clean" "$check" "$check2" <<'PY'
 import json, sys
-path, err, name, rc, clean, check = sys.argv[1:]
+path, err, name, rc, clean, check, check2 = sys.argv[1:]
 try:
     r = json.load(open(path))
 except ValueError:
     msg = (open(err).read().strip().splitlines() or ["no output"])[-1][:60]
     print(f"| {name:<28} | failed (status {rc}): {msg} |")
     sys.exit()
-print(f"| {name:<28} | {r['iou']:6.4f} | {check:>6} | {r['gouge_voxels']:6d} | {r['rapid_collisions']:6d} "
+print(f"| {name:<28} | {r['iou']:6.4f} | {check:>6} | {check2:>6} | {r['gouge_voxels']:6d} | {r['rapid_collisions']:6d} "
       f"| {r['holder_collisions']:6d} | {clean:<7} | {r['machining_time_s']:9.0f} |")
 PY
 )
@@ -95,5 +108,5 @@ PY
     [ "$clean" = yes ] || bad=$((bad + 1))
 done
 echo "failed, unsafe or rs274-rejected: $bad"
-echo "(IoU*: scripts/iou_check.py at $check_res^3; simulation at $res^3; long_bar, long_tube, thin_walls: --voxel 0.1, IoU* at 0.05 mm columns)"
+echo "(IoU*: scripts/iou_check.py at $check_res^3, IoU** at $check_res2^3; simulation at $res^3; long_bar, long_tube, thin_walls: --voxel 0.1, IoU* at 0.05 mm columns)"
 [ "$bad" -eq 0 ]
