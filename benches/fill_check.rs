@@ -20,8 +20,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use shape2gcode::geom::{DropCutter, MeshIndex, load_mesh};
-use shape2gcode::toolpath::Tool;
+use shape2gcode::geom::{Cutter, DropCutter, MeshIndex, load_mesh};
 use shape2gcode::toolpath::finish::centre_distances;
 
 const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/stanford_bunny.stl");
@@ -37,7 +36,7 @@ fn bench(c: &mut Criterion) {
     ));
     let index = MeshIndex::new(&mesh).expect("bunny index");
     let r = 3.0;
-    let dc = DropCutter::new(&index, &Tool::ball(r).cutter).expect("drop-cutter");
+    let dc = DropCutter::new(&index, &Cutter::ball(r, 30.0)).expect("drop-cutter");
     let (x0, x1) = (-55.0, 55.0);
     let n = ((x1 - x0) * 32.0) as usize;
     let points: Vec<(f64, Option<f64>)> =
