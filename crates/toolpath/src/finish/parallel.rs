@@ -213,8 +213,8 @@ impl Line {
         };
         let mid = pts.partition_point(|q| q.0 < t).clamp(start + 1, end) - 1;
         let mut best = f64::INFINITY;
-        for i in mid..end {
-            if beyond(pts[i].0 - t, best) {
+        for (i, at) in pts.iter().enumerate().take(end).skip(mid) {
+            if beyond(at.0 - t, best) {
                 break;
             }
             if let Some(q) = squared(i) {
