@@ -164,30 +164,8 @@ pub(super) fn machine_setup(
         });
         let (watch, finishing) = (&watch, &finishing);
         let planner = scope.spawn(move || {
-            let t = Instant::now();
-            let rest = VoxelMaterial::new(remaining, job.setup);
-            let mut writer = GcodeWriter::new(out, dialect, wopts);
-            if let Some(note) = &job.note {
-                writer
-                    .motion(&Motion::Comment(note.as_str().into()))
-                    .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
-            }
-            let plan =
-                plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
-                    .map_err(|source| MillError::Plan { setup: i + 1, source });
-            plan.and_then(|plan| {
-                // The finishing follows the roughing in the same program.
-                let finished = match finish_follows(&mut writer, verdict, i)? {
-                    true => emit_finishing(job, finishing.as_ref(), &mut writer, i)?,
-                    false => None,
-                };
-                writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
-                let (text, blocked) = writer
-                    .into_inner()
-                    .finish()
-                    .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
-                Ok(((plan, finished), text, t.elapsed().saturating_sub(blocked)))
-            })
+            let writer = GcodeWriter::new(out, dialect, wopts);
+            write_program(part, job, remaining, finishing.as_ref(), writer, watch, verdict, i)
         });
         let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
         // A planner still waiting at a checkpoint (the program ended before it) is told no.
@@ -267,6 +245,43 @@ pub(super) fn machine_setup(
     };
     Ok((program, remaining))
 }
+
+/// What [`machine_setup`]'s planner thread does: plans setup `i`'s `job` against
+/// `remaining` into `writer` (its roughing, then its finishing where `verdict` says so,
+/// [`finish_follows`]); returns the plans, the text kept and the time spent planning.
+#[allow(clippy::too_many_arguments)]
+fn write_program(
+    part: &Mesh,
+    job: &Job,
+    remaining: &VoxelGrid,
+    finishing: Option<&Finishing>,
+    mut writer: GcodeWriter<ChunkWriter>,
+    watch: &PlanProgress,
+    verdict: Option<std::sync::mpsc::Receiver<bool>>,
+    i: usize,
+) -> Result<Planned, MillError> {
+    let t = Instant::now();
+    let rest = VoxelMaterial::new(remaining, job.setup);
+    if let Some(note) = &job.note {
+        writer
+            .motion(&Motion::Comment(note.as_str().into()))
+            .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
+    }
+    let plan = plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
+        .map_err(|source| MillError::Plan { setup: i + 1, source })?;
+    // The finishing follows the roughing in the same program.
+    let finished = match finish_follows(&mut writer, verdict, i)? {
+        true => emit_finishing(job, finishing, &mut writer, i)?,
+        false => None,
+    };
+    writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
+    let (text, blocked) =
+        writer.into_inner().finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
+    Ok(((plan, finished), text, t.elapsed().saturating_sub(blocked)))
+}
+
+/// A setup's plans (roughing, finishing), its text where kept, and the planning time.
+type Planned = ((PlanSummary, Option<(FinishSummary, LeftOut)>), Vec<u8>, std::time::Duration);
 
 /// What [`machine_setup`] asks, once a setup's roughing is simulated, whether its
 /// finishing follows.

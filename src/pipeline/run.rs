@@ -482,37 +482,7 @@ impl MillRun {
         if self.placements.is_some() {
             return Ok(());
         }
-        let verdict = match (rest.is_some(), finisher) {
-            // Whether a rest pass follows is known once the roughing is simulated: the
-            // program goes on with its finishing where none does, and ends after the
-            // roughing where one does (the pass then finishes the setup).
-            (true, Some(finisher)) => {
-                let mut verdict = None;
-                let mut finish_if = |run: &Self| {
-                    let v =
-                        run.ctx().excess().and_then(|left| run.rest_verdict(&left, i, rest, Some(&finisher)));
-                    let finish_here = matches!(v, Ok((None, ..)));
-                    verdict = Some(v);
-                    finish_here
-                };
-                self.machine_own(i, Some(&mut finish_if), progress)?;
-                verdict
-            }
-            _ => {
-                self.machine_own(i, None, progress)?;
-                None
-            }
-        };
-        let verdict = match verdict {
-            Some(v) => v?,
-            None => self.rest_verdict(&self.remaining, i, rest, finisher.as_ref())?,
-        };
-        if let (Some(first), tried, scope) = verdict {
-            // The rest passes carry the setup's finishing, which its own program left out.
-            let finish = self.jobs.last_mut().and_then(|j| j.finish.take());
-            return self.rest_rough(i, &scope, first, tried, finish, progress);
-        }
-        Ok(())
+        self.machine_own_then_rest(i, rest, finisher, progress)
     }
 
     /// Machines every setup still without an action with `policy`'s choice, then

@@ -20,7 +20,9 @@ pub use emit::{
     finish_setup_opt, part_in_setup_frame,
 };
 pub use guard::RoughedStock;
-pub use parallel::{FillOptions, ParallelFinishOptions, parallel_finish, parallel_finish_opt};
+pub use parallel::{
+    FillOptions, ParallelFinishOptions, centre_distances, parallel_finish, parallel_finish_opt,
+};
 pub use scallop::{scallop_height, stepover_for_scallop};
 pub use strategy::{Crossed, FinishContext, FinishingStrategy, Parallel, SteepShallow, Waterline, cl_slope};
 

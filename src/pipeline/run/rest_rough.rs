@@ -50,6 +50,49 @@ impl MillRun {
         Ok(())
     }
 
+    /// Machines setup `i`'s own job, the last, then its rest passes where the rest rule
+    /// finds one worth it from its first rest tool `rest` ([`rest_verdict`](Self::rest_verdict)).
+    /// Where the job is finished (with `finisher`) and has a rest tool, whether a pass
+    /// follows is known once its roughing is simulated: the program goes on with its
+    /// finishing where none does, and ends after the roughing where one does (the passes
+    /// then carry the finishing).
+    pub(super) fn machine_own_then_rest(
+        &mut self,
+        i: usize,
+        rest: Option<RestTool>,
+        finisher: Option<Tool>,
+        progress: &mut dyn FnMut(Stage),
+    ) -> Result<(), MillError> {
+        let verdict = match (rest.is_some(), finisher) {
+            (true, Some(finisher)) => {
+                let mut verdict = None;
+                let mut finish_if = |run: &Self| {
+                    let left = run.ctx().excess();
+                    let v = left.and_then(|left| run.rest_verdict(&left, i, rest, Some(&finisher)));
+                    let finish_here = matches!(v, Ok((None, ..)));
+                    verdict = Some(v);
+                    finish_here
+                };
+                self.machine_own(i, Some(&mut finish_if), progress)?;
+                verdict
+            }
+            _ => {
+                self.machine_own(i, None, progress)?;
+                None
+            }
+        };
+        let verdict = match verdict {
+            Some(v) => v?,
+            None => self.rest_verdict(&self.remaining, i, rest, finisher.as_ref())?,
+        };
+        if let (Some(first), tried, scope) = verdict {
+            // The rest passes carry the setup's finishing, which its own program left out.
+            let finish = self.jobs.last_mut().and_then(|j| j.finish.take());
+            return self.rest_rough(i, &scope, first, tried, finish, progress);
+        }
+        Ok(())
+    }
+
     /// The most programs the run writes: one per setup, and in the shop preset's per-setup
     /// layout one per setup and rest-roughing pass ([`MillOptions::rest_roughing`](crate::MillOptions::rest_roughing)), of
     /// which [`Milled::programs`](crate::Milled::programs) holds those written (a setup gets no rest pass where the
