@@ -524,3 +524,49 @@ fn a_narrow_groove_the_finisher_does_not_enter_gets_its_rest_pass() {
     );
     rest_took(&default, &none, groove, 0.5);
 }
+
+/// A `x` by `y` by `z` mm block with a square-cornered pocket over `[px0, px1] x [py0,
+/// py1]` from its top down to `floor`.
+fn pocketed_block([x, y, z]: [f64; 3], [px0, px1, py0, py1]: [f64; 4], floor: f64) -> Mesh {
+    let p = Point3::new;
+    let mut soup: Vec<[Point3; 3]> = Vec::new();
+    // Each quad counter-clockwise seen from outside the part.
+    let mut quad = |a: Point3, b: Point3, c: Point3, d: Point3| soup.extend([[a, b, c], [a, c, d]]);
+    quad(p(0., 0., 0.), p(0., y, 0.), p(x, y, 0.), p(x, 0., 0.));
+    quad(p(0., 0., 0.), p(x, 0., 0.), p(x, 0., z), p(0., 0., z));
+    quad(p(x, 0., 0.), p(x, y, 0.), p(x, y, z), p(x, 0., z));
+    quad(p(x, y, 0.), p(0., y, 0.), p(0., y, z), p(x, y, z));
+    quad(p(0., y, 0.), p(0., 0., 0.), p(0., 0., z), p(0., y, z));
+    quad(p(0., 0., z), p(x, 0., z), p(px1, py0, z), p(px0, py0, z));
+    quad(p(x, 0., z), p(x, y, z), p(px1, py1, z), p(px1, py0, z));
+    quad(p(x, y, z), p(0., y, z), p(px0, py1, z), p(px1, py1, z));
+    quad(p(0., y, z), p(0., 0., z), p(px0, py0, z), p(px0, py1, z));
+    quad(p(px0, py0, floor), p(px1, py0, floor), p(px1, py1, floor), p(px0, py1, floor));
+    quad(p(px1, py0, floor), p(px0, py0, floor), p(px0, py0, z), p(px1, py0, z));
+    quad(p(px1, py1, floor), p(px1, py0, floor), p(px1, py0, z), p(px1, py1, z));
+    quad(p(px0, py1, floor), p(px1, py1, floor), p(px1, py1, z), p(px0, py1, z));
+    quad(p(px0, py0, floor), p(px0, py1, floor), p(px0, py1, z), p(px0, py0, z));
+    Mesh::from_soup(&soup).expect("a closed block")
+}
+
+/// A pocket's square corners get a rest pass (issue 35; example002's square cross holes):
+/// roughed with the 8 mm end mill, a 14 mm pocket 6 mm deep keeps a fillet of radius 4 in
+/// each corner, 82 mm³ in all, along the corners' bisectors. The rest rule finds it for
+/// the next tool of the chain, the 5 mm end mill (50 mm³ of it lie outside the 5 mm
+/// tool's own fillets), whose pass removes more than a quarter of it; lowering the rest
+/// tool at six places at 0.95 of its radius, none on a bisector, the rule found too little
+/// there for the 5 mm end mill (on main this test fails at the tool).
+#[test]
+fn a_pocket_s_square_corners_get_the_next_rest_tool() {
+    let part = pocketed_block([40., 30., 12.], [13., 27., 8., 22.], 6.0);
+    let fillets = 4.0 * (1.0 - std::f64::consts::FRAC_PI_4) * 16.0 * 6.0;
+    let default = rest_run(&part, 1, MillOptions::default().rest_continue, None);
+    let none = rest_run(&part, 0, 0.0, None);
+    for m in [&default, &none] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    let tools = default.setups.iter().map(|s| (s.rest_of, s.tool.diameter())).collect::<Vec<_>>();
+    assert!(default.setups.iter().any(|s| s.rest_of.is_some() && s.tool.diameter() == 5.0), "{tools:?}");
+    rest_took(&default, &none, fillets, 0.25);
+}

@@ -158,13 +158,8 @@ fn slice_levels<E>(
 
 /// The contour keep-out is grown by this fraction of the tool radius more and thinned
 /// (Douglas-Peucker) by as much: its vertices keep the full distance, its chords cut up to
-/// this much inside. Where the keep-out's boundary is concave (a bore, a pocket's wall)
-/// the chords run the other way, into the free region, so there the tool centre keeps up
-/// to twice this more than the radius from the wall (and `offset_eps` twice more, from
-/// [`Region2::grown_safe`]): every bore and pocket is cut that much small. At 0.005 a
-/// Ø30 bore roughed with a 12 mm end mill came out 0.06-0.07 mm small on the diameter;
-/// at 0.001 it is 0.024-0.048 mm at most, 0.2-0.4 % of the tool radius.
-const CONTOUR_THINNING: f64 = 0.001;
+/// this much inside.
+const CONTOUR_THINNING: f64 = 0.005;
 
 pub(crate) struct Ctx<'a> {
     pub tool: &'a Tool,

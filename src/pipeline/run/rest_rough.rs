@@ -217,11 +217,12 @@ impl MillRun {
     /// A tool takes a voxel when, lowered over the part (drop-cutter) at some place whose
     /// cutter covers the voxel, it cuts at most a voxel above the voxel's centre there (its
     /// tip, raised by its end's rounding at the voxel's distance from its axis), and the
-    /// voxel lies within its reach below the stock's top. The rest tool is lowered at 13
-    /// places (over the voxel, six at half its radius, six at 0.95); the wider one at 61 out
-    /// to 0.98 of its radius, so that beside a straight wall it takes what a smaller tool
-    /// takes (at the 13 places a tool covers a voxel no nearer the wall than 0.18 of its
-    /// radius, at the 61 places 0.03). The finisher is lowered at the 13 places and takes
+    /// voxel lies within its reach below the stock's top. The rest tool is lowered at 19
+    /// places (over the voxel, six at half its radius, twelve at 0.95, so that in a square
+    /// corner one lies on the bisector); the wider one at 61 out to 0.98 of its radius, so
+    /// that beside a straight wall it takes what a smaller tool takes (at 13 places, six at
+    /// 0.95, a tool covers a voxel no nearer the wall than 0.18 of its radius, at the 61
+    /// places 0.03). The finisher is lowered at 13 places (six at 0.95) and takes
     /// what it cuts to within half a voxel: a 6 mm ball rests 0.27 mm into a 2.5 mm groove.
     /// What the wider tool takes but left is the roughing's terraces between layers, which
     /// a pass at the same layers leaves as they are; what the finisher takes it takes (on
@@ -279,6 +280,12 @@ impl MillRun {
         };
         let coarse: Vec<[f64; 2]> =
             std::iter::once([0.0, 0.0]).chain(ring(6, 0.5, 0.0)).chain(ring(6, 0.95, 0.5)).collect();
+        // The rest tool also at twelve places at 0.95, every 30 degrees from 15: in a
+        // square corner the wider tool's fillet lies along the bisector, where the six
+        // places (30 degrees off it) put the rest tool into a wall; it found no voxel of
+        // the 6 mm end mill's fillets in example002's square holes for the 4 mm one.
+        let corners: Vec<[f64; 2]> =
+            std::iter::once([0.0, 0.0]).chain(ring(6, 0.5, 0.0)).chain(ring(12, 0.95, 0.5)).collect();
         let fine: Vec<[f64; 2]> =
             std::iter::once([0.0, 0.0]).chain(ring(24, 0.5, 0.0)).chain(ring(36, 0.98, 0.5)).collect();
         // Whether the tool, lowered at one of `places` (in radii) around the voxel at `q`,
@@ -309,7 +316,7 @@ impl MillRun {
                     && seen(p)
                     && index.closest_point(&q).distance > clear
                     && !ball.as_ref().is_some_and(|b| takes(b, &q, &coarse, 0.5 * h))
-                    && takes(&rest, &q, &coarse, h)
+                    && takes(&rest, &q, &corners, h)
                     && !takes(&wide, &q, &fine, h)
             })
             .count();
