@@ -37,6 +37,8 @@ pub(super) struct FinishJob {
     /// passes reach, the corners keep that radius (the finisher's holder check,
     /// [`RoughedStock::tool_radius`]).
     pub(super) roughed_radius: f64,
+    /// Where the finisher machines ([`super::finish_scope`]).
+    pub(super) scope: super::finish_scope::FinishScope,
 }
 
 impl Job {

@@ -132,7 +132,9 @@ impl MillRun {
         // what their tools reach, not only for what they see.
         let (feed, _) = feeds(None);
         let tooling = Tooling::new(opts, stock.extent().norm(), feed)?;
-        oopts.reach = tooling.reach(opts.finish.is_some()).map(|depth| ToolReach { stock, depth });
+        // (Not the ball's, on a prismatic part: its roughing cuts most of it to size.)
+        let ball_reach = opts.finish.is_some() && super::finish_scope::prismatic_share(&part) < 0.5;
+        oopts.reach = tooling.reach(ball_reach).map(|depth| ToolReach { stock, depth });
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
@@ -366,7 +368,11 @@ impl MillRun {
             setups: self.setup_count(),
             space: &self.space,
             features,
-            finishing: self.opts.finish,
+            // A setup with no sculpted face is roughed to size and not finished.
+            finishing: self.opts.finish.filter(|_| {
+                let setup = self.orientation.setups.get(self.chosen());
+                setup.is_some_and(|s| super::finish_scope::has_sculpted(&self.part, s))
+            }),
         }
     }
 
@@ -462,7 +468,9 @@ impl MillRun {
             if let Tooling::Planned { .. } = self.tooling {
                 self.sim.get_mut().add_tool(tool.number, tool.cutter).map_err(sim_error)?;
             }
-            job.finish = Some(FinishJob { choice, tool, roughed_radius: job.tool.radius() });
+            let scope = super::finish_scope::FinishScope::All;
+            job.finish = Some(FinishJob { choice, tool, roughed_radius: job.tool.radius(), scope });
+            super::finish_scope::scope_finishing(&mut job, &self.part);
         }
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
