@@ -41,6 +41,16 @@ pub(super) struct FinishJob {
     pub(super) scope: super::finish_scope::FinishScope,
 }
 
+impl FinishJob {
+    /// The finishing tool, where it takes what the roughing left on every face it reaches
+    /// ([`FinishScope::All`](super::finish_scope::FinishScope)): a rest pass is not for
+    /// what it takes. `None` where it finishes only the sculpted faces of a setup roughed
+    /// to size, whose rest passes are planned as without finishing.
+    pub(super) fn takes_rest(&self) -> Option<Tool> {
+        (self.scope == super::finish_scope::FinishScope::All).then_some(self.tool)
+    }
+}
+
 impl Job {
     /// The finisher's options over a part whose tip heights in the setup frame span
     /// `[lo, hi]`: the choice's scallop; the roughing's clearance plane; down to the

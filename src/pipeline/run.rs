@@ -132,9 +132,9 @@ impl MillRun {
         // what their tools reach, not only for what they see.
         let (feed, _) = feeds(None);
         let tooling = Tooling::new(opts, stock.extent().norm(), feed)?;
-        // (Not the ball's, on a prismatic part: its roughing cuts most of it to size.)
-        let ball_reach = opts.finish.is_some() && super::finish_scope::prismatic_share(&part) < 0.5;
-        oopts.reach = tooling.reach(ball_reach).map(|depth| ToolReach { stock, depth });
+        // (Not the ball's on a prismatic part: its roughing cuts most of it to size.)
+        let ball = super::finish_scope::ball_reach(&part, opts.finish.is_some());
+        oopts.reach = tooling.reach(ball).map(|depth| ToolReach { stock, depth });
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
@@ -370,8 +370,7 @@ impl MillRun {
             features,
             // A setup with no sculpted face is roughed to size and not finished.
             finishing: self.opts.finish.filter(|_| {
-                let setup = self.orientation.setups.get(self.chosen());
-                setup.is_some_and(|s| super::finish_scope::has_sculpted(&self.part, s))
+                super::finish_scope::has_sculpted(&self.part, self.orientation.setups.get(self.chosen()))
             }),
         }
     }
@@ -495,7 +494,8 @@ impl MillRun {
         self.machine_own(i, progress)?;
         let (Some(own), mut tried) = (self.jobs.last().map(|j| j.tool), 0) else { return Ok(()) };
         let scope = self.rest_scope(rest.is_some());
-        let first = self.worth_a_pass(i, &scope, &own, rest, &mut tried, finish.as_ref().map(|f| &f.tool))?;
+        let finisher = finish.as_ref().and_then(FinishJob::takes_rest);
+        let first = self.worth_a_pass(i, &scope, &own, rest, &mut tried, finisher.as_ref())?;
         if let Some(first) = first {
             return self.rest_rough(i, &scope, first, tried, finish, progress);
         }

@@ -188,8 +188,8 @@ impl MillRun {
         let setup = own.setup;
         let spec = *self.remaining.spec();
         let h = spec.voxel.min();
-        let o = &self.opts;
-        let allowance = o.finish.map_or(0.0, |_| o.finish_allowance[0].max(o.finish_allowance[1]));
+        // The setup's own roughing's allowance (none where it cut to size).
+        let allowance = own.popts.finishing_allowance.max(own.popts.axial_allowance);
         let axis = setup.tool_axis().into_inner();
         let target = &self.target;
         let seen = |p: Point3| {
@@ -308,7 +308,7 @@ impl MillRun {
         progress: &mut dyn FnMut(Stage),
     ) -> Result<(), MillError> {
         let mut tool = first;
-        let finisher = finish.as_ref().map(|f| f.tool);
+        let finisher = finish.as_ref().and_then(FinishJob::takes_rest);
         loop {
             let smaller = match tried < self.opts.rest_roughing {
                 true => self.smaller_tool(k, tool.0.radius())?,
@@ -395,6 +395,10 @@ impl MillRun {
             None => format!("rest roughing of setup {}", k + 1),
         });
         job.rest_of = Some(k);
+        // As the setup's own roughing: with the allowance, or cut to size.
+        let own_popts = &self.jobs[own].popts;
+        (job.popts.finishing_allowance, job.popts.axial_allowance) =
+            (own_popts.finishing_allowance, own_popts.axial_allowance);
         job.finish = finish;
         self.jobs.push(job);
         let at = self.jobs.len() - 1;
