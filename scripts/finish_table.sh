@@ -20,6 +20,8 @@ echo "| part | roughing tool | CD x1000 rough | CD x1000 finished | NC rough | N
 echo "| --- | --- | ---: | ---: | ---: | ---: | --- | --- | --- |"
 parts=(tests/data/meshes/openscad/*.stl tests/data/meshes/classic/stanford_bunny.stl
        tests/data/meshes/classic/gearwheel_40t.bin.stl tests/data/meshes/shop/*.stl)
+# PARTS="a.stl b.stl" scripts/finish_table.sh ...: those meshes only (the slow 256^3 rows one by one).
+if [ -n "${PARTS:-}" ]; then read -ra parts <<< "$PARTS"; fi
 for mesh in "${parts[@]}"; do
   name=$(basename "$mesh" .stl)
   size=(--size 100)

@@ -44,7 +44,7 @@ pub(super) fn reached_areas(part: &Mesh, setup: &Setup, floor: f64) -> (f64, f64
         let [a, b, c] = t.map(|p| setup.to_setup(&p));
         let cross = (b - a).cross(&(c - a));
         let norm = cross.norm();
-        if !(norm > 0.0) || a.z.max(b.z).max(c.z) < floor {
+        if norm.is_nan() || norm <= 0.0 || a.z.max(b.z).max(c.z) < floor {
             return (sculpted, all);
         }
         let n = cross / norm;
@@ -65,7 +65,7 @@ pub(super) fn finish_scope(part: &Mesh, job: &Job) -> Option<FinishScope> {
     let (lo, hi) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| (a.min(z), b.max(z)));
     let floor = job.finish_options(f, [lo, hi]).floor.unwrap_or(lo);
     let (sculpted, all) = reached_areas(part, &job.setup, floor);
-    if !(sculpted > 1e-6 * all) {
+    if sculpted.is_nan() || sculpted <= 1e-6 * all {
         None
     } else if sculpted <= 0.5 * all {
         Some(FinishScope::Sculpted)
@@ -101,7 +101,7 @@ pub(super) fn scope_finishing(job: &mut Job, part: &Mesh) {
 pub(super) fn sculpted_contact(part: &MeshIndex, tip: &Point3, radius: f64) -> bool {
     let c = Point3::new(tip.x, tip.y, tip.z + radius);
     let cp = part.closest_point(&c);
-    if !(cp.distance > 1e-9) {
+    if cp.distance.is_nan() || cp.distance <= 1e-9 {
         return true;
     }
     !prismatic_normal(&((c - cp.point) / cp.distance))
@@ -119,7 +119,7 @@ pub(super) fn prismatic_share(part: &Mesh) -> f64 {
         let [a, b, c] = t;
         let cross = (b - a).cross(&(c - a));
         let norm = cross.norm();
-        if !(norm > 0.0) {
+        if norm.is_nan() || norm <= 0.0 {
             continue;
         }
         all += 0.5 * norm;
@@ -212,7 +212,7 @@ mod tests {
         let cube = Mesh::cuboid(&Aabb::new(Point3::origin(), Point3::new(10.0, 10.0, 10.0))).unwrap();
         let turn = crate::geom::Rotation3::from_euler_angles(0.0, 0.0, 0.5)
             * crate::geom::Rotation3::from_euler_angles(0.5, 0.0, 0.0);
-        let turned = cube.transformed(&Similarity3::from_parts(Vector3::zeros().into(), turn.into(), 1.0));
+        let turned = cube.transformed(&Similarity3::from_parts(Vector3::zeros().into(), turn, 1.0));
         let share = prismatic_share(&turned);
         assert!((share - 1.0 / 3.0).abs() < 1e-9, "{share}");
     }
