@@ -37,6 +37,18 @@ pub(super) struct FinishJob {
     /// passes reach, the corners keep that radius (the finisher's holder check,
     /// [`RoughedStock::tool_radius`]).
     pub(super) roughed_radius: f64,
+    /// Where the finisher machines ([`super::finish_scope`]).
+    pub(super) scope: super::finish_scope::FinishScope,
+}
+
+impl FinishJob {
+    /// The finishing tool, where it takes what the roughing left on every face it reaches
+    /// ([`FinishScope::All`](super::finish_scope::FinishScope)): a rest pass is not for
+    /// what it takes. `None` where it finishes only the sculpted faces of a setup roughed
+    /// to size, whose rest passes are planned as without finishing.
+    pub(super) fn takes_rest(&self) -> Option<Tool> {
+        (self.scope == super::finish_scope::FinishScope::All).then_some(self.tool)
+    }
 }
 
 impl Job {

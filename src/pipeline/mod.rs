@@ -24,6 +24,7 @@
 //! they are written, so both layouts cut the same paths in the part frame.
 
 mod api;
+mod finish_scope;
 mod job;
 mod per_setup;
 mod pipe;

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::api::{MillError, SetupFinish, SetupProgram, Stage, StageSeconds};
+use super::finish_scope::{FinishScope, prismatic_normal, sculpted_contact};
 use super::job::Job;
 use super::pipe::{ChunkWriter, chunk_channel};
 use super::rest_finish::Unfinished;
@@ -394,7 +395,14 @@ fn emit_finishing<W: std::io::Write>(
         return Ok(None);
     };
     let strategy = f.choice.strategy.strategy();
-    let keep = fin.rest.as_ref().map(|r| r as &dyn KeepPoint);
+    // Not where an earlier setup finished, and, where the roughing cut to size, only where
+    // the ball touches a sculpted face.
+    let sculpted = f.scope == FinishScope::Sculpted;
+    let (radius, index, rest) = (f.tool.radius(), &fin.index, fin.rest.as_ref());
+    let both = |tip: &Point3| {
+        (!sculpted || sculpted_contact(index, tip, radius)) && rest.is_none_or(|r| r.keep(tip))
+    };
+    let keep = (sculpted || rest.is_some()).then_some(&both as &dyn KeepPoint);
     finish_setup_left_out(&fin.index, &job.setup, &f.tool, &*strategy, &fin.opts, keep, writer)
         .map(Some)
         .map_err(|source| MillError::Plan { setup: i + 1, source })
@@ -437,12 +445,14 @@ fn finish_result(
                 closed_part,
                 ..DeviationOptions::default()
             };
-            // Where this setup finishes: not where an earlier one did.
-            let deviation = match &rest {
-                Some(rest) => {
-                    surface_deviation_where(&field, &index, &dopts, &|q, n| rest.keeps_contact(q, n))
-                }
-                None => surface_deviation_opt(&field, &index, &dopts),
+            // Where this setup finishes: not where an earlier one did, and only on the
+            // sculpted faces where the roughing cut to size.
+            let sculpted = f.scope == FinishScope::Sculpted;
+            let deviation = match (&rest, sculpted) {
+                (None, false) => surface_deviation_opt(&field, &index, &dopts),
+                _ => surface_deviation_where(&field, &index, &dopts, &|q, n| {
+                    (!sculpted || !prismatic_normal(n)) && rest.as_ref().is_none_or(|r| r.keeps_contact(q, n))
+                }),
             };
             // The run's surface samples in this setup's frame.
             let inv = job.setup.frame.inverse();

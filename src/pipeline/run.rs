@@ -132,7 +132,9 @@ impl MillRun {
         // what their tools reach, not only for what they see.
         let (feed, _) = feeds(None);
         let tooling = Tooling::new(opts, stock.extent().norm(), feed)?;
-        oopts.reach = tooling.reach(opts.finish.is_some()).map(|depth| ToolReach { stock, depth });
+        // (Not the ball's on a prismatic part: its roughing cuts most of it to size.)
+        let ball = super::finish_scope::ball_reach(&part, opts.finish.is_some());
+        oopts.reach = tooling.reach(ball).map(|depth| ToolReach { stock, depth });
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
@@ -366,7 +368,10 @@ impl MillRun {
             setups: self.setup_count(),
             space: &self.space,
             features,
-            finishing: self.opts.finish,
+            // A setup with no sculpted face is roughed to size and not finished.
+            finishing: self.opts.finish.filter(|_| {
+                super::finish_scope::has_sculpted(&self.part, self.orientation.setups.get(self.chosen()))
+            }),
         }
     }
 
@@ -462,7 +467,9 @@ impl MillRun {
             if let Tooling::Planned { .. } = self.tooling {
                 self.sim.get_mut().add_tool(tool.number, tool.cutter).map_err(sim_error)?;
             }
-            job.finish = Some(FinishJob { choice, tool, roughed_radius: job.tool.radius() });
+            let scope = super::finish_scope::FinishScope::All;
+            job.finish = Some(FinishJob { choice, tool, roughed_radius: job.tool.radius(), scope });
+            super::finish_scope::scope_finishing(&mut job, &self.part);
         }
         let (length_mm, hours) = job.estimate();
         if hours.is_nan() || hours > o.max_estimated_hours {
@@ -477,12 +484,15 @@ impl MillRun {
         }
         // A shop roughs, rest-roughs, then finishes each setup: the finishing moves to the last rest pass.
         let rest = self.first_rest_tool(i, &job)?;
-        let finisher = job.finish.as_ref().map(|f| f.tool);
+        // Whether the setup is finished, and the finisher a rest pass leaves material for
+        // (none where the ball takes only sculpted faces: rest passes are planned as without finishing).
+        let (finishes, finisher) =
+            (job.finish.is_some(), job.finish.as_ref().and_then(FinishJob::takes_rest));
         self.jobs.push(job);
         if self.placements.is_some() {
             return Ok(());
         }
-        self.machine_own_then_rest(i, rest, finisher, progress)
+        self.machine_own_then_rest(i, rest, finishes, finisher, progress)
     }
 
     /// Machines every setup still without an action with `policy`'s choice, then

@@ -52,7 +52,8 @@ impl MillRun {
 
     /// Machines setup `i`'s own job, the last, then its rest passes where the rest rule
     /// finds one worth it from its first rest tool `rest` ([`rest_verdict`](Self::rest_verdict)).
-    /// Where the job is finished (with `finisher`) and has a rest tool, whether a pass
+    /// Where the job is finished (`finishes`; `finisher` is the tool a rest pass leaves
+    /// material for, none where the ball takes only sculpted faces) and has a rest tool, whether a pass
     /// follows is known once its roughing is simulated: the program goes on with its
     /// finishing where none does, and ends after the roughing where one does (the passes
     /// then carry the finishing).
@@ -60,26 +61,24 @@ impl MillRun {
         &mut self,
         i: usize,
         rest: Option<RestTool>,
+        finishes: bool,
         finisher: Option<Tool>,
         progress: &mut dyn FnMut(Stage),
     ) -> Result<(), MillError> {
-        let verdict = match (rest.is_some(), finisher) {
-            (true, Some(finisher)) => {
-                let mut verdict = None;
-                let mut finish_if = |run: &Self| {
-                    let left = run.ctx().excess();
-                    let v = left.and_then(|left| run.rest_verdict(&left, i, rest, Some(&finisher)));
-                    let finish_here = matches!(v, Ok((None, ..)));
-                    verdict = Some(v);
-                    finish_here
-                };
-                self.machine_own(i, Some(&mut finish_if), progress)?;
-                verdict
-            }
-            _ => {
-                self.machine_own(i, None, progress)?;
-                None
-            }
+        let verdict = if rest.is_some() && finishes {
+            let mut verdict = None;
+            let mut finish_if = |run: &Self| {
+                let left = run.ctx().excess();
+                let v = left.and_then(|left| run.rest_verdict(&left, i, rest, finisher.as_ref()));
+                let finish_here = matches!(v, Ok((None, ..)));
+                verdict = Some(v);
+                finish_here
+            };
+            self.machine_own(i, Some(&mut finish_if), progress)?;
+            verdict
+        } else {
+            self.machine_own(i, None, progress)?;
+            None
         };
         let verdict = match verdict {
             Some(v) => v?,
@@ -246,8 +245,8 @@ impl MillRun {
         let setup = own.setup;
         let spec = *remaining.spec();
         let h = spec.voxel.min();
-        let o = &self.opts;
-        let allowance = o.finish.map_or(0.0, |_| o.finish_allowance[0].max(o.finish_allowance[1]));
+        // The setup's own roughing's allowance (none where it cut to size).
+        let allowance = own.popts.finishing_allowance.max(own.popts.axial_allowance);
         let axis = setup.tool_axis().into_inner();
         let target = &self.target;
         let seen = |p: Point3| {
@@ -394,7 +393,7 @@ impl MillRun {
         progress: &mut dyn FnMut(Stage),
     ) -> Result<(), MillError> {
         let mut tool = first;
-        let finisher = finish.as_ref().map(|f| f.tool);
+        let finisher = finish.as_ref().and_then(FinishJob::takes_rest);
         loop {
             let smaller = match tried < self.opts.rest_roughing {
                 true => self.smaller_tool(k, tool.0.radius())?,
@@ -496,6 +495,10 @@ impl MillRun {
             None => format!("rest roughing of setup {}", k + 1),
         });
         job.rest_of = Some(k);
+        // As the setup's own roughing: with the allowance, or cut to size.
+        let own_popts = &self.jobs[own].popts;
+        (job.popts.finishing_allowance, job.popts.axial_allowance) =
+            (own_popts.finishing_allowance, own_popts.axial_allowance);
         job.finish = finish;
         self.jobs.push(job);
         let at = self.jobs.len() - 1;
