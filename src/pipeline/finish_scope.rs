@@ -141,12 +141,16 @@ pub(super) fn prismatic_share(part: &Mesh) -> f64 {
 /// reach chose setups that reach far more of the part (IoU 0.48 against 0.35).
 pub(super) const PRISMATIC_PART: f64 = 0.75;
 
-/// Whether a setup along `setup`'s axis has any sculpted face over `part` (no floor):
-/// where it has none, the policy chooses its roughing as without finishing.
-pub(super) fn has_sculpted(part: &Mesh, setup: Option<&Setup>) -> bool {
+/// Whether a setup along `setup`'s axis is finished whole over `part` (more than half the
+/// area its tool faces sculpted, no floor; [`finish_scope`]'s [`FinishScope::All`]): only
+/// there does the roughing leave its staircase to the finisher, and the policy choose its
+/// layers for that. A setup with no sculpted face, or at most half, is roughed to size as
+/// without finishing, on the same layers: where the ball does not reach (between embossed
+/// letters, under an overhang) deeper layers would leave taller steps than roughing alone.
+pub(super) fn finished_whole(part: &Mesh, setup: Option<&Setup>) -> bool {
     setup.is_some_and(|setup| {
         let (sculpted, all) = reached_areas(part, setup, f64::NEG_INFINITY);
-        sculpted > 1e-6 * all
+        sculpted > 0.5 * all
     })
 }
 
@@ -185,7 +189,7 @@ mod tests {
         assert!((sculpted - slope).abs() < 1e-9, "{sculpted} against {slope}");
         // Below the finisher's floor a face is not its to finish.
         assert_eq!(reached_areas(&block(true), &top, 10.5), (0.0, 0.0));
-        assert!(has_sculpted(&block(true), Some(&top)) && !has_sculpted(&block(false), Some(&top)));
+        assert!(!finished_whole(&block(true), Some(&top)) && !finished_whole(&block(false), Some(&top)));
     }
 
     #[test]

@@ -368,9 +368,9 @@ impl MillRun {
             setups: self.setup_count(),
             space: &self.space,
             features,
-            // A setup with no sculpted face is roughed to size and not finished.
+            // A setup not finished whole is roughed as without finishing (same layers).
             finishing: self.opts.finish.filter(|_| {
-                super::finish_scope::has_sculpted(&self.part, self.orientation.setups.get(self.chosen()))
+                super::finish_scope::finished_whole(&self.part, self.orientation.setups.get(self.chosen()))
             }),
         }
     }

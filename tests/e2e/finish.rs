@@ -7,7 +7,8 @@
 
 use shape2gcode::geom::load_mesh;
 use shape2gcode::{
-    Action, FinishChoice, FixedPolicy, MillOptions, Milled, Preset, SetupFinish, StrategyKind, mill,
+    Action, FinishChoice, FixedPolicy, HeuristicPolicy, MillOptions, Milled, Preset, SetupFinish,
+    StrategyKind, mill,
 };
 
 use super::common::data;
@@ -119,4 +120,57 @@ fn a_prismatic_part_is_roughed_to_size_and_not_finished() {
     }
     assert_eq!(fine.metrics.iou, rough.metrics.iou);
     assert_eq!(fine.metrics.chamfer_x1000, rough.metrics.chamfer_x1000);
+}
+
+/// A 40 x 20 x 12 mm block whose top +x edge is cut back 6 mm (a sloped face from x = 34
+/// at the top to x = 40 at the bottom): every setup's faces are mostly prismatic.
+fn chamfered_block() -> shape2gcode::geom::Mesh {
+    use shape2gcode::geom::{Aabb, Mesh, Point3};
+    let b = Mesh::cuboid(&Aabb::new(Point3::origin(), Point3::new(40.0, 20.0, 12.0))).unwrap();
+    let (mut v, t) = b.into_parts();
+    v.iter_mut().filter(|p| p.x == 40.0 && p.z == 12.0).for_each(|p| p.x = 34.0);
+    Mesh::new(v, t).unwrap()
+}
+
+#[test]
+fn a_mostly_prismatic_setup_is_roughed_as_without_finishing() {
+    // Where at most half a setup's faces are sculpted the ball finishes only those, and
+    // where it does not reach the roughing's steps stay: the roughing must be the
+    // roughing-only run's (same layers), not deeper layers left for a ball.
+    let part = chamfered_block();
+    let opts = |finish| MillOptions {
+        preset: Preset::Shop,
+        resolution: 64,
+        orient_points: 2048,
+        metric_samples: 20_000,
+        finish,
+        surface_spacing: 0.25,
+        rest_roughing: 0,
+        ..MillOptions::default()
+    };
+    let run = |finish| mill(&part, &mut HeuristicPolicy::default(), &opts(finish), &mut |_| {}).unwrap();
+    let rough = run(None);
+    let fine = run(Some(FinishChoice::default()));
+    assert!(rough.is_safe() && fine.is_safe());
+    assert_eq!(fine.setups.len(), rough.setups.len());
+    assert!(fine.setups.iter().any(|s| s.finish.is_some()), "the chamfer was not finished");
+    for (i, (f, r)) in fine.setups.iter().zip(&rough.setups).enumerate() {
+        assert_eq!(f.action, r.action, "setup {}: the finished run roughs otherwise", i + 1);
+    }
+    let volume = |m: &Milled| m.residual.signed_volume();
+    eprintln!(
+        "rough {} {} {} fine {} {} {}",
+        volume(&rough),
+        rough.metrics.chamfer_x1000,
+        rough.metrics.normal_consistency,
+        volume(&fine),
+        fine.metrics.chamfer_x1000,
+        fine.metrics.normal_consistency
+    );
+    assert!(
+        volume(&fine) <= volume(&rough),
+        "finishing left more stock: {} > {}",
+        volume(&fine),
+        volume(&rough)
+    );
 }
