@@ -219,5 +219,13 @@ mod tests {
         let turned = cube.transformed(&Similarity3::from_parts(Vector3::zeros().into(), turn, 1.0));
         let share = prismatic_share(&turned);
         assert!((share - 1.0 / 3.0).abs() < 1e-9, "{share}");
+        // A pyramid seen from above faces only its four sloped sides: finished whole, its
+        // roughing on the layers left for the ball; the turned cube's up-facing half is
+        // sculpted, the rest walls: not more than half.
+        let v = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [10.0, 10.0, 0.0], [0.0, 10.0, 0.0], [5.0, 5.0, 5.0]];
+        let t = vec![[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        let pyramid = Mesh::new(v.iter().map(|p| Point3::new(p[0], p[1], p[2])).collect(), t).unwrap();
+        assert!(finished_whole(&pyramid, Some(&Setup::top())));
+        assert!(!finished_whole(&pyramid, None) && !finished_whole(&turned, Some(&Setup::top())));
     }
 }
