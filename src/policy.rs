@@ -150,9 +150,11 @@ pub struct SetupContext<'a> {
     pub space: &'a ActionSpace,
     /// Geometric features of the setup (see [`SetupFeatures`]).
     pub features: &'a SetupFeatures,
-    /// The run's finishing choice when the setup is finished after roughing
+    /// The run's finishing choice when the setup is finished whole after roughing
     /// ([`MillOptions::finish`](crate::MillOptions::finish)); `None` when it is roughed
-    /// only. A roughing that a finisher follows need not leave a fine staircase.
+    /// only, or its finisher takes only its few sculpted faces (the roughing leaves the
+    /// rest as without finishing). A roughing that a finisher follows whole need not
+    /// leave a fine staircase.
     pub finishing: Option<FinishChoice>,
 }
 

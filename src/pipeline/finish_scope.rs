@@ -6,8 +6,9 @@
 //! prismatic and sculpted ([`finish_scope`]):
 //!
 //! - none sculpted: the setup is roughed to size (no allowance) and not finished;
-//! - at most half the area sculpted: roughed to size, and the finisher machines only the
-//!   pass points where its ball touches a sculpted face ([`FinishScope::Sculpted`],
+//! - at most half the area sculpted: roughed to size on the layers of a run without
+//!   finishing ([`finished_whole`]), and the finisher machines only the pass points where
+//!   its ball touches a sculpted face ([`FinishScope::Sculpted`],
 //!   [`sculpted_contact`]);
 //! - more: roughed with the allowance and finished whole, as before ([`FinishScope::All`]).
 
