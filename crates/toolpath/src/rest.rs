@@ -71,7 +71,7 @@ type Range = [(usize, usize); 3];
 
 impl VoxelMaterial<'_> {
     /// Setup-frame point of part-frame `p`.
-    fn to_setup(&self, p: &Point3) -> Point3 {
+    fn in_setup(&self, p: &Point3) -> Point3 {
         Point3::from(self.rotation.transpose() * (p.coords - self.translation))
     }
 
@@ -108,7 +108,7 @@ impl VoxelMaterial<'_> {
         }
         let corner = |c: usize| {
             let pick = |a: usize| if c >> a & 1 == 0 { lo[a] } else { hi[a] };
-            self.to_setup(&spec.center(pick(0), pick(1), pick(2)))
+            self.in_setup(&spec.center(pick(0), pick(1), pick(2)))
         };
         if (0..8).all(|c| inside(&corner(c))) {
             return true;
