@@ -11,7 +11,7 @@ diameter (within a floor and a ceiling), with axial and radial depth limits in d
 from the usual starting values of carbide tool makers' charts for slotting.
 
 Long-reach end mills (T31-T33) have flutes 1.5 D long, a relieved neck 0.95 D wide up to
-their reach (6, 12 and 16 mm for 1, 2 and 3 mm), then a 4 or 6 mm shank, 10 mm of it out
+their reach (10, 12 and 16 mm for 1, 2 and 3 mm), then a 4 or 6 mm shank, 10 mm of it out
 of the chuck; their cutting data are conservative: 0.8 times the surface speed, half the
 chip load and half the axial depth of the short tools'.
 """
@@ -20,7 +20,7 @@ FLATS = [1, 2, 3, 4, 5, 6, 8, 10, 12]
 BALLS = [1, 2, 3, 4, 6, 8, 10]
 BULLS = [(6, 0.5), (10, 1.0)]
 # Long-reach (necked) flat end mills: diameter, reach (tip to the neck's top), shank.
-LONG = [(1, 6.0, 4.0), (2, 12.0, 4.0), (3, 16.0, 6.0)]
+LONG = [(1, 10.0, 4.0), (2, 12.0, 4.0), (3, 16.0, 6.0)]
 
 # name, description, coolant, vc (m/min), fz per mm of diameter, fz floor, fz ceiling,
 # ap (D), ae (D), plunge ratio.
