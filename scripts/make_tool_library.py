@@ -9,11 +9,18 @@ flute length plus 2 D plus 6 mm, in an ER20 collet chuck (nut 35 mm across, 40 m
 Cutting data per material: a surface speed and a chip load per tooth proportional to the
 diameter (within a floor and a ceiling), with axial and radial depth limits in diameters,
 from the usual starting values of carbide tool makers' charts for slotting.
+
+Long-reach end mills (T31-T33) have flutes 1.5 D long, a relieved neck 0.95 D wide up to
+their reach (10, 12 and 16 mm for 1, 2 and 3 mm), then a 4 or 6 mm shank, 10 mm of it out
+of the chuck; their cutting data are conservative: 0.8 times the surface speed, half the
+chip load and half the axial depth of the short tools'.
 """
 
 FLATS = [1, 2, 3, 4, 5, 6, 8, 10, 12]
 BALLS = [1, 2, 3, 4, 6, 8, 10]
 BULLS = [(6, 0.5), (10, 1.0)]
+# Long-reach (necked) flat end mills: diameter, reach (tip to the neck's top), shank.
+LONG = [(1, 10.0, 4.0), (2, 12.0, 4.0), (3, 16.0, 6.0)]
 
 # name, description, coolant, vc (m/min), fz per mm of diameter, fz floor, fz ceiling,
 # ap (D), ae (D), plunge ratio.
@@ -30,20 +37,26 @@ def num(v):
     return s if "." in s else s + ".0"
 
 
-def cutting(d):
+def cutting(d, long=False):
     lines = []
     for name, _, _, vc, fzk, lo, hi, ap, ae, plunge in MATERIALS:
         fz = min(hi, max(lo, fzk * d))
+        if long:
+            vc, fz, ap = 0.8 * vc, 0.5 * fz, 0.5 * ap
         lines.append(
             f"{name} = {{ vc = {num(vc)}, fz = {num(fz)}, ap = {num(ap)}, ae = {num(ae)}, plunge = {num(plunge)} }}"
         )
     return lines
 
 
-def tool(number, name, shape, d, flutes, corner=None):
+def tool(number, name, shape, d, flutes, corner=None, neck=None):
     flute = max(3.0, 3.0 * d)
     shank = 3.0 if d < 3 else d
     stickout = flute + 2.0 * d + 6.0
+    if neck is not None:
+        reach, shank = neck
+        flute = 1.5 * d
+        stickout = reach + 10.0
     out = ["[[tool]]", f"number = {number}", f'name = "{name}"', f'shape = "{shape}"', f"diameter = {num(d)}"]
     if corner is not None:
         out.append(f"corner_radius = {num(corner)}")
@@ -53,10 +66,14 @@ def tool(number, name, shape, d, flutes, corner=None):
         f"stickout = {num(stickout)}",
         f"shank_diameter = {num(shank)}",
         "holder = { diameter = 35.0, length = 40.0 }",
+    ]
+    if neck is not None:
+        out.append(f"neck = {{ diameter = {num(0.95 * d)}, reach = {num(neck[0])} }}")
+    out += [
         "",
         "[tool.cutting]",
     ]
-    out += cutting(d)
+    out += cutting(d, neck is not None)
     return "\n".join(out) + "\n"
 
 
@@ -91,6 +108,11 @@ HEADER = """\
 #   stickout      tip to the holder's face (>= flute_length)
 #   shank_diameter
 #   holder        optional { diameter, length }: the chuck's cylinder above the stick-out
+#   neck          optional { diameter, reach }: a long-reach end mill's relieved neck, not
+#                 cutting, no wider than the flutes, from their top up to `reach` above the
+#                 tip (flute_length < reach <= stickout); the shank starts there. A
+#                 LinuxCNC tool table has no neck column: the table s2g writes holds the
+#                 cutting diameter, the name (which says the reach) as its comment
 #   [tool.cutting] per material name:
 #     vc          surface speed, m/min: spindle rpm = 1000 vc / (pi D), within the
 #                 machine's spindle range
@@ -144,6 +166,11 @@ def main():
     n = 21
     for d, r in BULLS:
         parts.append(tool(n, f"{d} mm bull nose end mill, r{num(r)}, 4 flutes", "bull", d, 4, r))
+        n += 1
+    n = 31
+    for d, reach, shank in LONG:
+        name = f"{d} mm long-reach flat end mill, neck {num(0.95 * d)} mm to {reach:g} mm, 3 flutes"
+        parts.append(tool(n, name, "flat", d, 3, neck=(reach, shank)))
         n += 1
     print("\n".join(parts), end="")
 

@@ -190,20 +190,33 @@ impl Tooling {
     /// The rest-roughing tool after roughing with a flat end mill of `radius`, in a setup
     /// whose stock is `depth` deep along its axis
     /// ([`MillOptions::rest_roughing`](super::MillOptions::rest_roughing)): of the
-    /// library's flat end mills at most 0.7 times as wide, the one whose flutes reach
-    /// deepest into that depth (a rest pass cuts no deeper below the stock's top than its
-    /// flutes are long: `MillRun::rest_rough`), the widest of equals, with its cutting
-    /// data; `None` in the paper preset or where the library has none that small.
+    /// library's flat end mills at most 0.7 times as wide, the one that reaches deepest
+    /// into that depth ([`Cutter::reach`]: its flutes, a long-reach end mill's neck, a
+    /// shank no wider than the flutes its stick-out; a rest pass cuts no deeper below the
+    /// stock's top: `MillRun::rest_rough`), the widest of equals, a plain end mill before
+    /// a long-reach one, with its cutting data; `None` in the paper preset or where the library has none that small.
     pub(super) fn rest_tool(
         &self,
         radius: f64,
         depth: f64,
     ) -> Result<Option<(Tool, Option<Cutting>)>, MillError> {
         let Self::Library(shop) = self else { return Ok(None) };
-        let reach = |t: &LibraryTool| t.cutter.flute_length.min(depth);
-        let Some(t) =
-            shop.flats.iter().filter(|t| t.cutter.radius <= 0.7 * radius + 1e-9).max_by(|a, b| {
-                reach(a).total_cmp(&reach(b)).then(a.cutter.radius.total_cmp(&b.cutter.radius))
+        // How deep the stack stays no wider than the flutes (`Cutter::reach`): a long-reach
+        // end mill as deep as its neck. Of equals, a plain end mill (stiffer, with the
+        // faster cutting data) is taken.
+        let reach = |t: &LibraryTool| t.cutter.reach().min(depth);
+        let Some(t) = shop
+            .all
+            .iter()
+            .filter(|t| {
+                matches!(t.cutter.shape, CutterShape::Flat(_)) && t.cutter.radius <= 0.7 * radius + 1e-9
+            })
+            .max_by(|a, b| {
+                reach(a)
+                    .total_cmp(&reach(b))
+                    .then(a.cutter.radius.total_cmp(&b.cutter.radius))
+                    .then(b.cutter.neck.is_some().cmp(&a.cutter.neck.is_some()))
+                    .then(b.number.cmp(&a.number))
             })
         else {
             return Ok(None);

@@ -197,7 +197,7 @@ fn grbl_and_fanuc_shop_programs_have_a_controller_s_blocks() {
 }
 
 /// Tools too short for the stock: every flat end mill of the library sticks out 12 mm from
-/// its chuck (flutes of at most 12 mm) on a part 43 mm tall. No setup may bring the chuck
+/// its chuck (flutes and necks of at most 12 mm) on a part 43 mm tall. No setup may bring the chuck
 /// into the stock: each setup cuts only as deep as its tool reaches below the stock's top
 /// (the highest in-process stock point under the holder), so the simulator, which sweeps
 /// shank and holder too, finds no holder collision and the run is safe, at the price of
@@ -208,6 +208,10 @@ fn short_tools_never_bring_their_holder_into_the_stock() {
     for t in &mut short.tools {
         t.cutter.stickout = 12.0;
         t.cutter.flute_length = t.cutter.flute_length.min(12.0);
+        // A long-reach end mill's neck ends at the chuck at the latest.
+        if let Some(n) = &mut t.cutter.neck {
+            n.reach = n.reach.min(12.0);
+        }
         assert!(t.cutter.holder.is_some(), "T{} has a holder", t.number);
     }
     let opts = MillOptions { tools: Some(short), ..shop("aluminium-6061") };

@@ -303,7 +303,28 @@ fn chamfered_slotted_block() -> Mesh {
 /// and `more` of the part's volume for a pass ([`MillOptions::rest_continue`]), finished where
 /// `finish` says.
 fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -> Milled {
+    rest_run_opts(part, rest, more, finish, None)
+}
+
+/// [`rest_run`] with the tool library `tools` and no finishing.
+fn rest_run_with(
+    part: &Mesh,
+    rest: usize,
+    more: f64,
+    tools: Option<shape2gcode::toolpath::library::ToolLibrary>,
+) -> Milled {
+    rest_run_opts(part, rest, more, None, tools)
+}
+
+fn rest_run_opts(
+    part: &Mesh,
+    rest: usize,
+    more: f64,
+    finish: Option<FinishChoice>,
+    tools: Option<shape2gcode::toolpath::library::ToolLibrary>,
+) -> Milled {
     let opts = MillOptions {
+        tools,
         preset: Preset::Shop,
         resolution: 64,
         orient_points: 2048,
@@ -321,7 +342,7 @@ fn rest_run(part: &Mesh, rest: usize, more: f64, finish: Option<FinishChoice>) -
         strategy: shape2gcode::StrategyKind::ZIGZAG,
     };
     while run.next_setup().is_some() {
-        run.machine(action, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+        run.machine(action, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#} ({e:?})"));
     }
     run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
 }
@@ -601,4 +622,31 @@ fn a_pocket_s_square_corners_get_the_next_rest_tool() {
     let tools = default.setups.iter().map(|s| (s.rest_of, s.tool.diameter())).collect::<Vec<_>>();
     assert!(default.setups.iter().any(|s| s.rest_of.is_some() && s.tool.diameter() == 5.0), "{tools:?}");
     rest_took(&default, &none, fillets, 0.25);
+}
+
+/// A narrow deep slot only a long-reach end mill reaches (issue 35: the LetterBlock's
+/// strokes, the gear's tooth gaps): 2.9 mm wide, 16 mm long, 8 mm deep, roughed with the
+/// 8 mm end mill. The rest chain passes over the 5 and 3 mm end mills (too wide for it) to
+/// a 2 mm one: the plain one's 3 mm shank keeps it to its 6 mm of flutes below the stock's
+/// top, the long-reach one (T32, neck to 12 mm) cuts the slot to its floor. Without the
+/// long-reach tools in the library the slot's lowest 2 mm (93 mm³) stay; with them more
+/// than half of that goes, with no holder collision (its neck and shank are simulated).
+#[test]
+fn a_narrow_deep_slot_is_cut_by_a_long_reach_end_mill() {
+    let part = pocketed_block([30., 20., 14.], [7., 23., 8.55, 11.45], 6.0);
+    let run = |long: bool| {
+        let mut lib = MillOptions::default().library().clone();
+        if !long {
+            lib.tools.retain(|t| t.cutter.neck.is_none());
+        }
+        rest_run_with(&part, 3, MillOptions::default().rest_continue, Some(lib))
+    };
+    let (with, without) = (run(true), run(false));
+    for m in [&with, &without] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    let tools = with.setups.iter().map(|s| (s.rest_of, s.tool.number)).collect::<Vec<_>>();
+    assert!(with.setups.iter().any(|s| s.rest_of.is_some() && s.tool.number == 32), "{tools:?}");
+    rest_took(&with, &without, 2.9 * 16.0 * 2.0, 0.5);
 }

@@ -61,6 +61,7 @@ impl Tool {
             shank_radius: radius,
             stickout: length,
             holder: None,
+            neck: None,
         })
     }
 

@@ -93,6 +93,7 @@ impl Tool {
             shank_radius: radius,
             stickout: f64::INFINITY,
             holder: None,
+            neck: None,
         })
     }
 
@@ -118,14 +119,12 @@ impl Tool {
 
     /// What layer planning keeps out of the part: today the cutter's enclosing cylinder,
     /// of its cutting radius, whatever its end shape (see [`Envelope`]), as long as the
-    /// tool can reach: its flute length, or, where the shank is no wider than the flutes,
-    /// its stick-out (the shank then follows the flutes down through what they cut above
+    /// tool can reach ([`Cutter::reach`]): its flute length, a long-reach end mill's neck's
+    /// reach, or, where the shank is no wider than the flutes, its stick-out (the shank then follows the flutes down through what they cut above
     /// it, and the holder stays above the stock's top; the simulator counts any shank or
     /// holder contact as a holder collision).
     pub fn envelope(&self) -> Envelope {
-        let c = &self.cutter;
-        let length = if c.shank_radius <= c.radius { c.stickout.max(c.flute_length) } else { c.flute_length };
-        Envelope { radius: c.radius, length }
+        Envelope { radius: self.cutter.radius, length: self.cutter.reach() }
     }
 
     /// Checks that the tool can exist; the message names the offending field. The cutter

@@ -69,17 +69,18 @@ fn a_square_contour_turns_each_corner_on_one_arc_about_it() {
         let arcs: Vec<_> = fitted
             .iter()
             .filter_map(|&(a, b, arc)| {
-                arc.filter(|(c, _)| (c - corner).norm() < 1e-3).map(|(_, d)| (a, b, d))
+                arc.filter(|(c, _)| (c - corner).norm() < 1e-3).map(|(c, d)| (a, b, c, d))
             })
             .collect();
         assert!(!arcs.is_empty(), "no arc about the corner ({x}, {y}): {fitted:?}");
         let mut turn = 0.0;
-        for (a, b, d) in arcs {
+        for (a, b, c, d) in arcs {
             assert_eq!(d, ArcDirection::Clockwise);
-            let (ra, rb) = ((a - corner).norm(), (b - corner).norm());
+            // Radii about the arc's own centre (within a micrometre of the corner).
+            let (ra, rb) = ((a - c).norm(), (b - c).norm());
             assert!(ra >= r + tol && ra <= r + tol + 0.005 * r + 1e-3, "radius {ra}");
             assert!((ra - rb).abs() < 1e-6);
-            turn += (a - corner).angle(&(b - corner));
+            turn += (a - c).angle(&(b - c));
         }
         whole += usize::from(turn > 65f64.to_radians());
     }

@@ -48,7 +48,7 @@ pub(crate) enum Op {
 pub(crate) struct ToolPrims {
     pub cut: [Prim; Solids::CAPACITY],
     pub ncut: usize,
-    pub guard: [Prim; 2],
+    pub guard: [Prim; 3],
     pub nguard: usize,
 }
 
@@ -67,10 +67,15 @@ impl ToolPrims {
             };
         }
         let ncut = solids.as_slice().len();
-        let mut guard = [flat, flat];
+        let mut guard = [flat; 3];
         let mut nguard = 0;
-        if c.stickout > lf {
-            guard[nguard] = Prim::Cyl { h0: lf, h1: c.stickout, r: c.shank_radius };
+        // A long-reach end mill's neck: not cutting, from the flutes' top to its reach.
+        if let Some(n) = c.neck {
+            guard[nguard] = Prim::Cyl { h0: lf, h1: c.shank_start(), r: n.radius };
+            nguard += 1;
+        }
+        if c.stickout > c.shank_start() {
+            guard[nguard] = Prim::Cyl { h0: c.shank_start(), h1: c.stickout, r: c.shank_radius };
             nguard += 1;
         }
         if let Some(h) = c.holder {
@@ -86,7 +91,7 @@ impl ToolPrims {
             BeadProfile::Stadium { width, height } => Prim::Cyl { h0: -height, h1: 0.0, r: 0.5 * width },
             BeadProfile::Circle { diameter } => Prim::Capsule { c: -0.5 * diameter, r: 0.5 * diameter },
         };
-        Self { cut: [p; Solids::CAPACITY], ncut: 1, guard: [p, p], nguard: 0 }
+        Self { cut: [p; Solids::CAPACITY], ncut: 1, guard: [p; 3], nguard: 0 }
     }
 }
 

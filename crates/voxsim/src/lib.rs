@@ -83,4 +83,4 @@ pub use crate::surface::{
     DeviationOptions, HeightField, HeightFieldOptions, SurfaceDeviation, deviation_at, surface_deviation,
     surface_deviation_opt, surface_deviation_reference, surface_deviation_where,
 };
-pub use crate::tool::{BeadProfile, Cutter, CutterShape, Holder, ToolTable};
+pub use crate::tool::{BeadProfile, Cutter, CutterShape, Holder, Neck, ToolTable};

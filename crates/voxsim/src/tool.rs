@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-pub use s2g_geom::{Cutter, CutterShape, Holder};
+pub use s2g_geom::{Cutter, CutterShape, Holder, Neck};
 
 use crate::error::{Result, SimError};
 

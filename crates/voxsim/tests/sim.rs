@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 use s2g_gcode::{ArcDirection, Motion, MotionSink, Plane};
 use s2g_geom::{Aabb, GridSpec, Isometry3, Point3, Rotation3, Vector3, VoxelGrid};
 use s2g_voxsim::{
-    BeadProfile, Carver, Cutter, Holder, SimError, SimOptions, Simulation, Simulator, ToolTable,
+    BeadProfile, Carver, Cutter, Holder, Neck, SimError, SimOptions, Simulation, Simulator, ToolTable,
 };
 
 fn p(x: f64, y: f64, z: f64) -> Point3 {
@@ -500,6 +500,43 @@ mod faults {
         // 1.5 mm of stock above the flutes, shank radius 1.5 mm, 10 mm long: about 2 R * 10 * 1.5.
         let v = s.report().holder_collision_voxels as f64 * 0.125;
         assert!(v > 0.5 * 45.0, "holder collision volume {v}");
+    }
+
+    /// A long-reach end mill: 2 mm of flutes of radius 1.5, a neck of radius 1.4 up to 8 mm,
+    /// then a shank of radius 3. Plunged 3.5 mm (line 3), its neck follows the flutes down
+    /// the hole they cut: clean, where the same tool without the neck drags its shank
+    /// through the hole's top 1.5 mm. Moved sideways at that depth (line 4), the neck meets
+    /// the stock above the flutes' slot: a holder collision, where flutes as long as the
+    /// neck would have cut it. Plunged 9 mm, past the neck's reach, the shank collides.
+    #[test]
+    fn a_long_reach_tool_s_neck_is_checked_as_a_body_of_its_own() {
+        let mut necked = Cutter::flat(1.5, 2.0);
+        necked.shank_radius = 3.0;
+        necked.stickout = 20.0;
+        necked.neck = Some(Neck { radius: 1.4, reach: 8.0 });
+        necked.validate().expect("a valid cutter");
+        let collisions = |c: Cutter, depth: f64, sideways: bool| {
+            let stock = full_box(p(0., 0., 0.), p(30., 30., 12.), 60);
+            let mut ms = vec![
+                Motion::Rapid { to: p(10., 10., 20.) },
+                lin(p(10., 10., 12.5)),
+                lin(p(10., 10., 12.0 - depth)),
+            ];
+            if sideways {
+                ms.push(lin(p(20., 10., 12.0 - depth)));
+            }
+            let s = run(
+                Simulator::new(stock, ToolTable::single(c), SimOptions::default()).unwrap(),
+                &numbered(ms),
+            );
+            s.report().holder_collisions.clone()
+        };
+        assert_eq!(collisions(necked, 3.5, false), Vec::<u64>::new(), "the neck follows the flutes down");
+        assert_eq!(collisions(Cutter { neck: None, ..necked }, 3.5, false), vec![3], "the shank at once");
+        assert_eq!(collisions(necked, 3.5, true), vec![4], "the neck above the slot");
+        let long_flutes = Cutter { neck: None, flute_length: 8.0, ..necked };
+        assert_eq!(collisions(long_flutes, 3.5, true), Vec::<u64>::new(), "flutes as long as the neck");
+        assert_eq!(collisions(necked, 9.0, false), vec![3], "the shank past the neck's reach");
     }
 
     /// A rapid descending beside the stock's wall with the tool reaching a micrometre past

@@ -139,7 +139,7 @@ impl MillRun {
     }
 
     /// How deep below the setup's stock top a rest pass with `tool` may cut (its planning
-    /// stick-out): its flutes' length at least; with a shank no wider than its flutes (which
+    /// stick-out): its flutes' length (a long-reach end mill's neck's reach) at least; with a shank no wider than its flutes (which
     /// then follows them down through what they cut), as deep as keeps its holder, at the
     /// library's stick-out above the tip, a millimetre and a voxel diagonal above the highest
     /// material left in the setup (stock or part), and no deeper than its stick-out below
@@ -148,7 +148,8 @@ impl MillRun {
     fn rest_reach(&self, setup: &Setup, tool: &Tool) -> f64 {
         let c = &tool.cutter;
         if c.shank_radius > c.radius || !c.stickout.is_finite() {
-            return c.flute_length;
+            // As deep as the flutes, or a long-reach end mill's neck, are long.
+            return c.shank_start();
         }
         let top = stock_in_setup(&self.stock, setup).max.z;
         let grid = self.sim.borrow_mut().residual_grid();
@@ -161,7 +162,7 @@ impl MillRun {
             return c.flute_length;
         }
         let margin = 1.0 + spec.voxel.norm();
-        (c.stickout + (top - high) - margin).clamp(c.flute_length, c.stickout)
+        (c.stickout + (top - high) - margin).clamp(c.shank_start(), c.stickout)
     }
 
     /// The least material (mm³) a rest pass is for: [`MillOptions::rest_continue`](crate::MillOptions::rest_continue)
@@ -462,7 +463,7 @@ impl MillRun {
         // A rest pass reaches only as deep as keeps its holder above all stock
         // ([`rest_reach`](Self::rest_reach)).
         let (mut cutter, cutting) = *tool;
-        let (stickout, flutes) = (cutter.cutter.stickout, cutter.cutter.flute_length);
+        let (library, flutes) = (cutter.cutter, cutter.cutter.flute_length);
         // Deeper than its flutes only where material the pass is for lies there: the
         // roughing's terraces alone cost the bunny 19 minutes of 8 mm passes for no IoU.
         let reach = self.rest_reach(&setup, &cutter);
@@ -477,10 +478,11 @@ impl MillRun {
                 finisher.as_ref(),
             )
         };
-        cutter.cutter.stickout = match reach > flutes && deep_left() >= self.rest_volume() {
+        let planned = match reach > flutes && deep_left() >= self.rest_volume() {
             true => reach,
             false => flutes,
         };
+        cut_short(&mut cutter.cutter, planned);
         let mut job = Job::new(
             &setup,
             &action,
@@ -512,7 +514,7 @@ impl MillRun {
         let result = match (result, before) {
             (Ok((program, _)), Some(before)) if !program.holder_collision_lines.is_empty() => {
                 *self.sim.get_mut() = before;
-                self.jobs[at].tool.cutter.stickout = flutes;
+                cut_short(&mut self.jobs[at].tool.cutter, flutes);
                 machine_setup(&self.ctx(), at, &self.remaining, None, &mut times, progress, None)
             }
             (result, _) => result,
@@ -521,10 +523,19 @@ impl MillRun {
         let (mut program, remaining) = result?;
         program.rest_of = Some(k + 1);
         // The program ran with the library's tool: only its plan was cut short.
-        program.tool.cutter.stickout = stickout;
+        program.tool.cutter = library;
         self.remaining = remaining;
         Ok(program)
     }
+}
+
+/// Cuts a rest pass's planning cutter short: its stick-out at `to` above the tip, and a
+/// long-reach end mill's neck no longer (none where `to` is the flutes' length), so that
+/// it plans no deeper ([`Cutter::reach`](crate::geom::Cutter::reach)) and stays valid.
+fn cut_short(c: &mut crate::geom::Cutter, to: f64) {
+    c.stickout = to;
+    c.neck =
+        c.neck.filter(|_| to > c.flute_length).map(|n| crate::geom::Neck { reach: n.reach.min(to), ..n });
 }
 
 /// A rest-roughing tool and its cutting data.

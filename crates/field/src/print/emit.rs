@@ -88,6 +88,7 @@ impl Default for PrintProgramOptions {
             shank_radius: 2.5,
             stickout: 8.0,
             holder: Some(s2g_geom::Holder { radius: 10.0, length: 30.0 }),
+            neck: None,
         };
         Self {
             nozzle: Tool { cutter, axial_offset: 0.5, axial_step: 1.5, ring_points: 12 },

@@ -6,7 +6,9 @@
 //! Along the tool axis, measured from the tip (the programmed point) towards the spindle,
 //! a cutter is a stack of solids of revolution: the cutting end (flat disc, hemisphere or
 //! torus-rounded disc) and flutes of [`Cutter::radius`] up to [`Cutter::flute_length`];
-//! the shank of [`Cutter::shank_radius`] up to [`Cutter::stickout`]; then the holder's
+//! on a long-reach (necked) end mill the relieved neck of [`Neck::radius`] up to
+//! [`Neck::reach`]; the shank of [`Cutter::shank_radius`] up to [`Cutter::stickout`]; then
+//! the holder's
 //! cylinder, when one is modelled. [`Cutter::radius_at`] gives the stack's radius at any
 //! height.
 //!
@@ -145,6 +147,17 @@ cutter_shapes! {
     BullNose => bull,
 }
 
+/// The relieved neck of a long-reach end mill: a non-cutting cylinder no wider than the
+/// flutes from their top up to `reach` above the tip, so that the short flutes reach down
+/// a narrow feature as deep as the neck is long, the shank staying above it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Neck {
+    /// Radius in mm (`> 0`, at most the cutting radius).
+    pub radius: f64,
+    /// Tip to the neck's top in mm (`>` the flute length, `<=` the stick-out).
+    pub reach: f64,
+}
+
 /// The tool holder: a cylinder above the tool's stick-out, used for collision checks only.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Holder {
@@ -157,10 +170,11 @@ pub struct Holder {
 /// A milling cutter. The programmed point is the tool **tip**, the lowest point along the
 /// tool axis; heights below are measured from the tip along the axis (tip to spindle).
 ///
-/// Regions along the axis: flutes (cutting) on `[0, flute_length]`; shank of radius
-/// `shank_radius` on `(flute_length, stickout]`; holder (if any) on
-/// `[stickout, stickout + holder.length]`. Only the flutes remove material; stock met by
-/// the shank or holder is reported as a holder collision.
+/// Regions along the axis: flutes (cutting) on `[0, flute_length]`; the neck (if any) of
+/// radius `neck.radius` on `(flute_length, neck.reach]`; shank of radius `shank_radius` on
+/// the rest up to `stickout`; holder (if any) on `[stickout, stickout + holder.length]`.
+/// Only the flutes remove material; stock met by the neck, shank or holder is reported
+/// as a holder collision.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cutter {
     /// End shape.
@@ -175,11 +189,21 @@ pub struct Cutter {
     pub stickout: f64,
     /// Holder, if modelled.
     pub holder: Option<Holder>,
+    /// The relieved neck of a long-reach end mill, if any.
+    pub neck: Option<Neck>,
 }
 
 impl Cutter {
     fn with_shape(shape: CutterShape, radius: f64, flute_length: f64) -> Self {
-        Self { shape, radius, flute_length, shank_radius: radius, stickout: 2.0 * flute_length, holder: None }
+        Self {
+            shape,
+            radius,
+            flute_length,
+            shank_radius: radius,
+            stickout: 2.0 * flute_length,
+            holder: None,
+            neck: None,
+        }
     }
 
     /// A flat end mill; shank radius = `radius`, stick-out = `2 * flute_length`, no holder.
@@ -214,6 +238,8 @@ impl Cutter {
             self.shape.end().profile(self.radius, h)
         } else if h <= self.flute_length {
             self.radius
+        } else if let Some(neck) = self.neck.filter(|n| h <= n.reach.min(self.stickout)) {
+            neck.radius
         } else if h <= self.stickout {
             self.shank_radius
         } else {
@@ -222,6 +248,20 @@ impl Cutter {
                 _ => 0.0,
             }
         }
+    }
+
+    /// Where the shank starts above the tip: the neck's reach, else the flutes' top.
+    pub fn shank_start(&self) -> f64 {
+        self.neck.map_or(self.flute_length, |n| n.reach.min(self.stickout))
+    }
+
+    /// How far above the tip the stack is no wider than the flutes (the height a plan of
+    /// the cutting radius may take the tip below what it cut, the rest of the stack
+    /// following the flutes down): the flutes' length; the neck's reach with a neck; the
+    /// stick-out where the shank is no wider as well.
+    pub fn reach(&self) -> f64 {
+        let slim = self.neck.map_or(self.flute_length, |n| n.reach.min(self.stickout));
+        if self.shank_radius <= self.radius { self.stickout.max(self.flute_length) } else { slim }
     }
 
     /// The corner radius: 0 for flat, `radius` for ball ([`EndShape::corner_radius`]).
@@ -237,7 +277,8 @@ impl Cutter {
 
     /// Checks the dimensions: every length finite; `radius > 0`; `0 <= corner_radius <= radius`;
     /// `flute_length > 0` and `>= 2 * corner_radius` (the rounded end must be all flute);
-    /// `shank_radius > 0`; `stickout >= flute_length`; holder radius and length `> 0`.
+    /// `shank_radius > 0`; `stickout >= flute_length`; holder radius and length `> 0`; the
+    /// neck's radius in `(0, radius]` and its reach in `(flute_length, stickout]`.
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(GeomError::InvalidTool(m));
         let pos = |v: f64| v.is_finite() && v > 0.0;
@@ -272,6 +313,18 @@ impl Cutter {
         {
             return bad(format!("holder radius and length must be finite and > 0, got {h:?}"));
         }
+        if let Some(n) = self.neck
+            && !(pos(n.radius)
+                && n.radius <= self.radius
+                && n.reach.is_finite()
+                && n.reach > self.flute_length
+                && n.reach <= self.stickout)
+        {
+            return bad(format!(
+                "neck radius must be in (0, radius = {}] and its reach in (flute length = {}, stick-out = {}], got {n:?}",
+                self.radius, self.flute_length, self.stickout
+            ));
+        }
         Ok(())
     }
 }
@@ -294,6 +347,25 @@ mod tests {
         assert_eq!(c.radius_at(15.0), 2.5);
         assert_eq!(c.radius_at(49.0), 8.0);
         assert_eq!(c.radius_at(50.1), 0.0);
+        // A long-reach end mill: 1 mm flutes, a neck to 6 mm, a 3 mm shank.
+        let mut n = Cutter::flat(0.5, 1.0);
+        n.shank_radius = 1.5;
+        n.stickout = 12.0;
+        n.neck = Some(Neck { radius: 0.45, reach: 6.0 });
+        n.validate().expect("valid");
+        assert_eq!(n.radius_at(1.0), 0.5);
+        assert_eq!(n.radius_at(1.01), 0.45);
+        assert_eq!(n.radius_at(6.0), 0.45);
+        assert_eq!(n.radius_at(6.01), 1.5);
+        assert_eq!((n.shank_start(), n.reach()), (6.0, 6.0));
+        assert_eq!(Cutter { neck: None, ..n }.reach(), 1.0);
+        for bad in [
+            Neck { radius: 0.55, reach: 6.0 },
+            Neck { radius: 0.45, reach: 0.5 },
+            Neck { radius: 0.45, reach: 13.0 },
+        ] {
+            assert!(Cutter { neck: Some(bad), ..n }.validate().is_err(), "{bad:?}");
+        }
         let ball = Cutter::ball(2.0, 8.0);
         assert_eq!(ball.radius_at(0.0), 0.0);
         assert!((ball.radius_at(2.0) - 2.0).abs() < 1e-12);

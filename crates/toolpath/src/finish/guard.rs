@@ -103,8 +103,11 @@ impl<'a> Guard<'a> {
             }
             Ok(())
         };
-        if cutter.stickout > cutter.flute_length {
-            add(cutter.shank_radius, cutter.flute_length)?;
+        if let Some(n) = cutter.neck {
+            add(n.radius, cutter.flute_length)?;
+        }
+        if cutter.stickout > cutter.shank_start() {
+            add(cutter.shank_radius, cutter.shank_start())?;
         }
         if let Some(h) = cutter.holder {
             add(h.radius, cutter.stickout)?;

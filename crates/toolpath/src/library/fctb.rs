@@ -87,6 +87,7 @@ pub fn read_fctb(text: &str, path: &Path) -> Result<LibraryTool, LibraryError> {
             shank_radius: 0.5 * shank,
             stickout,
             holder: None,
+            neck: None,
         },
         flutes,
         cutting: BTreeMap::new(),

@@ -6,6 +6,12 @@
 //! of its diameter, a stick-out of 4 D, two flutes, no holder, and no cutting data of its
 //! own (a material's fallback data applies). Lines with no positive `D` (probes, length
 //! references) are left out.
+//!
+//! Written, a tool is its number, pocket, cutting diameter (what cutter compensation
+//! needs) and zero length offset, its name the comment. The table has no column for a
+//! long-reach end mill's neck (nor flute length, shank or holder): the library's name says
+//! it ("2 mm long-reach flat end mill, neck 1.9 mm to 12 mm"), and a table read back
+//! gives a plain end mill of that diameter.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -80,6 +86,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<ToolLibrary, LibraryError
                 shank_radius: 0.5 * d,
                 stickout: 4.0 * d,
                 holder: None,
+                neck: None,
             },
             flutes: 2,
             cutting: BTreeMap::new(),

@@ -21,12 +21,22 @@ fn the_default_library_has_what_the_issue_asks_for() {
     let diameters = |f: fn(&CutterShape) -> bool| -> Vec<f64> {
         lib.tools.iter().filter(|t| f(&t.cutter.shape)).map(|t| t.cutter.diameter()).collect()
     };
-    let flats = diameters(|s| matches!(s, CutterShape::Flat(_)));
+    let mut flats = diameters(|s| matches!(s, CutterShape::Flat(_)));
+    flats.sort_by(f64::total_cmp);
     let balls = diameters(|s| matches!(s, CutterShape::Ball(_)));
     let bulls = diameters(|s| matches!(s, CutterShape::BullNose(_)));
     assert_eq!((flats.first(), flats.last()), (Some(&1.0), Some(&12.0)), "{flats:?}");
     assert_eq!((balls.first(), balls.last()), (Some(&1.0), Some(&10.0)), "{balls:?}");
     assert!(bulls.len() >= 2, "{bulls:?}");
+    // Long-reach end mills of 1, 2 and 3 mm: necks under the flutes, reaching past them
+    // and, with the shank wider than the flutes, as far as the tool reaches.
+    let long: Vec<_> = lib.tools.iter().filter_map(|t| t.cutter.neck.map(|n| (t, n))).collect();
+    assert_eq!(long.iter().map(|(t, _)| t.cutter.diameter()).collect::<Vec<_>>(), [1.0, 2.0, 3.0]);
+    for (t, n) in &long {
+        t.cutter.validate().expect("a valid long-reach cutter");
+        assert!(n.radius < t.cutter.radius && n.reach >= 3.0 * t.cutter.flute_length, "T{}: {n:?}", t.number);
+        assert_eq!(t.cutter.reach(), n.reach, "T{}", t.number);
+    }
     for m in ["aluminium-6061", "mild-steel", "pom", "wax"] {
         let material = lib.material(m).expect(m);
         for t in &lib.tools {

@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use s2g_gcode::{Coolant, MachineProfile};
-use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat, Holder};
+use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat, Holder, Neck};
 
 use super::{CuttingData, LibraryError, LibraryTool, Material, ToolLibrary};
 
@@ -106,6 +106,8 @@ struct ToolToml {
     shank_diameter: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     holder: Option<HolderToml>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    neck: Option<NeckToml>,
     #[serde(default)]
     cutting: BTreeMap<String, CuttingToml>,
 }
@@ -127,6 +129,14 @@ enum ShapeToml {
 struct HolderToml {
     diameter: f64,
     length: f64,
+}
+
+/// A long-reach end mill's relieved neck: its diameter and the tip to its top.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NeckToml {
+    diameter: f64,
+    reach: f64,
 }
 
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
@@ -214,6 +224,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<ToolLibrary, LibraryError
                     shank_radius: 0.5 * t.shank_diameter,
                     stickout: t.stickout,
                     holder: t.holder.map(|h| Holder { radius: 0.5 * h.diameter, length: h.length }),
+                    neck: t.neck.map(|n| Neck { radius: 0.5 * n.diameter, reach: n.reach }),
                 },
                 flutes: t.flutes,
                 cutting: t.cutting.into_iter().map(|(k, v)| (k, v.into())).collect(),
@@ -265,6 +276,7 @@ pub(super) fn write(lib: &ToolLibrary) -> String {
                     stickout: c.stickout,
                     shank_diameter: 2.0 * c.shank_radius,
                     holder: c.holder.map(|h| HolderToml { diameter: 2.0 * h.radius, length: h.length }),
+                    neck: c.neck.map(|n| NeckToml { diameter: 2.0 * n.radius, reach: n.reach }),
                     cutting: t.cutting.iter().map(|(k, v)| (k.clone(), (*v).into())).collect(),
                 }
             })
