@@ -63,4 +63,17 @@ fn stored_terms_equal_per_call_on_the_bunny() {
         assert!(points.iter().any(|p| dc.height(p[0], p[1]).is_some()), "the raster must touch the bunny");
         assert_same(&dc, &points).unwrap();
     }
+    // The ball's contact normal from the search bounded to a little over its radius is
+    // the unbounded search's, at the heights and off them (where the bound misses).
+    let dc = DropCutter::new(&index, &cutter(1, 5.0, 1.0)).unwrap();
+    let mut checked = 0;
+    for p in &points {
+        let Some(h) = dc.height(p[0], p[1]) else { continue };
+        for z in [h, h + 0.5, h - 0.01, h + 40.0] {
+            let (got, want) = (dc.contact_normal(p[0], p[1], z), dc.contact_normal_unbounded(p[0], p[1], z));
+            assert_eq!(got.map(|n| n.map(f64::to_bits)), want.map(|n| n.map(f64::to_bits)), "at {p:?}, {z}");
+            checked += usize::from(got.is_some());
+        }
+    }
+    assert!(checked > 100, "only {checked} normals");
 }
