@@ -189,7 +189,15 @@ fn edge(a: [f64; 3], b: [f64; 3], e: &Edge, q: [f64; 2], p: &Profile, best: f64)
     }
     let dist = |t: f64| ((w[0] + t * u[0]).powi(2) + (w[1] + t * u[1]).powi(2)).sqrt();
     let f = |t: f64| z(t) - p.height(dist(t).min(p.radius));
-    let mut best = best.max(f(t0)).max(f(t1));
+    // The profile is never negative, so an end lower than `best` cannot raise it: its
+    // contact is not computed (the maximum is the same; `<`, not `<=`, so that an end
+    // level with `best` still takes part, as in `contact`).
+    let mut best = best;
+    for t in [t0, t1] {
+        if !(z(t) < best) {
+            best = best.max(f(t));
+        }
+    }
     if p.corner <= 0.0 {
         return best;
     }
