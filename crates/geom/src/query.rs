@@ -15,6 +15,7 @@
 pub(crate) mod bvh;
 mod contact;
 mod drop_cutter;
+mod drop_tris;
 mod parallel;
 mod waterline;
 
@@ -74,6 +75,8 @@ pub struct MeshIndex {
     pub(crate) bvh: Bvh,
     pub(crate) winding: WindingTree,
     triangles: usize,
+    /// The drop-cutter's per-triangle terms, computed by the first [`DropCutter`].
+    pub(crate) drop: std::sync::OnceLock<drop_tris::DropTris>,
 }
 
 /// The unit direction of `d`, or `None` for a zero or non-finite vector.
@@ -101,7 +104,7 @@ impl MeshIndex {
         }
         let bvh = Bvh::build(mesh);
         let winding = WindingTree::build(&bvh);
-        Ok(MeshIndex { bvh, winding, triangles: mesh.triangles().len() })
+        Ok(MeshIndex { bvh, winding, triangles: mesh.triangles().len(), drop: std::sync::OnceLock::new() })
     }
 
     /// Number of triangles indexed.

@@ -39,6 +39,8 @@ pub(crate) struct Seg {
     pub aa: f64,
     /// `|d|^2`.
     pub dd: f64,
+    /// `|d|`, as `dd.sqrt()` (computed once per segment, not per column).
+    pub len: f64,
 }
 
 impl Seg {
@@ -46,7 +48,8 @@ impl Seg {
         let d = p1 - p0;
         let da = d.dot(&a);
         let dp = d - a * da;
-        Self { p0, d, a, da, dp, aa: dp.norm_squared(), dd: d.norm_squared() }
+        let dd = d.norm_squared();
+        Self { p0, d, a, da, dp, aa: dp.norm_squared(), dd, len: dd.sqrt() }
     }
 
     /// `(w . a, w_perp)` for `w = q - p0`.
@@ -145,7 +148,7 @@ impl Prim {
                 // and K = r^2 - m, the stationary points are tm -/+ da sqrt(K / aa) / |d|.
                 let tm = b / sg.aa;
                 let k = (r * r - (cc - b * b / sg.aa)).max(0.0);
-                let off = sg.da * (k / sg.aa).sqrt() / sg.dd.sqrt();
+                let off = sg.da * (k / sg.aa).sqrt() / sg.len;
                 let tlo = (tm - off).clamp(t0, t1);
                 let thi = (tm + off).clamp(t0, t1);
                 Some((centre(tlo) - half(tlo), centre(thi) + half(thi)))
@@ -192,7 +195,7 @@ impl Prim {
                 }
                 let tm = b / sg.aa;
                 let k = (r * r - (cc - b * b / sg.aa)).max(0.0);
-                let off = sg.da * (k / sg.aa).sqrt() / sg.dd.sqrt();
+                let off = sg.da * (k / sg.aa).sqrt() / sg.len;
                 let tlo = (tm - off).clamp(t0, t1);
                 Some(centre(tlo) - half(tlo))
             }

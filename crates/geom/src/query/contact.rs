@@ -23,7 +23,7 @@ use super::bvh::{Tri, cross};
 const MAX_BISECTIONS: usize = 200;
 
 /// Relative rounding slack under which an edge counts as tangent to the cutter's rim.
-const TANGENT_SLACK: f64 = 1e-13;
+pub(crate) const TANGENT_SLACK: f64 = 1e-13;
 
 /// A cutter's end as the contact tests need it (all lengths in the mesh's units).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -207,7 +207,7 @@ fn ball_edge(
 /// order in that, as the derivative vanishes there). `-inf` when the
 /// maximum is at an end of `range` (which the caller evaluated).
 #[inline]
-fn bull_edge(
+pub(crate) fn bull_edge(
     w: [f64; 2],
     u: [f64; 2],
     dz: f64,

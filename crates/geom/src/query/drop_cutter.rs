@@ -35,6 +35,7 @@ use rayon::prelude::*;
 use super::MeshIndex;
 use super::bvh::{Bvh, Node, STACK};
 use super::contact::{Profile, triangle_drop};
+use super::drop_tris::DropTris;
 use crate::cutter::Cutter;
 use crate::error::{GeomError, Result};
 
@@ -74,6 +75,8 @@ impl Default for DropCutterOptions {
 #[derive(Debug, Clone, Copy)]
 pub struct DropCutter<'a> {
     bvh: &'a Bvh,
+    /// The triangles' contact terms, computed once per index.
+    tris: &'a DropTris,
     profile: Profile,
 }
 
@@ -96,7 +99,8 @@ impl<'a> DropCutter<'a> {
         }
         let (radius, corner) = (cutter.radius, cutter.corner_radius().clamp(0.0, cutter.radius));
         let profile = Profile { radius, corner, flat: radius - corner, edge_tolerance: tol };
-        Ok(Self { bvh: &index.bvh, profile })
+        let tris = index.drop.get_or_init(|| DropTris::new(&index.bvh.tris));
+        Ok(Self { bvh: &index.bvh, tris, profile })
     }
 
     /// The cutting radius.
@@ -110,12 +114,30 @@ impl<'a> DropCutter<'a> {
     /// normal of the ball's contact). `None` for other end shapes, non-finite input, or a
     /// centre on the mesh.
     pub fn contact_normal(&self, x: f64, y: f64, z: f64) -> Option<[f64; 3]> {
+        self.contact_normal_opt(x, y, z, true)
+    }
+
+    /// [`DropCutter::contact_normal`] with the nearest point searched over the whole mesh
+    /// from the start: the same normal bit for bit. Its baseline, for tests.
+    #[doc(hidden)]
+    pub fn contact_normal_unbounded(&self, x: f64, y: f64, z: f64) -> Option<[f64; 3]> {
+        self.contact_normal_opt(x, y, z, false)
+    }
+
+    fn contact_normal_opt(&self, x: f64, y: f64, z: f64, bounded: bool) -> Option<[f64; 3]> {
         let r = self.profile.radius;
         if self.profile.flat > 1e-12 * r || !(x.is_finite() && y.is_finite() && z.is_finite()) {
             return None;
         }
         let c = [x, y, z + r];
-        let (d2, q, _) = self.bvh.closest(self.bvh.to_local(c), f64::INFINITY)?;
+        let local = self.bvh.to_local(c);
+        // A ball resting on the mesh lies about `r` from it: searching within a little
+        // more finds the same point as the unbounded search (the same first nearest
+        // triangle, with fewer subtrees opened); only where nothing is that near is the
+        // whole mesh searched.
+        let near = r * (1.0 + 1e-3);
+        let found = if bounded { self.bvh.closest(local, near * near) } else { None };
+        let (d2, q, _) = found.or_else(|| self.bvh.closest(local, f64::INFINITY))?;
         let d = d2.sqrt();
         let q = [q[0] + self.bvh.center[0], q[1] + self.bvh.center[1], q[2] + self.bvh.center[2]];
         (d > 1e-12 * r).then(|| [(c[0] - q[0]) / d, (c[1] - q[1]) / d, (c[2] - q[2]) / d])
@@ -135,7 +157,16 @@ impl<'a> DropCutter<'a> {
     /// stops the cutter), or when `x` or `y` is not finite. Degenerate triangles take part
     /// through their vertices and edges only.
     pub fn height(&self, x: f64, y: f64) -> Option<f64> {
-        let h = self.drop_local(x, y, f64::NEG_INFINITY, false)?;
+        let h = self.drop_local::<false>(x, y, f64::NEG_INFINITY, false)?;
+        (h > f64::NEG_INFINITY).then_some(h + self.bvh.center[2])
+    }
+
+    /// [`DropCutter::height`] with each triangle's contact computed from its vertices on
+    /// every call (the search before the terms were stored once per index): the same
+    /// value bit for bit. The baseline of `benches/drop_cutter.rs` and its tests.
+    #[doc(hidden)]
+    pub fn height_per_call(&self, x: f64, y: f64) -> Option<f64> {
+        let h = self.drop_local::<true>(x, y, f64::NEG_INFINITY, false)?;
         (h > f64::NEG_INFINITY).then_some(h + self.bvh.center[2])
     }
 
@@ -150,7 +181,7 @@ impl<'a> DropCutter<'a> {
             return self.height(x, y).filter(|h| *h > floor);
         }
         let local = floor - self.bvh.center[2];
-        let h = self.drop_local(x, y, local, false)?;
+        let h = self.drop_local::<false>(x, y, local, false)?;
         // Above the (local) floor, the highest contact: what `height` finds from below.
         (h > local).then_some(h + self.bvh.center[2])
     }
@@ -196,12 +227,13 @@ impl<'a> DropCutter<'a> {
             return false;
         }
         let floor = z - self.bvh.center[2];
-        self.drop_local(x, y, floor, true).is_some_and(|h| h > floor)
+        self.drop_local::<false>(x, y, floor, true).is_some_and(|h| h > floor)
     }
 
     /// The highest contact above `floor` (local frame), or `floor`; stops at the first
-    /// contact above `floor` when `first` is set. `None` for non-finite input.
-    fn drop_local(&self, x: f64, y: f64, floor: f64, first: bool) -> Option<f64> {
+    /// contact above `floor` when `first` is set. `None` for non-finite input. `PER_CALL`:
+    /// each triangle's contact from its vertices ([`DropCutter::height_per_call`]).
+    fn drop_local<const PER_CALL: bool>(&self, x: f64, y: f64, floor: f64, first: bool) -> Option<f64> {
         if !(x.is_finite() && y.is_finite()) {
             return None;
         }
@@ -231,8 +263,14 @@ impl<'a> DropCutter<'a> {
             }
             if n.count > 0 {
                 let s = n.start as usize;
-                for tri in &self.bvh.tris[s..s + n.count as usize] {
-                    best = triangle_drop(tri, q, p, best);
+                if PER_CALL {
+                    for tri in &self.bvh.tris[s..s + n.count as usize] {
+                        best = triangle_drop(tri, q, p, best);
+                    }
+                } else {
+                    for i in s..s + n.count as usize {
+                        best = self.tris.triangle_drop(i, q, p, best);
+                    }
                 }
                 if first && best > floor {
                     return Some(best);

@@ -324,8 +324,15 @@ fn fill_between(
             // between the two cut it all the same.
             let p = [x - r * n[0], y - r * n[1], z + r - r * n[2]];
             // Where neither pass has samples near (a hole, the part's outline), the passes
-            // there are not what to judge them by.
-            let left = a.centre_distance(&p, r).min(b.centre_distance(&p, r)) - r;
+            // there are not what to judge them by. The nearer pass first: where it leaves
+            // no more than the limit, neither does the nearer of the two (`min` is no more
+            // than either, and subtracting `r` keeps the order), so the other is not asked.
+            let (first, second) = if u <= 0.5 { (a, b) } else { (b, a) };
+            let near = first.centre_distance(&p, r);
+            if !(near - r > f.limit) && !near.is_nan() {
+                return false;
+            }
+            let left = near.min(second.centre_distance(&p, r)) - r;
             left.is_finite() && left > f.limit
         })
     };
