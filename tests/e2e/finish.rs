@@ -17,25 +17,29 @@ fn boss(finish: Option<FinishChoice>) -> Milled {
     shop_part("stepped_boss", finish)
 }
 
-fn shop_part(name: &str, finish: Option<FinishChoice>) -> Milled {
-    let mesh = load_mesh(data(&format!("meshes/shop/{name}.stl"))).unwrap();
-    let opts = MillOptions {
+/// The shop preset at `resolution`, scored at 100,000 samples (at 4,000 the Chamfer distance
+/// moves by more between seeds than finishing moves it), each setup's own program roughed
+/// and finished: no rest-roughing programs (with them the finishing moves into a setup's
+/// last rest program; `stock.rs` tests them).
+fn shop_options(resolution: usize, finish: Option<FinishChoice>) -> MillOptions {
+    MillOptions {
         preset: Preset::Shop,
-        // 80 x 80 x 45 mm. (At half the size, with a 6 mm rougher and ball, the parallel
-        // finisher's raster leaves the allowance on the walls along it, and the residual's
-        // Chamfer distance rises: 0.706 against 0.687 at 96^3.)
-        resolution: 96,
+        resolution,
         orient_points: 2048,
-        // (At 4,000 samples the Chamfer distance moves by more between seeds than
-        // finishing moves it.)
         metric_samples: 100_000,
         finish,
         surface_spacing: 0.25,
-        // Each setup's own program, roughed and finished; no rest-roughing programs (with
-        // them the finishing moves into a setup's last rest program; `stock.rs` tests them).
         rest_roughing: 0,
         ..MillOptions::default()
-    };
+    }
+}
+
+fn shop_part(name: &str, finish: Option<FinishChoice>) -> Milled {
+    let mesh = load_mesh(data(&format!("meshes/shop/{name}.stl"))).unwrap();
+    // 80 x 80 x 45 mm. (At half the size, with a 6 mm rougher and ball, the parallel
+    // finisher's raster leaves the allowance on the walls along it, and the residual's
+    // Chamfer distance rises: 0.706 against 0.687 at 96^3.)
+    let opts = shop_options(96, finish);
     let action = Action { tool_radius: 5.0, layer_height: 2.0, strategy: StrategyKind::ZIGZAG };
     mill(&mesh, &mut FixedPolicy(action), &opts, &mut |_| {}).unwrap()
 }
@@ -138,17 +142,9 @@ fn a_mostly_prismatic_setup_is_roughed_as_without_finishing() {
     // where it does not reach the roughing's steps stay: the roughing must be the
     // roughing-only run's (same layers), not deeper layers left for a ball.
     let part = chamfered_block();
-    let opts = |finish| MillOptions {
-        preset: Preset::Shop,
-        resolution: 64,
-        orient_points: 2048,
-        metric_samples: 100_000,
-        finish,
-        surface_spacing: 0.25,
-        rest_roughing: 0,
-        ..MillOptions::default()
+    let run = |finish| {
+        mill(&part, &mut HeuristicPolicy::default(), &shop_options(64, finish), &mut |_| {}).unwrap()
     };
-    let run = |finish| mill(&part, &mut HeuristicPolicy::default(), &opts(finish), &mut |_| {}).unwrap();
     let rough = run(None);
     let fine = run(Some(FinishChoice::default()));
     assert!(rough.is_safe() && fine.is_safe());
