@@ -194,7 +194,8 @@ impl Tooling {
     /// into that depth ([`Cutter::reach`]: its flutes, a long-reach end mill's neck, a
     /// shank no wider than the flutes its stick-out; a rest pass cuts no deeper below the
     /// stock's top: `MillRun::rest_rough`), the widest of equals, a plain end mill before
-    /// a long-reach one, with its cutting data; `None` in the paper preset or where the library has none that small.
+    /// a long-reach one, with its cutting data; `None` in the paper preset or where the
+    /// library has none that small.
     pub(super) fn rest_tool(
         &self,
         radius: f64,

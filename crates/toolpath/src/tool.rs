@@ -120,9 +120,10 @@ impl Tool {
     /// What layer planning keeps out of the part: today the cutter's enclosing cylinder,
     /// of its cutting radius, whatever its end shape (see [`Envelope`]), as long as the
     /// tool can reach ([`Cutter::reach`]): its flute length, a long-reach end mill's neck's
-    /// reach, or, where the shank is no wider than the flutes, its stick-out (the shank then follows the flutes down through what they cut above
-    /// it, and the holder stays above the stock's top; the simulator counts any shank or
-    /// holder contact as a holder collision).
+    /// reach, or, where the shank is no wider than the flutes, its stick-out (the shank
+    /// then follows the flutes down through what they cut above it, and the holder stays
+    /// above the stock's top; the simulator counts any shank or holder contact as a holder
+    /// collision).
     pub fn envelope(&self) -> Envelope {
         Envelope { radius: self.cutter.radius, length: self.cutter.reach() }
     }

@@ -139,8 +139,9 @@ impl MillRun {
     }
 
     /// How deep below the setup's stock top a rest pass with `tool` may cut (its planning
-    /// stick-out): its flutes' length (a long-reach end mill's neck's reach) at least; with a shank no wider than its flutes (which
-    /// then follows them down through what they cut), as deep as keeps its holder, at the
+    /// stick-out): its flutes' length (a long-reach end mill's neck's reach) at least; with
+    /// a shank no wider than its flutes (which then follows them down through what they
+    /// cut), as deep as keeps its holder, at the
     /// library's stick-out above the tip, a millimetre and a voxel diagonal above the highest
     /// material left in the setup (stock or part), and no deeper than its stick-out below
     /// the stock's top. (With the flutes' length only, a 4 mm tool stopped 12 mm into the
