@@ -8,6 +8,15 @@ pub fn data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
 }
 
+/// Asserts that two runs wrote the same programs, as many and each byte for byte, naming
+/// the first that differs (without printing the programs: they run to megabytes).
+pub fn assert_same_programs(a: &[String], b: &[String]) {
+    assert_eq!(a.len(), b.len(), "the runs wrote different numbers of programs");
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!(x == y, "program {} differs", k + 1);
+    }
+}
+
 /// Every closed mesh of the bundled corpus (the OpenSCAD parts, the bunny, the gear).
 pub fn closed_meshes() -> Vec<PathBuf> {
     let mut v = stl_files("meshes/openscad");

@@ -11,7 +11,7 @@ use shape2gcode::{
     StrategyKind, mill,
 };
 
-use super::common::data;
+use super::common::{assert_same_programs, data};
 
 fn boss(finish: Option<FinishChoice>) -> Milled {
     shop_part("stepped_boss", finish)
@@ -118,10 +118,7 @@ fn a_prismatic_part_is_roughed_to_size_and_not_finished() {
     let rough = shop_part("l_bracket", None);
     let fine = shop_part("l_bracket", Some(FinishChoice::default()));
     assert!(fine.setups.iter().all(|s| s.finish.is_none()), "a setup of the bracket was finished");
-    assert_eq!(fine.programs.len(), rough.programs.len());
-    for (i, (f, r)) in fine.programs.iter().zip(&rough.programs).enumerate() {
-        assert!(f == r, "program {} differs", i + 1);
-    }
+    assert_same_programs(&fine.programs, &rough.programs);
     assert_eq!(fine.metrics.iou, rough.metrics.iou);
     assert_eq!(fine.metrics.chamfer_x1000, rough.metrics.chamfer_x1000);
 }

@@ -2,6 +2,7 @@
 //! selection), the stock options are the simulator's starting stock, and a datum moves the
 //! programs' origin without changing the cut.
 
+use super::common::assert_same_programs;
 use shape2gcode::gcode::{Motion, MotionSink, ParseOptions, parse_str};
 use shape2gcode::geom::{Mesh, Point3};
 use shape2gcode::{Datum, FinishChoice, HeuristicPolicy, MillOptions, MillRun, Milled, Preset, Stock, mill};
@@ -436,10 +437,7 @@ fn a_setup_no_rest_pass_is_for_cuts_what_the_run_without_rest_roughing_cuts() {
     let plain = rest_run(&part, 0, 1e6, Some(choice));
     assert!(asked.setups.iter().all(|s| s.rest_of.is_none()));
     assert!(asked.setups.iter().any(|s| s.finish.is_some()), "no setup is finished");
-    assert_eq!(asked.programs.len(), plain.programs.len());
-    for (k, (a, b)) in asked.programs.iter().zip(&plain.programs).enumerate() {
-        assert!(a == b, "setup {}: the programs differ", k + 1);
-    }
+    assert_same_programs(&asked.programs, &plain.programs);
     assert_eq!(asked.simulation.removed_voxels, plain.simulation.removed_voxels);
     assert_eq!(asked.simulation.gouge_voxels, plain.simulation.gouge_voxels);
     assert_eq!(asked.residual.vertices(), plain.residual.vertices());
