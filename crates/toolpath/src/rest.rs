@@ -178,21 +178,7 @@ impl RemainingMaterial for VoxelMaterial<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use s2g_geom::{Aabb, GridSpec};
-
-    /// A small deterministic generator (xorshift).
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next()
-        }
-    }
+    use s2g_geom::{Aabb, GridSpec, SplitMix64};
 
     /// Every set voxel's centre in the setup frame.
     fn centres(grid: &VoxelGrid, setup: &Setup) -> Vec<Point3> {
@@ -209,11 +195,11 @@ mod tests {
         let spec = GridSpec::new(&Aabb::new(Point3::origin(), Point3::new(1.0, 0.8, 0.6)), [20, 16, 12])
             .expect("spec");
         let mut grid = VoxelGrid::new(spec);
-        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = SplitMix64(0x9e37_79b9_7f4a_7c15);
         for k in 0..12 {
             for j in 0..16 {
                 for i in 0..20 {
-                    if rng.next() < 0.03 {
+                    if rng.unit() < 0.03 {
                         grid.set(i, j, k, true);
                     }
                 }
@@ -231,24 +217,24 @@ mod tests {
                 .map(|c| inv * Point3::new(c[0], c[1], c[2]))
                 .collect();
             let (lo, hi) = (sc[0].inf(&sc[1]), sc[0].sup(&sc[1]));
-            let at = |rng: &mut Rng| {
+            let at = |rng: &mut SplitMix64| {
                 Point3::new(
-                    rng.range(lo.x - 0.1, hi.x + 0.1),
-                    rng.range(lo.y - 0.1, hi.y + 0.1),
-                    rng.range(lo.z - 0.1, hi.z + 0.1),
+                    rng.uniform(lo.x - 0.1, hi.x + 0.1),
+                    rng.uniform(lo.y - 0.1, hi.y + 0.1),
+                    rng.uniform(lo.z - 0.1, hi.z + 0.1),
                 )
             };
             for _ in 0..400 {
                 let (p, q) = (at(&mut rng), at(&mut rng));
                 // A box 0.3-0.7 of the span, from the lower corner.
                 let min = p.inf(&q);
-                let max = min + (p.sup(&q) - min) * rng.range(0.3, 0.7);
+                let max = min + (p.sup(&q) - min) * rng.uniform(0.3, 0.7);
                 let brute = pts.iter().any(|c| (0..3).all(|a| c[a] >= min[a] && c[a] <= max[a]));
                 assert_eq!(material.any_in_box(&min, &max), brute, "box {min:?} {max:?} in {setup:?}");
                 found[0] += usize::from(brute);
                 let (a, b) =
                     (Point2::new(p.x, p.y), Point2::new(p.x + 0.2 * (q.x - p.x), p.y + 0.2 * (q.y - p.y)));
-                let radius = rng.range(0.0, 0.1);
+                let radius = rng.uniform(0.0, 0.1);
                 let (z0, z1) = (p.z.min(q.z), p.z.max(q.z));
                 let brute = pts.iter().any(|c| {
                     c.z >= z0 && c.z <= z1 && point_segment_distance(&Point2::new(c.x, c.y), &a, &b) <= radius
