@@ -110,9 +110,10 @@ pub(super) fn sculpted_contact(part: &MeshIndex, tip: &Point3, radius: f64) -> b
 
 /// The largest share of `part`'s area that is prismatic along one of the frame's axes
 /// (facing along it or square to it, [`prismatic_normal`]). Where it is at least
-/// [`PRISMATIC_PART`], the roughing, cut to size, makes most of the part and the finisher
-/// only the sculpted rest: the setups are chosen for the roughing tools' reach (as
-/// without finishing), not the shorter ball's (`MillRun::new`).
+/// [`PRISMATIC_PART`](super::setup_choice::PRISMATIC_PART), the roughing, cut to size,
+/// makes most of the part and the finisher only the sculpted rest: the setups are chosen
+/// for the roughing tools' reach (as without finishing); below, the set chosen for the
+/// shorter ball's reach is compared with it ([`choose_setups`](super::setup_choice::choose_setups)).
 pub(super) fn prismatic_share(part: &Mesh) -> f64 {
     let mut areas = [0.0; 3];
     let mut all = 0.0;
@@ -135,13 +136,6 @@ pub(super) fn prismatic_share(part: &Mesh) -> f64 {
     if all > 0.0 { areas.iter().fold(0.0f64, |m, a| m.max(a / all)) } else { 0.0 }
 }
 
-/// The least [`prismatic_share`] of a part whose setups are chosen for the roughing's
-/// reach with finishing on. On the 16 parts of the finishing table the shares are 1.0-0.89
-/// (the shop parts, the gear, LetterBlock, text_on_cube, example007 and 016) or 0.73-0.21
-/// (Advanced_offset, example001, 002, 004, 006); at 0.63 (example004) the ball's shorter
-/// reach chose setups that reach far more of the part (IoU 0.48 against 0.35).
-pub(super) const PRISMATIC_PART: f64 = 0.75;
-
 /// Whether a setup along `setup`'s axis is finished whole over `part` (more than half the
 /// area its tool faces sculpted, no floor; [`finish_scope`]'s [`FinishScope::All`]): only
 /// there does the roughing leave its staircase to the finisher, and the policy choose its
@@ -153,13 +147,6 @@ pub(super) fn finished_whole(part: &Mesh, setup: Option<&Setup>) -> bool {
         let (sculpted, all) = reached_areas(part, setup, f64::NEG_INFINITY);
         sculpted > 0.5 * all
     })
-}
-
-/// Whether a run that is `finishing` chooses `part`'s setups for its finishing ball's
-/// reach (shorter than the roughing's): where the part is less prismatic than
-/// [`PRISMATIC_PART`].
-pub(super) fn ball_reach(part: &Mesh, finishing: bool) -> bool {
-    finishing && prismatic_share(part) < PRISMATIC_PART
 }
 
 #[cfg(test)]

@@ -31,6 +31,7 @@ mod pipe;
 mod rest_finish;
 mod rotary;
 mod run;
+mod setup_choice;
 mod stock;
 mod tooling;
 

@@ -11,6 +11,7 @@ use super::api::{
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
 use super::per_setup::{Ctx, FinishingPart, ProgramOutputs, sim_error};
 use super::rotary::{Placement, mill_rotary};
+use super::setup_choice::{Reaches, choose_setups};
 use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
 use crate::gcode::{FooterRetract, WriterOptions};
@@ -19,9 +20,7 @@ use crate::geom::{
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
     voxelize,
 };
-use crate::orient::{
-    OrientOptions, OrientationResult, ToolReach, select_orientations, select_orientations_in_stock,
-};
+use crate::orient::{OrientOptions, OrientationResult};
 use crate::policy::{Action, ActionSpace, FinishChoice, Policy, SetupContext, SetupFeatures};
 use crate::toolpath::Tool;
 use crate::toolpath::library::Cutting;
@@ -132,15 +131,16 @@ impl MillRun {
         // what their tools reach, not only for what they see.
         let (feed, _) = feeds(None);
         let tooling = Tooling::new(opts, stock.extent().norm(), feed)?;
-        // (Not the ball's on a prismatic part: its roughing cuts most of it to size.)
-        let ball = super::finish_scope::ball_reach(&part, opts.finish.is_some());
-        oopts.reach = tooling.reach(ball).map(|depth| ToolReach { stock, depth });
+        // With finishing, on a part not mostly prismatic, also for the ball's shorter reach,
+        // and the set that leaves less unreached is taken (`choose_setups`).
+        let reaches =
+            Reaches::new(&part, stock, tooling.reach(false), tooling.reach(true), opts.finish.is_some());
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
         let spec = simulation_grid(&stock, &part_box, opts)?;
         let (orientation, (target, index, samples, beside)) = rayon::join(
-            || select_setups(&part, &body, &oopts, opts.stock_removal),
+            || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),
             || {
                 let t = Instant::now();
                 let target = voxelize(&part, &spec);
@@ -150,7 +150,7 @@ impl MillRun {
                 (target, index, samples, [voxelized, t.elapsed() - voxelized])
             },
         );
-        let orientation = orientation?;
+        let (orientation, _choice) = orientation?;
         let (target, index, samples) = (target?, index?, samples?);
         // Every setup would cut the whole stock away, and the scores have no part to compare.
         if target.count() == 0 {
@@ -628,26 +628,6 @@ fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<Grid
         dims[a] = (((stock.max[a] - origin[a]) / h - 1e-9).ceil() as usize).max(1);
     }
     Ok(GridSpec { origin, voxel: Vector3::repeat(h), dims })
-}
-
-/// Stock samples of the stock-removal term of orientation selection: a grid of about 32^3
-/// cells over the stock, so that a slab of stock one cell thick under a flat part counts.
-const STOCK_SAMPLES: usize = 32 * 32 * 32;
-
-/// Orientation selection, with the stock-removal term when `stock_removal` asks for it
-/// and the part is closed: an open mesh has no inside to tell stock from part, and a setup
-/// added to reach the "stock" behind a missing face would cut into the part through it.
-fn select_setups(
-    part: &Mesh,
-    body: &StockBody,
-    oopts: &OrientOptions,
-    stock_removal: bool,
-) -> Result<OrientationResult, crate::orient::OrientError> {
-    if stock_removal && crate::geom::report(part).closed {
-        select_orientations_in_stock(part, &body.samples(STOCK_SAMPLES), oopts)
-    } else {
-        select_orientations(part, oopts)
-    }
 }
 
 /// Refuses options no run can use, before any work.

@@ -18,6 +18,7 @@ mod closure;
 mod cover;
 mod directions;
 mod error;
+mod reach;
 mod select;
 mod stock;
 pub mod visibility;
@@ -32,6 +33,7 @@ pub use crate::directions::{
     random_direction,
 };
 pub use crate::error::{OrientError, Result};
+pub use crate::reach::{Unreached, unreached};
 pub use crate::select::{
     Baselines, OrientOptions, OrientationResult, RefineOptions, StageTimes, Strategy, select_orientations,
     select_orientations_in_stock,

@@ -1,0 +1,118 @@
+//! Which setups a run machines (issue 36): orientation selection for the tools' reach,
+//! and, where a finishing run could choose its setups either for the roughing end mill's
+//! reach or for the shorter finishing ball's, the choice between the two sets by what
+//! each leaves unreached ([`choose_setups`]).
+
+use super::finish_scope::prismatic_share;
+use super::stock::StockBody;
+use crate::geom::{Mesh, Point3};
+use crate::orient::{
+    OrientError, OrientOptions, OrientationResult, ToolReach, Unreached, select_orientations,
+    select_orientations_in_stock, unreached,
+};
+
+/// Stock samples of the stock-removal term of orientation selection: a grid of about 32^3
+/// cells over the stock, so that a slab of stock one cell thick under a flat part counts.
+const STOCK_SAMPLES: usize = 32 * 32 * 32;
+
+/// The least [`prismatic_share`] of a part whose setups are chosen for the roughing's
+/// reach with finishing on, without comparing the ball's: the roughing, cut to size, makes
+/// most of such a part and the finisher only its sculpted rest. On the 16 parts of the
+/// finishing table the shares are 1.0-0.89 (the shop parts, the gear, LetterBlock,
+/// text_on_cube, example007 and 016) or 0.73-0.21 (Advanced_offset, example001, 002, 004,
+/// 006): below, both sets are planned and compared ([`choose_setups`]).
+pub(super) const PRISMATIC_PART: f64 = 0.75;
+
+/// The reaches a run's setups are chosen for: the roughing's, and, where the run finishes
+/// a part less prismatic than [`PRISMATIC_PART`] with a ball that reaches less deep, the
+/// ball's (`None` otherwise: the roughing's set only).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Reaches {
+    pub rough: Option<ToolReach>,
+    pub ball: Option<ToolReach>,
+}
+
+impl Reaches {
+    /// `rough` and `ball` are the tools' depths ([`Tooling::reach`](super::tooling::Tooling::reach)).
+    pub(super) fn new(
+        part: &Mesh,
+        stock: crate::geom::Aabb,
+        rough: Option<f64>,
+        ball: Option<f64>,
+        finishing: bool,
+    ) -> Self {
+        let at = |depth: Option<f64>| depth.map(|depth| ToolReach { stock, depth });
+        let ball = match (rough, ball) {
+            (Some(r), Some(b)) if finishing && b < r && prismatic_share(part) < PRISMATIC_PART => at(Some(b)),
+            _ => None,
+        };
+        Self { rough: at(rough), ball }
+    }
+}
+
+/// What [`choose_setups`] compared: what each candidate set leaves unreached, and which
+/// it took.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct SetupChoice {
+    /// The set chosen for the roughing's reach.
+    pub rough: Unreached,
+    /// The set chosen for the ball's.
+    pub ball: Unreached,
+    /// Whether the ball's set was taken.
+    pub took_ball: bool,
+}
+
+/// Orientation selection, with the stock-removal term when `stock_removal` asks for it
+/// and the part is closed: an open mesh has no inside to tell stock from part, and a setup
+/// added to reach the "stock" behind a missing face would cut into the part through it.
+fn select_setups(
+    part: &Mesh,
+    stock: &[Point3],
+    oopts: &OrientOptions,
+) -> Result<OrientationResult, OrientError> {
+    if stock.is_empty() {
+        select_orientations(part, oopts)
+    } else {
+        select_orientations_in_stock(part, stock, oopts)
+    }
+}
+
+/// The setups of a run: those orientation selection chooses for `reaches.rough` and,
+/// where `reaches.ball` is set, those it chooses for the ball's reach too, the better of
+/// the two by [`ball_set_better`] (ties to the roughing's). Both sets are scored on the
+/// same samples ([`unreached`]).
+pub(super) fn choose_setups(
+    part: &Mesh,
+    body: &StockBody,
+    oopts: &OrientOptions,
+    reaches: Reaches,
+    stock_removal: bool,
+) -> Result<(OrientationResult, Option<SetupChoice>), OrientError> {
+    let closed = crate::geom::report(part).closed;
+    let stock = if stock_removal && closed { body.samples(STOCK_SAMPLES) } else { Vec::new() };
+    let rough = select_setups(part, &stock, &OrientOptions { reach: reaches.rough, ..*oopts })?;
+    let Some(ball_reach) = reaches.ball else { return Ok((rough, None)) };
+    let ball = select_setups(part, &stock, &OrientOptions { reach: Some(ball_reach), ..*oopts })?;
+    if ball.directions == rough.directions {
+        return Ok((rough, None));
+    }
+    // What neither set's tools reach is counted on material the roughing removes (the
+    // stock's grid, or none for an open mesh, whose inside is unknown).
+    let material = if closed { body.samples(STOCK_SAMPLES) } else { Vec::new() };
+    let sets = [rough.directions.as_slice(), ball.directions.as_slice()];
+    let scores = unreached(part, &material, &sets, oopts, Some(ball_reach), reaches.rough)?;
+    let choice =
+        SetupChoice { rough: scores[0], ball: scores[1], took_ball: ball_set_better(&scores[1], &scores[0]) };
+    if std::env::var_os("S2G_SETUP_CHOICE").is_some() {
+        eprintln!(
+            "setup choice: rough {:?} ball {:?} -> ball {}",
+            choice.rough, choice.ball, choice.took_ball
+        );
+    }
+    Ok((if choice.took_ball { ball } else { rough }, Some(choice)))
+}
+
+/// Whether the ball's set `ball` leaves less unreached than the roughing's `rough`.
+pub(super) fn ball_set_better(ball: &Unreached, rough: &Unreached) -> bool {
+    ball.stock_fraction() + ball.surface_fraction() < rough.stock_fraction() + rough.surface_fraction()
+}
