@@ -43,8 +43,8 @@ pub use crate::learn::{
     TrainOptions, observation, train_policy,
 };
 pub use crate::pipeline::{
-    Datum, MillError, MillOptions, MillRun, Milled, PartDeviation, Preset, ProgramLayout, SetupCount,
-    SetupFinish, SetupProgram, Stage, StageSeconds, Stock, default_tool_library, mill,
+    Datum, MillError, MillOptions, MillRun, Milled, PartDeviation, Preset, ProgramLayout, SetupChoice,
+    SetupCount, SetupFinish, SetupProgram, Stage, StageSeconds, Stock, default_tool_library, mill,
 };
 pub use crate::policy::{
     Action, ActionSpace, FinishChoice, FinishStrategyKind, FixedPolicy, HeuristicPolicy, Policy,

@@ -40,6 +40,7 @@ pub use self::api::{
     SetupProgram, Stage, StageSeconds, Stock,
 };
 pub use self::run::MillRun;
+pub use self::setup_choice::SetupChoice;
 pub use self::tooling::default_tool_library;
 
 use crate::geom::Mesh;

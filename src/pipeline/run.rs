@@ -11,7 +11,7 @@ use super::api::{
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
 use super::per_setup::{Ctx, FinishingPart, ProgramOutputs, sim_error};
 use super::rotary::{Placement, mill_rotary};
-use super::setup_choice::{Reaches, choose_setups};
+use super::setup_choice::{Reaches, SetupChoice, choose_setups};
 use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
 use crate::gcode::{FooterRetract, WriterOptions};
@@ -61,6 +61,8 @@ pub struct MillRun {
     body: StockBody,
     to_input: Normalization,
     orientation: OrientationResult,
+    /// The two candidate setup sets' comparison, where a finishing run made one.
+    setup_choice: Option<SetupChoice>,
     placements: Option<Vec<Placement>>,
     /// The geometric features of each setup (the removal fraction is filled in later).
     features: Vec<SetupFeatures>,
@@ -150,7 +152,7 @@ impl MillRun {
                 (target, index, samples, [voxelized, t.elapsed() - voxelized])
             },
         );
-        let (orientation, _choice) = orientation?;
+        let (orientation, setup_choice) = orientation?;
         let (target, index, samples) = (target?, index?, samples?);
         // Every setup would cut the whole stock away, and the scores have no part to compare.
         if target.count() == 0 {
@@ -213,6 +215,7 @@ impl MillRun {
             body,
             to_input,
             orientation,
+            setup_choice,
             placements,
             features,
             target,
@@ -337,6 +340,14 @@ impl MillRun {
     /// Orientation selection's result: the setups in machining order.
     pub fn orientation(&self) -> &OrientationResult {
         &self.orientation
+    }
+
+    /// Where a finishing run planned setups both for the roughing's reach and for the
+    /// ball's, what each set leaves unreached and which it took; `None` where it planned
+    /// one set (no finishing, a mostly prismatic part, a ball reaching as deep, or both
+    /// reaches giving the same setups).
+    pub fn setup_choice(&self) -> Option<SetupChoice> {
+        self.setup_choice
     }
 
     /// Number of setups.

@@ -7,7 +7,7 @@
 
 use shape2gcode::geom::load_mesh;
 use shape2gcode::{
-    Action, FinishChoice, FixedPolicy, HeuristicPolicy, MillOptions, Milled, Preset, SetupFinish,
+    Action, FinishChoice, FixedPolicy, HeuristicPolicy, MillOptions, MillRun, Milled, Preset, SetupFinish,
     StrategyKind, mill,
 };
 
@@ -166,4 +166,39 @@ fn a_mostly_prismatic_setup_is_roughed_as_without_finishing() {
         f.normal_consistency,
         r.normal_consistency
     );
+}
+
+/// The setups of a finishing run on a part less prismatic than `PRISMATIC_PART` (0.75):
+/// orientation selection plans them for the roughing's reach and for the shorter ball's,
+/// and the run takes the set that leaves less unreached, ties to the roughing's. On
+/// example004 (a cube less a sphere) the ball's set leaves less stock and is taken; on
+/// example006 the two leave the same, and the finished run machines the roughing-only
+/// run's setups.
+#[test]
+fn a_finishing_run_takes_the_setups_that_leave_less_unreached() {
+    let run = |name: &str, finish: Option<FinishChoice>| {
+        let mesh = load_mesh(data(&format!("meshes/openscad/{name}.stl"))).unwrap();
+        let longest = mesh.bbox().unwrap().extent().max();
+        // As `s2g mill MESH --preset shop --size 100 --res 128 --finish`.
+        let opts = MillOptions {
+            preset: Preset::Shop,
+            resolution: 128,
+            input_scale: 100.0 / longest,
+            finish,
+            ..MillOptions::default()
+        };
+        MillRun::new(&mesh, &opts, &mut |_| {}).unwrap()
+    };
+    let same_set = |a: &[_], b: &[_]| a.len() == b.len() && a.iter().all(|d| b.contains(d));
+    for (name, ball) in [("openscad_Old_example004", true), ("openscad_Old_example006", false)] {
+        let rough = run(name, None);
+        let fine = run(name, Some(FinishChoice::default()));
+        assert_eq!(rough.setup_choice(), None, "{name}: a roughing-only run plans one set");
+        let choice = fine.setup_choice().unwrap_or_else(|| panic!("{name}: two sets planned"));
+        let left = |u: &shape2gcode::orient::Unreached| u.stock_fraction() + u.surface_fraction();
+        assert_eq!(choice.took_ball, ball, "{name}: {choice:?}");
+        assert_eq!(choice.took_ball, left(&choice.ball) < left(&choice.rough), "{name}: {choice:?}");
+        let (r, f) = (&rough.orientation().directions, &fine.orientation().directions);
+        assert_eq!(same_set(r, f), !ball, "{name}: roughing-only {r:?}, finished {f:?}");
+    }
 }

@@ -81,3 +81,39 @@ pub fn unreached(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stock_grid_points;
+    use s2g_geom::Aabb;
+
+    /// A 10 mm cube on the floor of a stock 20 mm tall: from the top, a tool reaching 15 mm
+    /// below the stock's top faces the cube's top and cuts all the stock over it; one
+    /// reaching 5 mm faces nothing and leaves the stock's lower half.
+    #[test]
+    fn a_short_reach_leaves_the_surface_and_the_stock_below_it() {
+        let part = Mesh::cuboid(&Aabb::new(Point3::origin(), Point3::new(10.0, 10.0, 10.0))).unwrap();
+        let stock = Aabb::new(Point3::origin(), Point3::new(10.0, 10.0, 20.0));
+        let points = stock_grid_points(&stock, 4096, |_| true);
+        let opts = OrientOptions { points: 6000, ..OrientOptions::default() };
+        let top = [UnitVector3::new_normalize(s2g_geom::Vector3::z())];
+        let reach = |depth| Some(ToolReach { stock, depth });
+        let score = |surface, material| {
+            unreached(&part, &points, &[&top[..], &[]], &opts, surface, material).unwrap()
+        };
+        let [deep, none] = score(reach(15.0), reach(15.0))[..] else { panic!("two sets, two scores") };
+        // The top face (a sixth of the area) is reached, the walls (square to the axis) are not.
+        assert!((deep.surface_fraction() - 5.0 / 6.0).abs() < 0.03, "{deep:?}");
+        assert_eq!(deep.stock, 0, "{deep:?}");
+        assert!(deep.material > 0 && (deep.part as f64 / deep.material as f64 - 1.0).abs() < 0.1, "{deep:?}");
+        // No axis: nothing reached.
+        assert_eq!((none.surface, none.stock), (none.surface_samples, none.material));
+        let shallow = score(reach(5.0), reach(5.0))[0];
+        assert_eq!(shallow.surface, shallow.surface_samples, "{shallow:?}");
+        assert!((shallow.stock as f64 / shallow.material as f64 - 0.5).abs() < 0.1, "{shallow:?}");
+        // Each reach counts for its own measure only.
+        let mixed = score(reach(5.0), reach(15.0))[0];
+        assert_eq!((mixed.surface, mixed.stock), (shallow.surface, deep.stock));
+    }
+}
