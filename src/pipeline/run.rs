@@ -130,11 +130,8 @@ impl MillRun {
             oopts.coverage_target = 1.0;
         }
         // A shop's tools reach only so deep below the stock's top: setups are chosen for
-        // what their tools reach, not only for what they see.
-        let (feed, _) = feeds(None);
-        let tooling = Tooling::new(opts, stock.extent().norm(), feed)?;
-        // With finishing, on a part not mostly prismatic, also for the ball's shorter reach,
-        // and the set that leaves less unreached is taken (`choose_setups`).
+        // what their tools reach (with finishing, maybe the ball's: `choose_setups`).
+        let tooling = Tooling::new(opts, stock.extent().norm(), feeds(None).0)?;
         let reaches =
             Reaches::new(&part, stock, tooling.reach(false), tooling.reach(true), opts.finish.is_some());
         // What does not depend on the setups (the part's voxels on the simulation grid, its

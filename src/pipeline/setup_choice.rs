@@ -62,9 +62,7 @@ pub struct SetupChoice {
     pub took_ball: bool,
 }
 
-/// Orientation selection, with the stock-removal term when `stock_removal` asks for it
-/// and the part is closed: an open mesh has no inside to tell stock from part, and a setup
-/// added to reach the "stock" behind a missing face would cut into the part through it.
+/// Orientation selection, with the stock-removal term over `stock` where it has samples.
 fn select_setups(
     part: &Mesh,
     stock: &[Point3],
@@ -79,8 +77,11 @@ fn select_setups(
 
 /// The setups of a run: those orientation selection chooses for `reaches.rough` and,
 /// where `reaches.ball` is set, those it chooses for the ball's reach too, the better of
-/// the two by [`ball_set_better`] (ties to the roughing's). Both sets are scored on the
-/// same samples ([`unreached`]).
+/// the two by [`ball_set_better`] (ties, and the same axes in another order, to the
+/// roughing's). Both sets are scored on the same samples ([`unreached`]). Orientation
+/// selection uses the stock-removal term where `stock_removal` asks for it and the part
+/// is closed: an open mesh has no inside to tell stock from part, and a setup added to
+/// reach the "stock" behind a missing face would cut into the part through it.
 pub(super) fn choose_setups(
     part: &Mesh,
     body: &StockBody,
@@ -105,12 +106,6 @@ pub(super) fn choose_setups(
     let scores = unreached(part, &material, &sets, oopts, Some(ball_reach), reaches.rough)?;
     let choice =
         SetupChoice { rough: scores[0], ball: scores[1], took_ball: ball_set_better(&scores[1], &scores[0]) };
-    if std::env::var_os("S2G_SETUP_CHOICE").is_some() {
-        eprintln!(
-            "setup choice: rough {:?} ball {:?} -> ball {}",
-            choice.rough, choice.ball, choice.took_ball
-        );
-    }
     Ok((if choice.took_ball { ball } else { rough }, Some(choice)))
 }
 
