@@ -119,3 +119,54 @@ pub(super) fn choose_setups(
 pub(super) fn ball_set_better(ball: &Unreached, rough: &Unreached) -> bool {
     ball.stock_fraction() + ball.surface_fraction() < rough.stock_fraction() + rough.surface_fraction()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn left(surface: usize, stock: usize) -> Unreached {
+        Unreached { surface, surface_samples: 1000, stock, material: 4000, part: 2000 }
+    }
+
+    #[test]
+    fn the_ball_set_is_taken_only_where_it_leaves_strictly_less() {
+        // Equal: the roughing's.
+        assert!(!ball_set_better(&left(10, 100), &left(10, 100)));
+        // Less stock (a share of the part's samples) or less surface: the ball's.
+        assert!(ball_set_better(&left(10, 50), &left(10, 100)));
+        assert!(ball_set_better(&left(5, 100), &left(10, 100)));
+        // 2 % of the surface more against 5 % of the part's volume less: the ball's; the
+        // other way round, the roughing's.
+        assert!(ball_set_better(&left(30, 0), &left(10, 100)));
+        assert!(!ball_set_better(&left(10, 100), &left(30, 0)));
+    }
+
+    #[test]
+    fn only_a_finishing_run_on_a_sculpted_part_with_a_shorter_ball_plans_two_sets() {
+        let stock = crate::geom::Aabb::new(Point3::origin(), Point3::new(10.0, 10.0, 10.0));
+        // A cube is wholly prismatic: the roughing's set only.
+        let cube = Mesh::cuboid(&stock).unwrap();
+        assert!(Reaches::new(&cube, stock, Some(30.0), Some(20.0), true).ball.is_none());
+        // An octahedron (no face along or square to an axis) is sculpted.
+        let v = [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        let t = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+        let octa = Mesh::new(
+            v.iter().map(|p| Point3::new(5.0 + 4.0 * p[0], 5.0 + 4.0 * p[1], 5.0 + 4.0 * p[2])).collect(),
+            t.to_vec(),
+        )
+        .unwrap();
+        let r = Reaches::new(&octa, stock, Some(30.0), Some(20.0), true);
+        assert_eq!(r.ball.map(|b| b.depth), Some(20.0));
+        assert_eq!(r.rough.map(|b| b.depth), Some(30.0));
+        assert!(Reaches::new(&octa, stock, Some(30.0), Some(20.0), false).ball.is_none());
+        assert!(Reaches::new(&octa, stock, Some(30.0), Some(30.0), true).ball.is_none());
+        assert!(Reaches::new(&octa, stock, None, None, true).ball.is_none());
+    }
+}
