@@ -1,7 +1,8 @@
 //! The finishing height field's sweep (s2g-voxsim `HeightField`, issue 36's surface
 //! deviation) against its baseline in the same run: `reference` visits every column of
 //! each move's box, `tiled` (the default) passes over 8 x 8 blocks of columns that the
-//! move cannot lower. Both leave the same field bit for bit (`crates/voxsim/tests/
+//! move cannot lower and decides most columns' mark and floor tests on their squared
+//! distance (`ColumnTests`), `tiled_roots` (its baseline) by square roots. Both leave the same field bit for bit (`crates/voxsim/tests/
 //! surface_sweep.rs`). The program is a bunny-like finish: a 10 mm ball end mill on a
 //! crossed raster of 0.6 mm stepover over a wavy 24 x 24 mm surface mesh, its tip
 //! dropped onto the mesh every 0.2 mm (drop-cutter), columns 0.1 mm apart, passes marked
@@ -71,12 +72,23 @@ fn program() -> Vec<Motion<'static>> {
     ms
 }
 
-fn sweep(ms: &[Motion<'_>], reference: bool) -> HeightField {
+/// Which sweep: the reference, the tiled one deciding every column's mark and floor by
+/// square roots (its baseline before `ColumnTests`), or the tiled one as it is.
+#[derive(Clone, Copy, PartialEq)]
+enum Sweep {
+    Reference,
+    TiledRoots,
+    Tiled,
+}
+
+fn sweep(ms: &[Motion<'_>], how: Sweep) -> HeightField {
     let o = HeightFieldOptions { spacing: 0.1, pass_width: Some(0.45), ..Default::default() };
     let tools = ToolTable::single(Cutter::ball(5.0, 30.0));
     let mut f = HeightField::new_opt([-6.0, -6.0], [30.0, 30.0], tools, &o).expect("field");
-    if reference {
-        f.use_reference_sweep();
+    match how {
+        Sweep::Reference => f.use_reference_sweep(),
+        Sweep::TiledRoots => f.use_exact_column_tests(),
+        Sweep::Tiled => {}
     }
     for m in ms {
         f.motion(m).expect("motion");
@@ -86,15 +98,19 @@ fn sweep(ms: &[Motion<'_>], reference: bool) -> HeightField {
 
 fn bench(c: &mut Criterion) {
     let ms = program();
-    assert_eq!(
-        sweep(&ms, false).columns(),
-        sweep(&ms, true).columns(),
-        "the tiled sweep must equal the reference"
-    );
+    let reference = sweep(&ms, Sweep::Reference);
+    for how in [Sweep::TiledRoots, Sweep::Tiled] {
+        assert_eq!(
+            sweep(&ms, how).columns(),
+            reference.columns(),
+            "the tiled sweep must equal the reference"
+        );
+    }
     let mut g = c.benchmark_group("height_field_finish");
     g.sample_size(10);
-    g.bench_function("reference", |b| b.iter(|| sweep(&ms, true)));
-    g.bench_function("tiled", |b| b.iter(|| sweep(&ms, false)));
+    g.bench_function("reference", |b| b.iter(|| sweep(&ms, Sweep::Reference)));
+    g.bench_function("tiled_roots", |b| b.iter(|| sweep(&ms, Sweep::TiledRoots)));
+    g.bench_function("tiled", |b| b.iter(|| sweep(&ms, Sweep::Tiled)));
     g.finish();
 }
 

@@ -63,6 +63,7 @@
 //! without a usable feed are counted ([`SimReport::feedless_moves`]) and left out of the time;
 //! an unknown tool number selects the default tool; an arc of zero radius is a straight move.
 
+mod columns;
 mod dexel;
 mod engine;
 mod error;

@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use s2g_gcode::{ArcSpec, Motion, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Isometry3, MeshIndex, Point3, Solids, Vector3};
 
+use crate::columns::{ColumnTests, rect_segment_distance, rect_segment_distance_roots};
 use crate::engine::ToolPrims;
 use crate::error::{Result, SimError};
 use crate::sweep::{Prim, Seg};
@@ -81,6 +82,10 @@ pub struct HeightField {
     /// Sweep every column of the move's box ([`HeightField::sweep_reference`]), the
     /// baseline the tiled sweep is tested and benched against.
     reference: bool,
+    /// Decide every column's mark and floor by their square roots and every block's
+    /// distance by six (the tiled sweep's baseline before [`ColumnTests`] and
+    /// [`rect_segment_distance`]).
+    exact_tests: bool,
 }
 
 /// Columns along each side of a block of [`HeightField::tile_max`].
@@ -137,6 +142,7 @@ impl HeightField {
             arc_tolerance: o.arc_tolerance,
             tile_max: vec![f64::INFINITY; nx.div_ceil(TILE) * ny.div_ceil(TILE)],
             reference: false,
+            exact_tests: false,
         })
     }
 
@@ -202,6 +208,14 @@ impl HeightField {
         self.reference = true;
     }
 
+    /// Makes the tiled sweep decide every column's mark and floor, and every block's
+    /// distance, by square roots as it did before [`ColumnTests`]: the baseline its bench
+    /// and test compare against (the field is the same bit for bit).
+    #[doc(hidden)]
+    pub fn use_exact_column_tests(&mut self) {
+        self.exact_tests = true;
+    }
+
     /// What a move from `a` to `b` (`feed`: a feed, which marks the columns it passes over)
     /// sweeps over: its segment, the tool's lower primitives, the mark width, and the
     /// columns within the primitives' (or the marks') reach of it; `None` when none is.
@@ -239,12 +253,11 @@ impl HeightField {
         let prims = &lower[..n];
         let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
         let w = width.unwrap_or(-1.0);
-        let (radius, rc) = self.profile;
-        let floor = move |rho: f64| {
-            let d = rho.min(radius) - (radius - rc);
-            if d <= 0.0 { 0.0 } else { rc - (rc * rc - d * d).max(0.0).sqrt() }
-        };
         let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
+        let tests = ColumnTests::new(self.profile, zmin, w, !self.exact_tests);
+        let rect_distance =
+            if self.exact_tests { rect_segment_distance_roots } else { rect_segment_distance };
+        let floor = move |rho: f64| tests.floor(rho);
         let ab2 = ab.norm_squared();
         let tnx = nx.div_ceil(TILE);
         let (tj0, tj1) = (j0 / TILE, j1 / TILE);
@@ -257,7 +270,7 @@ impl HeightField {
                 let (c0, c1) = ((ti * TILE).max(i0), (ti * TILE + TILE - 1).min(i1));
                 // The block's nearest distance from the path, less a margin far above the
                 // rounding of either distance, so its bound is at most every column's.
-                let near = rect_segment_distance(
+                let near = rect_distance(
                     [min[0] + c0 as f64 * s, y(r0)],
                     [min[0] + c1 as f64 * s, y(r1)],
                     [a.x, a.y],
@@ -282,14 +295,15 @@ impl HeightField {
                         let base = Point3::new(min[0] + i as f64 * s, y(j), 0.0);
                         let ap = nalgebra::Vector2::new(base.x - a.x, base.y - a.y);
                         let u = if ab2 > 0.0 { (ap.dot(&ab) / ab2).clamp(0.0, 1.0) } else { 0.0 };
-                        let rho = (ap - ab * u).norm();
-                        if rho <= w {
+                        // The squared distance from the path: `rho` is its square root.
+                        let rho2 = (ap - ab * u).norm_squared();
+                        if tests.marks(rho2) {
                             let m = &mut mark[off + i];
                             *m = m.min(a.z + (b.z - a.z) * u);
                         }
                         // `floor` is never negative, so a column at most `zmin` is skipped
                         // without it.
-                        if *t <= zmin || *t <= zmin + floor(rho) {
+                        if *t <= zmin || tests.above(*t, rho2) {
                             continue;
                         }
                         for p in prims {
@@ -416,44 +430,6 @@ impl HeightField {
         self.pos = Some(p);
         Ok(())
     }
-}
-
-/// The distance from the rectangle `[lo, hi]` to the segment `p q` in the plane (0 where
-/// they meet).
-fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
-    // Clip the segment to the rectangle (Liang-Barsky): a piece inside means they meet.
-    let d = [q[0] - p[0], q[1] - p[1]];
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for k in 0..2 {
-        if d[k] == 0.0 {
-            if p[k] < lo[k] || p[k] > hi[k] {
-                t0 = 1.0;
-                t1 = 0.0;
-            }
-        } else {
-            let (a, b) = ((lo[k] - p[k]) / d[k], (hi[k] - p[k]) / d[k]);
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
-        }
-    }
-    if t0 <= t1 {
-        return 0.0;
-    }
-    // Apart: the nearest pair has an end of the segment or a corner of the rectangle.
-    let to_rect = |x: [f64; 2]| {
-        let dx = (lo[0] - x[0]).max(x[0] - hi[0]).max(0.0);
-        let dy = (lo[1] - x[1]).max(x[1] - hi[1]).max(0.0);
-        (dx * dx + dy * dy).sqrt()
-    };
-    let dd = d[0] * d[0] + d[1] * d[1];
-    let to_seg = |x: [f64; 2]| {
-        let u =
-            if dd > 0.0 { (((x[0] - p[0]) * d[0] + (x[1] - p[1]) * d[1]) / dd).clamp(0.0, 1.0) } else { 0.0 };
-        let (ex, ey) = (x[0] - p[0] - d[0] * u, x[1] - p[1] - d[1] * u);
-        (ex * ex + ey * ey).sqrt()
-    };
-    let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
-    corners.into_iter().map(to_seg).chain([to_rect(p), to_rect(q)]).fold(f64::INFINITY, f64::min)
 }
 
 /// What a move sweeps over ([`HeightField::reach`]).

@@ -1,7 +1,8 @@
 //! The height field's tiled sweep against its reference (every column of a move's box
 //! visited, `use_reference_sweep`): random cutters, column spacings, pass widths and
 //! programs of short surface-following feeds, long moves, plunges, rapids and arcs give the
-//! same cut heights and pass marks, bit for bit.
+//! same cut heights and pass marks, bit for bit, with or without the square roots the
+//! column and block tests leave out (`use_exact_column_tests`).
 
 use proptest::prelude::*;
 use s2g_gcode::{ArcDirection, Motion, MotionSink, Plane};
@@ -102,7 +103,13 @@ proptest! {
         let o = HeightFieldOptions { spacing, pass_width: width, ..Default::default() };
         let ms = program(seed, 300);
         let (fast, slow) = (field(&cutter, &o, &ms, false), field(&cutter, &o, &ms, true));
+        // The tiled sweep's baseline (square roots throughout) too.
+        let mut roots = HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(cutter), &o).unwrap();
+        roots.use_exact_column_tests();
+        ms.iter().for_each(|m| roots.motion(m).unwrap());
         let ((t1, p1), (t2, p2)) = (fast.columns(), slow.columns());
+        prop_assert_eq!(bits(roots.columns().0), bits(t2));
+        prop_assert_eq!(bits(roots.columns().1), bits(p2));
         // The program cuts: a field left at +inf everywhere would agree trivially.
         prop_assert!(t2.iter().filter(|t| t.is_finite()).count() > t2.len() / 10);
         prop_assert_eq!(bits(t1), bits(t2));
