@@ -143,6 +143,20 @@ impl Tooling {
         (depth.is_finite() && depth > 0.0).then_some(depth)
     }
 
+    /// Whether the library has a T-slot cutter ([`t_slot_tools`](Self::t_slot_tools)).
+    pub(super) fn has_t_slot(&self) -> bool {
+        matches!(self, Self::Library(shop) if shop.all.iter().any(|t| t.cutter.is_t_slot()))
+    }
+
+    /// The library's T-slot cutters with their cutting data, widest first (the lower
+    /// number of equals); none in the paper preset.
+    pub(super) fn t_slot_tools(&self) -> Result<Vec<(Tool, Option<Cutting>)>, MillError> {
+        let Self::Library(shop) = self else { return Ok(Vec::new()) };
+        let mut slots: Vec<&LibraryTool> = shop.all.iter().filter(|t| t.cutter.is_t_slot()).collect();
+        slots.sort_by(|a, b| b.cutter.radius.total_cmp(&a.cutter.radius).then(a.number.cmp(&b.number)));
+        slots.into_iter().map(|t| shop.planned(t)).collect()
+    }
+
     /// The machine whose limits time the programs, where the tooling has one.
     pub(super) fn machine(&self) -> Option<&MachineProfile> {
         match self {

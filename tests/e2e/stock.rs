@@ -648,3 +648,72 @@ fn a_narrow_deep_slot_is_cut_by_a_long_reach_end_mill() {
     assert!(with.setups.iter().any(|s| s.rest_of.is_some() && s.tool.number == 32), "{tools:?}");
     rest_took(&with, &without, 2.9 * 16.0 * 2.0, 0.5);
 }
+
+/// A 60 x 100 x 30 mm block with a T-slot along y, open at both ends: a neck 12 mm wide
+/// and 8 deep, wings 22 mm wide and 10 high under it (issue 35's T-slot block, smaller).
+fn t_slot_block() -> Mesh {
+    extruded(
+        &[
+            [0., 0.],
+            [60., 0.],
+            [60., 30.],
+            [36., 30.],
+            [36., 22.],
+            [41., 22.],
+            [41., 12.],
+            [19., 12.],
+            [19., 22.],
+            [24., 22.],
+            [24., 30.],
+            [0., 30.],
+        ],
+        100.0,
+    )
+}
+
+/// T-slot cutters (issue 35): the wings of a T-slot are an undercut no end mill reaches
+/// from above. Without the library's T-slot cutters they stay; with them an undercut pass
+/// enters the disc from the slot's open end at the wings' depth, the neck through the slot
+/// above, and takes most of the wings, safely (no gouge, no rapid through material, the
+/// neck, shank and holder touching no stock), in a program that changes to the cutter.
+#[test]
+fn a_t_slot_cutter_takes_the_wings_from_the_side() {
+    let part = t_slot_block();
+    let wings = 2.0 * 5.0 * 10.0 * 100.0;
+    let lib = shape2gcode::default_tool_library().clone();
+    let mut plain = lib.clone();
+    plain.tools.retain(|t| !t.cutter.is_t_slot());
+    let run = |tools| {
+        let opts = MillOptions {
+            tools: Some(tools),
+            preset: Preset::Shop,
+            resolution: 64,
+            orient_points: 2048,
+            metric_samples: 2000,
+            ..MillOptions::default()
+        };
+        mill_with(&part, &opts)
+    };
+    let (without, with) = (run(plain), run(lib));
+    for m in [&without, &with] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    assert!(without.setups.iter().all(|s| !s.tool.cutter.is_t_slot()));
+    let slots: Vec<_> = with.setups.iter().filter(|s| s.tool.cutter.is_t_slot()).collect();
+    assert_eq!(slots.len(), 1, "one undercut pass");
+    let s = slots[0];
+    assert!(s.rest_of.is_some() && s.text.contains("undercut pass of setup"), "{}", &s.text[..400]);
+    let n = s.tool.number;
+    for word in [format!("T{n} M6"), format!("G43 H{n}")] {
+        assert!(s.text.contains(&word), "no {word:?}");
+    }
+    let removed = (with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3) / wings;
+    assert!(removed > 0.7, "the undercut pass removed {removed:.2} of the wings");
+    assert!(
+        with.metrics.iou > without.metrics.iou + 0.02,
+        "IoU {} -> {}",
+        without.metrics.iou,
+        with.metrics.iou
+    );
+}
