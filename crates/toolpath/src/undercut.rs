@@ -284,7 +284,8 @@ pub fn undercut_levels(
     let reach = c.neck.map_or(c.stickout, |n| n.reach);
     let lo = stock.min.z.max(stock.max.z + opts.margin - reach);
     let hi = stock.max.z - t;
-    if !(lo <= hi) || !(opts.scan_step > 0.0) {
+    let ordered = matches!(lo.partial_cmp(&hi), Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal));
+    if !ordered || opts.scan_step.is_nan() || opts.scan_step <= 0.0 {
         return (Vec::new(), 0.0);
     }
     let volume = |z: f64| {
@@ -452,12 +453,14 @@ pub fn plan_undercut<S: MotionSink>(
             pass.go(Point3::new(v.x, v.y, z), Some(tool.feed))?;
             pass.summary.lead_in_entries += 1;
             // Around the contour each way from the entry, as far as the neck is clear, and
-            // back; the second way stops where the first one got to.
+            // back (a contour gone round whole ends at the entry); the second way stops
+            // where the first one got to.
             let mut done = 0;
             for forward in [true, false] {
                 let mut path = vec![v];
                 let mut at = k;
-                for _ in done..n {
+                let budget = n - done;
+                for _ in 0..budget {
                     let next = if forward { (at + 1) % n } else { (at + n - 1) % n };
                     let (a, b) = (contour.points[at], contour.points[next]);
                     if !neck_clear(&a, &b, z) {
@@ -468,8 +471,10 @@ pub fn plan_undercut<S: MotionSink>(
                     at = next;
                     done += 1;
                 }
-                for p in path.iter().rev().skip(1) {
-                    pass.go(Point3::new(p.x, p.y, z), Some(tool.feed))?;
+                if at != k {
+                    for p in path.iter().rev().skip(1) {
+                        pass.go(Point3::new(p.x, p.y, z), Some(tool.feed))?;
+                    }
                 }
             }
             pass.go(Point3::new(out.x, out.y, z), Some(tool.feed))?;
