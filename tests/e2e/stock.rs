@@ -649,37 +649,18 @@ fn a_narrow_deep_slot_is_cut_by_a_long_reach_end_mill() {
     rest_took(&with, &without, 2.9 * 16.0 * 2.0, 0.5);
 }
 
-/// A 60 x 100 x 30 mm block with a T-slot along y, open at both ends: a neck 12 mm wide
-/// and 8 deep, wings 22 mm wide and 10 high under it (issue 35's T-slot block, smaller).
-fn t_slot_block() -> Mesh {
-    extruded(
-        &[
-            [0., 0.],
-            [60., 0.],
-            [60., 30.],
-            [36., 30.],
-            [36., 22.],
-            [41., 22.],
-            [41., 12.],
-            [19., 12.],
-            [19., 22.],
-            [24., 22.],
-            [24., 30.],
-            [0., 30.],
-        ],
-        100.0,
-    )
-}
-
-/// T-slot cutters (issue 35): the wings of a T-slot are an undercut no end mill reaches
-/// from above. Without the library's T-slot cutters they stay; with them an undercut pass
-/// enters the disc from the slot's open end at the wings' depth, the neck through the slot
-/// above, and takes most of the wings, safely (no gouge, no rapid through material, the
-/// neck, shank and holder touching no stock), in a program that changes to the cutter.
+/// T-slot cutters (issue 35) on the shop parts' T-slot block (100 x 60 x 40 mm, a T-slot
+/// along X: neck 12 x 12 mm, wings 22 mm wide and 10 high from z 18 to 28): the wings are
+/// an undercut from +Z, and the X setups' end mills reach only so far in from the slot's
+/// ends. Without the library's T-slot cutters the middle of the wings stays; with them one
+/// undercut pass enters the disc from the slot's open end at the wings' height (every cut
+/// between their floor and roof less the disc's thickness), the neck through the slot
+/// above, and takes it, safely (no gouge, no rapid through material, the neck, shank and
+/// holder touching no stock), in a program that changes to the cutter.
 #[test]
 fn a_t_slot_cutter_takes_the_wings_from_the_side() {
-    let part = t_slot_block();
-    let wings = 2.0 * 5.0 * 10.0 * 100.0;
+    let part = s2g_gen::shop_part(4).expect("the T-slot block");
+    assert_eq!(part.name, "t_slot_block");
     let lib = shape2gcode::default_tool_library().clone();
     let mut plain = lib.clone();
     plain.tools.retain(|t| !t.cutter.is_t_slot());
@@ -692,7 +673,7 @@ fn a_t_slot_cutter_takes_the_wings_from_the_side() {
             metric_samples: 2000,
             ..MillOptions::default()
         };
-        mill_with(&part, &opts)
+        mill_with(&part.mesh, &opts)
     };
     let (without, with) = (run(plain), run(lib));
     for m in [&without, &with] {
@@ -708,10 +689,27 @@ fn a_t_slot_cutter_takes_the_wings_from_the_side() {
     for word in [format!("T{n} M6"), format!("G43 H{n}")] {
         assert!(s.text.contains(&word), "no {word:?}");
     }
-    let removed = (with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3) / wings;
-    assert!(removed > 0.7, "the undercut pass removed {removed:.2} of the wings");
+    // Every feed move at a level between the wings' floor and their roof less the disc.
+    let t = s.tool.cutter.flute_length;
+    let mut cuts = 0;
+    let mut z = f64::NAN;
+    for line in s.text.lines().filter(|l| !l.starts_with('(')) {
+        if let Some(w) = line.split_whitespace().find(|w| w.starts_with('Z')) {
+            z = w[1..].parse().unwrap_or(f64::NAN);
+        }
+        let first = line.split_whitespace().next().unwrap_or("");
+        if ["G1", "G2", "G3"].contains(&first)
+            || (first.starts_with('X') || first.starts_with('Y')) && z < 30.0
+        {
+            assert!((18.0..=28.0 - t).contains(&z), "a cut at z {z}: {line}");
+            cuts += 1;
+        }
+    }
+    assert!(cuts > 10, "{cuts} cuts");
+    let removed = with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3;
+    assert!(removed > 500.0, "the undercut pass removed {removed:.0} mm^3");
     assert!(
-        with.metrics.iou > without.metrics.iou + 0.02,
+        with.metrics.iou > without.metrics.iou + 0.003,
         "IoU {} -> {}",
         without.metrics.iou,
         with.metrics.iou

@@ -45,8 +45,9 @@ pub struct UndercutOptions {
     /// The step of the scan for the undercut's floor and roof, mm.
     pub scan_step: f64,
     /// The least material (mm³) at one level that makes it part of the undercut: the
-    /// area of 1 mm squares under the part's shadow within the disc's reach from the free
-    /// region that hold material, times the disc's thickness.
+    /// area of squares (1 mm, or 1.5 times the material's sample spacing where that is
+    /// wider) under the part's shadow within the disc's reach from the free region that
+    /// hold material, times the disc's thickness.
     pub min_volume: f64,
     /// The clearance height above the stock's top, mm.
     pub clearance: f64,
@@ -218,8 +219,11 @@ pub fn free_region(columns: &Columns, tool: &Tool, z: f64, stock: &Aabb, margin:
 }
 
 /// The material (mm³, estimated) a T-slot cutter takes at level `z` from the free region
-/// `free`: 1 mm squares under the part's shadow above the disc, within the disc's radius of
-/// the free region, that hold material over the disc's thickness, times that thickness.
+/// `free`: squares under the part's shadow above the disc, within the disc's radius of the
+/// free region, that hold material over the disc's thickness, times that thickness. The
+/// squares are 1 mm, or 1.5 times the material's sample spacing where that is wider, so
+/// that every square holds samples (at 64^3 over 100 mm, 1 mm squares held a voxel
+/// centre in two of five and the T-slot block's wings counted for too little).
 fn undercut_volume(
     columns: &Columns,
     tool: &Tool,
@@ -233,8 +237,9 @@ fn undercut_volume(
     let (r, t) = (tool.cutter.radius, tool.cutter.flute_length);
     let near = free.offset(r, DEFAULT_ARC_STEP).index();
     let shadow = columns.occupied(z + t, f64::INFINITY);
-    // Squares of about 1 mm: whole cells.
-    let k = ((1.0 / columns.cell).round() as usize).max(1);
+    // Squares of whole cells.
+    let side = rest.sample_spacing().map_or(1.0, |s| (1.5 * s).max(1.0));
+    let k = ((side / columns.cell).ceil() as usize).max(1);
     let [nx, ny] = columns.dims;
     let mut squares = 0usize;
     for bj in (0..ny).step_by(k) {
