@@ -377,28 +377,40 @@ fn entry(contour: &Polyline2, free: &RegionIndex, stock: &Aabb, r: f64) -> Optio
         .max_by(|a, b| outside(a.1).total_cmp(&outside(b.1)).then(b.0.cmp(&a.0)))?;
     let clamp = Point2::new(v.x.clamp(stock.min.x, stock.max.x), v.y.clamp(stock.min.y, stock.max.y));
     let d = outside(v);
-    let want = r + 1.0;
-    if d >= want {
+    if d >= r {
         return Some((k, *v));
     }
-    // Straight out from the nearest point of the outline, or along an axis.
-    let mut dirs = Vec::new();
+    // The disc clear of the stock's box, no farther (its edge on the outline), where that
+    // is in the free region, else a millimetre farther.
+    [r, r + 1.0].into_iter().find_map(|want| beyond(v, d, clamp, stock, want, free, &outside)).map(|p| (k, p))
+}
+
+/// The point `want` outside the box `stock` straight out from `v` (`d` outside it, nearest
+/// to `clamp` on it), or along an axis, reached from `v` within the region `free`.
+fn beyond(
+    v: &Point2,
+    d: f64,
+    clamp: Point2,
+    stock: &Aabb,
+    want: f64,
+    free: &RegionIndex,
+    outside: &dyn Fn(&Point2) -> f64,
+) -> Option<Point2> {
+    let mut points = Vec::new();
     if d > 1e-9 {
-        dirs.push((v - clamp) / d);
+        points.push(clamp + (v - clamp) * (want / d));
     }
-    dirs.extend([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]].map(|[x, y]| Vector2::new(x, y)));
-    dirs.into_iter().find_map(|dir| {
-        // How far along `dir` the point leaves the grown outline.
-        let mut s = 0.0;
-        while s < 4.0 * (stock.max - stock.min).norm() {
-            s += 0.5;
-            let p = v + dir * s;
-            if outside(&p) >= want {
-                return free.segment_inside(v, &p, 1e-6).then_some((k, p));
-            }
+    for (dir, s) in [
+        (Vector2::new(1.0, 0.0), stock.max.x + want - v.x),
+        (Vector2::new(-1.0, 0.0), v.x - stock.min.x + want),
+        (Vector2::new(0.0, 1.0), stock.max.y + want - v.y),
+        (Vector2::new(0.0, -1.0), v.y - stock.min.y + want),
+    ] {
+        if s > 0.0 {
+            points.push(v + dir * s);
         }
-        None
-    })
+    }
+    points.into_iter().find(|p| outside(p) >= want * (1.0 - 1e-12) && free.segment_inside(v, p, 1e-6))
 }
 
 /// Plans the undercut pass of `tool` (a T-slot cutter) at `levels` ([`undercut_levels`])
@@ -492,6 +504,29 @@ pub fn plan_undercut<S: MotionSink>(
     }
     pass.send(Motion::Spindle { rpm: 0.0, direction: SpindleDirection::Off })?;
     Ok(pass.summary)
+}
+
+/// Whether the undercut pass of `tool` at `levels` cuts anything ([`plan_undercut`] into a
+/// sink that keeps nothing): a level may hold material while no contour around it can be
+/// entered from outside.
+pub fn undercut_cuts(
+    columns: &Columns,
+    setup: &Setup,
+    tool: &Tool,
+    stock: &Aabb,
+    rest: &dyn RemainingMaterial,
+    levels: &[f64],
+    opts: &UndercutOptions,
+) -> bool {
+    struct Discard;
+    impl MotionSink for Discard {
+        type Error = std::convert::Infallible;
+        fn motion(&mut self, _: &Motion<'_>) -> Result<(), Self::Error> {
+            Ok(())
+        }
+    }
+    plan_undercut(columns, setup, tool, stock, rest, levels, opts, &mut Discard)
+        .is_ok_and(|s| s.lead_in_entries > 0)
 }
 
 #[cfg(test)]
