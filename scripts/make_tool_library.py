@@ -14,13 +14,24 @@ Long-reach end mills (T31-T33) have flutes 1.5 D long, a relieved neck 0.95 D wi
 their reach (10, 12 and 16 mm for 1, 2 and 3 mm), then a 4 or 6 mm shank, 10 mm of it out
 of the chuck; their cutting data are conservative: 0.8 times the surface speed, half the
 chip load and half the axial depth of the short tools'.
+
+T-slot cutters (T41-T42, DIN 851 sizes) are discs as thick as their flute length on a
+neck under the slot's width, reaching 30 and 20 mm from the tip, then a shank 10 mm out of
+the chuck; they cut undercuts from the side (entered at a slot's open end). Their cutting
+data are conservative: 0.6 times the surface speed and half the chip load of a flat end
+mill of the disc's diameter, the axial depth the disc's thickness, a quarter of the
+diameter radially.
 """
+
+import math
 
 FLATS = [1, 2, 3, 4, 5, 6, 8, 10, 12]
 BALLS = [1, 2, 3, 4, 6, 8, 10]
 BULLS = [(6, 0.5), (10, 1.0)]
 # Long-reach (necked) flat end mills: diameter, reach (tip to the neck's top), shank.
 LONG = [(1, 10.0, 4.0), (2, 12.0, 4.0), (3, 16.0, 6.0)]
+# T-slot cutters: disc diameter, thickness, neck diameter, reach, shank, teeth.
+TSLOTS = [(21.0, 9.0, 10.0, 30.0, 12.0, 6), (12.5, 6.0, 6.0, 20.0, 10.0, 6)]
 
 # name, description, coolant, vc (m/min), fz per mm of diameter, fz floor, fz ceiling,
 # ap (D), ae (D), plunge ratio.
@@ -37,26 +48,32 @@ def num(v):
     return s if "." in s else s + ".0"
 
 
-def cutting(d, long=False):
+def cutting(d, long=False, disc=None):
     lines = []
     for name, _, _, vc, fzk, lo, hi, ap, ae, plunge in MATERIALS:
         fz = min(hi, max(lo, fzk * d))
         if long:
             vc, fz, ap = 0.8 * vc, 0.5 * fz, 0.5 * ap
+        if disc is not None:
+            vc, fz, ap, ae = 0.6 * vc, 0.5 * fz, math.floor(1e4 * disc / d) / 1e4, 0.25
         lines.append(
             f"{name} = {{ vc = {num(vc)}, fz = {num(fz)}, ap = {num(ap)}, ae = {num(ae)}, plunge = {num(plunge)} }}"
         )
     return lines
 
 
-def tool(number, name, shape, d, flutes, corner=None, neck=None):
+def tool(number, name, shape, d, flutes, corner=None, neck=None, disc=None):
+    """A tool; `neck` is (reach, shank), `disc` a T-slot cutter's (thickness, neck diameter)."""
     flute = max(3.0, 3.0 * d)
     shank = 3.0 if d < 3 else d
     stickout = flute + 2.0 * d + 6.0
+    neck_d = 0.95 * d
     if neck is not None:
         reach, shank = neck
         flute = 1.5 * d
         stickout = reach + 10.0
+    if disc is not None:
+        flute, neck_d = disc
     out = ["[[tool]]", f"number = {number}", f'name = "{name}"', f'shape = "{shape}"', f"diameter = {num(d)}"]
     if corner is not None:
         out.append(f"corner_radius = {num(corner)}")
@@ -68,12 +85,12 @@ def tool(number, name, shape, d, flutes, corner=None, neck=None):
         "holder = { diameter = 35.0, length = 40.0 }",
     ]
     if neck is not None:
-        out.append(f"neck = {{ diameter = {num(0.95 * d)}, reach = {num(neck[0])} }}")
+        out.append(f"neck = {{ diameter = {num(neck_d)}, reach = {num(neck[0])} }}")
     out += [
         "",
         "[tool.cutting]",
     ]
-    out += cutting(d, neck is not None)
+    out += cutting(d, neck is not None and disc is None, None if disc is None else disc[0])
     return "\n".join(out) + "\n"
 
 
@@ -100,7 +117,9 @@ HEADER = """\
 # [[tool]]                      one per cutter
 #   number        T and H word (1 or more, unique)
 #   name          free text
-#   shape         "flat", "ball" or "bull"
+#   shape         "flat", "ball", "bull" or "tslot" (a T-slot cutter: a disc, the flutes,
+#                 flute_length thick, on a neck narrower than it, which it must have;
+#                 it cuts undercuts from the side, never roughs or finishes from above)
 #   diameter      cutting diameter
 #   corner_radius bull only: the torus radius (0 < corner_radius <= diameter / 2)
 #   flutes        number of teeth
@@ -112,7 +131,8 @@ HEADER = """\
 #                 cutting, no wider than the flutes, from their top up to `reach` above the
 #                 tip (flute_length < reach <= stickout); the shank starts there. A
 #                 LinuxCNC tool table has no neck column: the table s2g writes holds the
-#                 cutting diameter, the name (which says the reach) as its comment
+#                 cutting diameter, the name (which says the reach) as its comment (a
+#                 T-slot cutter's too: its neck and thickness are in the name)
 #   [tool.cutting] per material name:
 #     vc          surface speed, m/min: spindle rpm = 1000 vc / (pi D), within the
 #                 machine's spindle range
@@ -171,6 +191,11 @@ def main():
     for d, reach, shank in LONG:
         name = f"{d} mm long-reach flat end mill, neck {num(0.95 * d)} mm to {reach:g} mm, 3 flutes"
         parts.append(tool(n, name, "flat", d, 3, neck=(reach, shank)))
+        n += 1
+    n = 41
+    for d, t, nd, reach, shank, z in TSLOTS:
+        name = f"{num(d).rstrip('0').rstrip('.')} x {t:g} mm T-slot cutter, neck {nd:g} mm to {reach:g} mm, {z} teeth"
+        parts.append(tool(n, name, "tslot", d, z, neck=(reach, shank), disc=(t, nd)))
         n += 1
     print("\n".join(parts), end="")
 

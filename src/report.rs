@@ -158,6 +158,7 @@ impl Milled {
                     crate::geom::CutterShape::Ball(_) => "ball",
                     crate::geom::CutterShape::BullNose(_) => "bull",
                     crate::geom::CutterShape::Flat(_) => "flat",
+                    crate::geom::CutterShape::TSlot(_) => "tslot",
                 },
                 "diameter": round(f.tool.diameter(), 6),
                 "spindle_rpm": round(f.tool.spindle_rpm, 3),

@@ -26,6 +26,9 @@ pub(super) struct Job {
     /// A rest-roughing job ([`MillOptions::rest_roughing`]): the 0-based setup it machines
     /// again with a smaller tool; `None` for a setup's own.
     pub(super) rest_of: Option<usize>,
+    /// An undercut pass's levels (its tool a T-slot cutter): planned by
+    /// [`plan_undercut`](crate::toolpath::undercut::plan_undercut), not layer by layer.
+    pub(super) undercut: Option<Vec<f64>>,
 }
 
 /// What a setup is finished with.
@@ -158,6 +161,7 @@ impl Job {
             finish: None,
             stock_faces,
             rest_of: None,
+            undercut: None,
         })
     }
 

@@ -19,6 +19,7 @@ use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
     FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup_left_out, part_in_setup_frame,
 };
+use crate::toolpath::undercut::{UndercutOptions, part_columns, plan_undercut};
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
 use crate::voxsim::{
@@ -268,8 +269,23 @@ fn write_program(
             .motion(&Motion::Comment(note.as_str().into()))
             .map_err(|e| MillError::program(i + 1, "writing the program", e))?;
     }
-    let plan = plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch)
-        .map_err(|source| MillError::Plan { setup: i + 1, source })?;
+    let plan = match &job.undercut {
+        // An undercut pass: the T-slot cutter's contours at its levels.
+        Some(levels) => {
+            let Some(stock) = job.popts.stock else {
+                return Err(MillError::InvalidOption("an undercut pass needs its stock box".into()));
+            };
+            let uopts = UndercutOptions {
+                clearance: job.popts.clearance_height,
+                rapid_feed: job.popts.rapid_feed,
+                ..UndercutOptions::default()
+            };
+            let columns = part_columns(part, &job.setup, &stock, &job.tool, uopts.cell);
+            plan_undercut(&columns, &job.setup, &job.tool, &stock, &rest, levels, &uopts, &mut writer)
+        }
+        None => plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch),
+    }
+    .map_err(|source| MillError::Plan { setup: i + 1, source })?;
     // The finishing follows the roughing in the same program.
     let finished = match finish_follows(&mut writer, verdict, i)? {
         true => emit_finishing(job, finishing, &mut writer, i)?,

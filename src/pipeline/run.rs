@@ -28,6 +28,7 @@ use crate::trace::PathTrace;
 use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator};
 
 mod rest_rough;
+mod undercut;
 
 /// A milling run one setup at a time: what [`mill`](super::mill) does, opened up so that a caller (the
 /// learning environment, an interactive tool) picks each setup's [`Action`] after seeing
@@ -533,6 +534,8 @@ impl MillRun {
                 self.setup_count()
             )));
         }
+        // The undercuts a T-slot cutter reaches from the side, after every setup.
+        self.undercut_passes(progress)?;
         let opts = &self.opts;
         if let (ProgramLayout::Rotary(axes), Some(placements)) = (opts.layout, &self.placements) {
             // Above this height (program +Z, rotary centre at the origin) the tool clears

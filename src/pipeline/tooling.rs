@@ -13,8 +13,9 @@ use crate::toolpath::library::{Cutting, LibraryTool, Material, ToolLibrary};
 use crate::voxsim::{Cutter, ToolTable};
 
 /// The shipped tool library, `assets/tools/default.toml`: flat end mills of 1-12 mm, ball
-/// end mills of 1-10 mm and two bull noses, with cutting data for aluminium 6061, mild
-/// steel, POM and machining wax, on a generic router.
+/// end mills of 1-10 mm, two bull noses, three long-reach end mills and two T-slot
+/// cutters, with cutting data for aluminium 6061, mild steel, POM and machining wax, on a
+/// generic router.
 pub fn default_tool_library() -> &'static ToolLibrary {
     static DEFAULT: OnceLock<ToolLibrary> = OnceLock::new();
     DEFAULT.get_or_init(|| {
@@ -135,11 +136,25 @@ impl Tooling {
         let finish = shop
             .all
             .iter()
-            .filter(|t| !matches!(t.cutter.shape, CutterShape::Flat(_)))
+            .filter(|t| !matches!(t.cutter.shape, CutterShape::Flat(_) | CutterShape::TSlot(_)))
             .map(reach)
             .fold(0.0, f64::max);
         let depth = if finishing && finish > 0.0 { rough.min(finish) } else { rough };
         (depth.is_finite() && depth > 0.0).then_some(depth)
+    }
+
+    /// Whether the library has a T-slot cutter ([`t_slot_tools`](Self::t_slot_tools)).
+    pub(super) fn has_t_slot(&self) -> bool {
+        matches!(self, Self::Library(shop) if shop.all.iter().any(|t| t.cutter.is_t_slot()))
+    }
+
+    /// The library's T-slot cutters with their cutting data, widest first (the lower
+    /// number of equals); none in the paper preset.
+    pub(super) fn t_slot_tools(&self) -> Result<Vec<(Tool, Option<Cutting>)>, MillError> {
+        let Self::Library(shop) = self else { return Ok(Vec::new()) };
+        let mut slots: Vec<&LibraryTool> = shop.all.iter().filter(|t| t.cutter.is_t_slot()).collect();
+        slots.sort_by(|a, b| b.cutter.radius.total_cmp(&a.cutter.radius).then(a.number.cmp(&b.number)));
+        slots.into_iter().map(|t| shop.planned(t)).collect()
     }
 
     /// The machine whose limits time the programs, where the tooling has one.
@@ -246,7 +261,8 @@ impl Tooling {
             }
             Self::Library(shop) => shop,
         };
-        let rounded = |t: &&LibraryTool| !matches!(t.cutter.shape, CutterShape::Flat(_));
+        let rounded =
+            |t: &&LibraryTool| matches!(t.cutter.shape, CutterShape::Ball(_) | CutterShape::BullNose(_));
         let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
         let chosen = match number {
             Some(n) => shop.all.iter().filter(rounded).find(|t| t.number == n).ok_or_else(|| {

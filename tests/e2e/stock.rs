@@ -648,3 +648,70 @@ fn a_narrow_deep_slot_is_cut_by_a_long_reach_end_mill() {
     assert!(with.setups.iter().any(|s| s.rest_of.is_some() && s.tool.number == 32), "{tools:?}");
     rest_took(&with, &without, 2.9 * 16.0 * 2.0, 0.5);
 }
+
+/// T-slot cutters (issue 35) on the shop parts' T-slot block (100 x 60 x 40 mm, a T-slot
+/// along X: neck 12 x 12 mm, wings 22 mm wide and 10 high from z 18 to 28): the wings are
+/// an undercut from +Z, and the X setups' end mills reach only so far in from the slot's
+/// ends. Without the library's T-slot cutters the middle of the wings stays; with them one
+/// undercut pass enters the disc from the slot's open end at the wings' height (every cut
+/// between their floor and roof less the disc's thickness), the neck through the slot
+/// above, and takes it, safely (no gouge, no rapid through material, the neck, shank and
+/// holder touching no stock), in a program that changes to the cutter.
+#[test]
+fn a_t_slot_cutter_takes_the_wings_from_the_side() {
+    let part = s2g_gen::shop_part(4).expect("the T-slot block");
+    assert_eq!(part.name, "t_slot_block");
+    let lib = shape2gcode::default_tool_library().clone();
+    let mut plain = lib.clone();
+    plain.tools.retain(|t| !t.cutter.is_t_slot());
+    let run = |tools| {
+        let opts = MillOptions {
+            tools: Some(tools),
+            preset: Preset::Shop,
+            resolution: 64,
+            orient_points: 2048,
+            metric_samples: 2000,
+            ..MillOptions::default()
+        };
+        mill_with(&part.mesh, &opts)
+    };
+    let (without, with) = (run(plain), run(lib));
+    for m in [&without, &with] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    assert!(without.setups.iter().all(|s| !s.tool.cutter.is_t_slot()));
+    let slots: Vec<_> = with.setups.iter().filter(|s| s.tool.cutter.is_t_slot()).collect();
+    assert_eq!(slots.len(), 1, "one undercut pass");
+    let s = slots[0];
+    assert!(s.rest_of.is_some() && s.text.contains("undercut pass of setup"), "{}", &s.text[..400]);
+    let n = s.tool.number;
+    for word in [format!("T{n} M6"), format!("G43 H{n}")] {
+        assert!(s.text.contains(&word), "no {word:?}");
+    }
+    // Every feed move at a level between the wings' floor and their roof less the disc.
+    let t = s.tool.cutter.flute_length;
+    let mut cuts = 0;
+    let mut z = f64::NAN;
+    for line in s.text.lines().filter(|l| !l.starts_with('(')) {
+        if let Some(w) = line.split_whitespace().find(|w| w.starts_with('Z')) {
+            z = w[1..].parse().unwrap_or(f64::NAN);
+        }
+        let first = line.split_whitespace().next().unwrap_or("");
+        if ["G1", "G2", "G3"].contains(&first)
+            || (first.starts_with('X') || first.starts_with('Y')) && z < 30.0
+        {
+            assert!((18.0..=28.0 - t).contains(&z), "a cut at z {z}: {line}");
+            cuts += 1;
+        }
+    }
+    assert!(cuts > 10, "{cuts} cuts");
+    let removed = with.simulation.removed_volume_mm3 - without.simulation.removed_volume_mm3;
+    assert!(removed > 500.0, "the undercut pass removed {removed:.0} mm^3");
+    assert!(
+        with.metrics.iou > without.metrics.iou + 0.003,
+        "IoU {} -> {}",
+        without.metrics.iou,
+        with.metrics.iou
+    );
+}

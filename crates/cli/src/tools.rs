@@ -65,6 +65,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             CutterShape::Flat(_) => "flat",
             CutterShape::Ball(_) => "ball",
             CutterShape::BullNose(_) => "bull",
+            CutterShape::TSlot(_) => "tslot",
         };
         let c = t.cutting(material, &machine)?;
         println!(

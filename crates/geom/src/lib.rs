@@ -34,7 +34,9 @@ pub use crate::atomic::{write_atomic, write_bytes_atomic};
 pub use crate::check::{
     MeshReport, ReportOptions, drop_degenerate, merge_vertices, remove_unused_vertices, report, report_with,
 };
-pub use crate::cutter::{Ball, BullNose, Cutter, CutterShape, EndShape, Flat, Holder, Neck, Solid, Solids};
+pub use crate::cutter::{
+    Ball, BullNose, Cutter, CutterShape, EndShape, Flat, Holder, Neck, Solid, Solids, TSlot,
+};
 pub use crate::error::{GeomError, Result};
 pub use crate::io::{
     LoadOptions, MeshFormat, detect_format, load_mesh, load_mesh_with, read_3mf, read_gltf, read_mesh,

@@ -128,6 +128,7 @@ mod rings;
 mod slice;
 mod strategy;
 mod tool;
+pub mod undercut;
 
 pub use crate::error::ToolpathError;
 pub use crate::layer::LayerPlan;

@@ -26,6 +26,12 @@ pub trait RemainingMaterial: Sync {
             &Point3::new(a.x.max(b.x) + radius, a.y.max(b.y) + radius, z1),
         )
     }
+
+    /// The spacing of the samples the material is known at (a voxel's largest edge), if
+    /// any: a box narrower than it may hold none though material is around. Default: none.
+    fn sample_spacing(&self) -> Option<f64> {
+        None
+    }
 }
 
 impl<F: Fn(&Point3, &Point3) -> bool + Sync> RemainingMaterial for F {
@@ -141,6 +147,10 @@ impl VoxelMaterial<'_> {
 }
 
 impl RemainingMaterial for VoxelMaterial<'_> {
+    fn sample_spacing(&self) -> Option<f64> {
+        Some(self.grid.spec().voxel.max())
+    }
+
     /// Exact (see [`VoxelMaterial`]): a set voxel's centre in the setup-frame box.
     fn any_in_box(&self, min: &Point3, max: &Point3) -> bool {
         let e = self.slack();

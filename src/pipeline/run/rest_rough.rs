@@ -102,7 +102,8 @@ impl MillRun {
         } else {
             0
         };
-        self.setup_count() * (1 + rest)
+        // An undercut pass per setup where the library has a T-slot cutter.
+        self.setup_count() * (1 + rest + usize::from(self.may_undercut()))
     }
 
     /// The index of the last setup's own job: rest passes follow their setup's own job at

@@ -7,7 +7,8 @@
 //! a cutter is a stack of solids of revolution: the cutting end (flat disc, hemisphere or
 //! torus-rounded disc) and flutes of [`Cutter::radius`] up to [`Cutter::flute_length`];
 //! on a long-reach (necked) end mill the relieved neck of [`Neck::radius`] up to
-//! [`Neck::reach`]; the shank of [`Cutter::shank_radius`] up to [`Cutter::stickout`]; then
+//! [`Neck::reach`] (a T-slot cutter is the same stack, its flutes a short disc wider than
+//! the neck); the shank of [`Cutter::shank_radius`] up to [`Cutter::stickout`]; then
 //! the holder's
 //! cylinder, when one is modelled. [`Cutter::radius_at`] gives the stack's radius at any
 //! height.
@@ -145,6 +146,9 @@ cutter_shapes! {
     Ball => ball,
     /// Bull nose (corner radius) end mill: a flat bottom rounded by a torus.
     BullNose => bull,
+    /// T-slot cutter: a disc (the flutes) on a narrower neck, cutting undercuts from the
+    /// side.
+    TSlot => tslot,
 }
 
 /// The relieved neck of a long-reach end mill: a non-cutting cylinder no wider than the
@@ -221,6 +225,23 @@ impl Cutter {
         Self::with_shape(CutterShape::BullNose(BullNose { corner_radius }), radius, flute_length)
     }
 
+    /// A T-slot cutter: a disc of `radius` and thickness `thickness` (the flute length) on
+    /// a neck of `neck_radius` up to `reach` above the tip; shank of the neck's radius to a
+    /// stick-out of `reach`, no holder.
+    pub fn t_slot(radius: f64, thickness: f64, neck_radius: f64, reach: f64) -> Self {
+        Self {
+            shank_radius: neck_radius,
+            stickout: reach,
+            neck: Some(Neck { radius: neck_radius, reach }),
+            ..Self::with_shape(CutterShape::TSlot(TSlot), radius, thickness)
+        }
+    }
+
+    /// Whether the cutter is a T-slot (disc) cutter, which cuts only from the side.
+    pub fn is_t_slot(&self) -> bool {
+        matches!(self.shape, CutterShape::TSlot(_))
+    }
+
     /// The cutting diameter.
     pub fn diameter(&self) -> f64 {
         2.0 * self.radius
@@ -278,7 +299,8 @@ impl Cutter {
     /// Checks the dimensions: every length finite; `radius > 0`; `0 <= corner_radius <= radius`;
     /// `flute_length > 0` and `>= 2 * corner_radius` (the rounded end must be all flute);
     /// `shank_radius > 0`; `stickout >= flute_length`; holder radius and length `> 0`; the
-    /// neck's radius in `(0, radius]` and its reach in `(flute_length, stickout]`.
+    /// neck's radius in `(0, radius]` and its reach in `(flute_length, stickout]`; a T-slot
+    /// cutter has a neck, narrower than its disc.
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(GeomError::InvalidTool(m));
         let pos = |v: f64| v.is_finite() && v > 0.0;
@@ -323,6 +345,12 @@ impl Cutter {
             return bad(format!(
                 "neck radius must be in (0, radius = {}] and its reach in (flute length = {}, stick-out = {}], got {n:?}",
                 self.radius, self.flute_length, self.stickout
+            ));
+        }
+        if self.is_t_slot() && !self.neck.is_some_and(|n| n.radius < self.radius) {
+            return bad(format!(
+                "a T-slot cutter needs a neck narrower than its disc (radius {}), got {:?}",
+                self.radius, self.neck
             ));
         }
         Ok(())
@@ -419,6 +447,36 @@ mod tests {
                 .map(|c| c.shape.end().name()),
             ["flat", "ball", "bull"]
         );
+    }
+
+    /// A T-slot cutter (DIN 851, 12 mm slot): a 21 mm disc 9 mm thick on a 10 mm neck. Its
+    /// stack is the disc, then the neck to its reach, then the shank; a neck no longer
+    /// than the disc, none at all or one as wide as the disc is refused.
+    #[test]
+    fn a_t_slot_cutter_is_a_disc_on_a_narrower_neck() {
+        let mut t = Cutter::t_slot(10.5, 9.0, 5.0, 30.0);
+        t.shank_radius = 6.0;
+        t.stickout = 40.0;
+        t.validate().expect("valid");
+        assert!(t.is_t_slot() && !Cutter::flat(1.0, 2.0).is_t_slot());
+        assert_eq!(t.shape.end().name(), "tslot");
+        assert_eq!([t.radius_at(0.0), t.radius_at(9.0)], [10.5, 10.5]);
+        assert_eq!([t.radius_at(9.01), t.radius_at(30.0)], [5.0, 5.0]);
+        assert_eq!([t.radius_at(30.01), t.radius_at(40.0), t.radius_at(40.1)], [6.0, 6.0, 0.0]);
+        assert_eq!(t.shank_start(), 30.0);
+        let solids = t.cutting_solids();
+        for h in [0.0, 4.5, 9.0] {
+            assert_eq!(solids_radius_at(&solids, h), t.radius_at(h));
+        }
+        for neck in [
+            Some(Neck { radius: 5.0, reach: 9.0 }),
+            Some(Neck { radius: 5.0, reach: 6.0 }),
+            Some(Neck { radius: 10.5, reach: 30.0 }),
+            None,
+        ] {
+            assert!(Cutter { neck, ..t }.validate().is_err(), "{neck:?}");
+        }
+        assert!(Cutter::t_slot(10.5, 9.0, 5.0, 30.0).validate().is_ok());
     }
 
     #[test]

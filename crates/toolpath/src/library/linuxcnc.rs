@@ -11,7 +11,8 @@
 //! needs) and zero length offset, its name the comment. The table has no column for a
 //! long-reach end mill's neck (nor flute length, shank or holder): the library's name says
 //! it ("2 mm long-reach flat end mill, neck 1.9 mm to 12 mm"), and a table read back
-//! gives a plain end mill of that diameter.
+//! gives a plain end mill of that diameter. A T-slot cutter likewise: its disc's diameter,
+//! the name saying the thickness and neck ("21 x 9 mm T-slot cutter, neck 10 mm to 30 mm").
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

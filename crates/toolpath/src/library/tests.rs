@@ -30,12 +30,33 @@ fn the_default_library_has_what_the_issue_asks_for() {
     assert!(bulls.len() >= 2, "{bulls:?}");
     // Long-reach end mills of 1, 2 and 3 mm: necks under the flutes, reaching past them
     // and, with the shank wider than the flutes, as far as the tool reaches.
-    let long: Vec<_> = lib.tools.iter().filter_map(|t| t.cutter.neck.map(|n| (t, n))).collect();
+    let long: Vec<_> = lib
+        .tools
+        .iter()
+        .filter(|t| !t.cutter.is_t_slot())
+        .filter_map(|t| t.cutter.neck.map(|n| (t, n)))
+        .collect();
     assert_eq!(long.iter().map(|(t, _)| t.cutter.diameter()).collect::<Vec<_>>(), [1.0, 2.0, 3.0]);
     for (t, n) in &long {
         t.cutter.validate().expect("a valid long-reach cutter");
         assert!(n.radius < t.cutter.radius && n.reach >= 3.0 * t.cutter.flute_length, "T{}: {n:?}", t.number);
         assert_eq!(t.cutter.reach(), n.reach, "T{}", t.number);
+    }
+    // T-slot cutters for 12 and 7 mm slots (DIN 851): discs wider than their necks, the
+    // necks reaching past the discs, cut no faster than a flat end mill of the disc's
+    // diameter would, no deeper axially than the disc is thick.
+    let slots: Vec<_> = lib.tools.iter().filter(|t| t.cutter.is_t_slot()).collect();
+    assert_eq!(slots.iter().map(|t| t.cutter.diameter()).collect::<Vec<_>>(), [21.0, 12.5]);
+    let alu = lib.material("aluminium-6061").expect("aluminium");
+    let twelve = lib.tools.iter().find(|t| t.cutter.diameter() == 12.0).expect("12 mm flat");
+    for t in &slots {
+        t.cutter.validate().expect("a valid T-slot cutter");
+        let n = t.cutter.neck.expect("a neck");
+        assert!(n.radius < t.cutter.radius && n.reach > t.cutter.flute_length, "T{}: {n:?}", t.number);
+        let c = t.cutting(alu, &MachineProfile::default()).expect("cutting");
+        assert!(c.max_axial_depth <= t.cutter.flute_length + 1e-9, "T{}: {c:?}", t.number);
+        let flat = twelve.cutting(alu, &MachineProfile::default()).expect("cutting");
+        assert!(c.feed / t.flutes as f64 <= flat.feed / twelve.flutes as f64, "T{}", t.number);
     }
     for m in ["aluminium-6061", "mild-steel", "pom", "wax"] {
         let material = lib.material(m).expect(m);

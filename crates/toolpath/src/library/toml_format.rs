@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use s2g_gcode::{Coolant, MachineProfile};
-use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat, Holder, Neck};
+use s2g_geom::{Ball, BullNose, Cutter, CutterShape, Flat, Holder, Neck, TSlot};
 
 use super::{CuttingData, LibraryError, LibraryTool, Material, ToolLibrary};
 
@@ -122,6 +122,7 @@ enum ShapeToml {
     Flat,
     Ball,
     Bull,
+    Tslot,
 }
 
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
@@ -213,6 +214,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<ToolLibrary, LibraryError
                 ShapeToml::Flat => CutterShape::Flat(Flat),
                 ShapeToml::Ball => CutterShape::Ball(Ball),
                 ShapeToml::Bull => CutterShape::BullNose(BullNose { corner_radius: t.corner_radius }),
+                ShapeToml::Tslot => CutterShape::TSlot(TSlot),
             };
             LibraryTool {
                 number: t.number,
@@ -264,6 +266,7 @@ pub(super) fn write(lib: &ToolLibrary) -> String {
                     CutterShape::Flat(_) => (ShapeToml::Flat, 0.0),
                     CutterShape::Ball(_) => (ShapeToml::Ball, 0.0),
                     CutterShape::BullNose(b) => (ShapeToml::Bull, b.corner_radius),
+                    CutterShape::TSlot(_) => (ShapeToml::Tslot, 0.0),
                 };
                 ToolToml {
                     number: t.number,
