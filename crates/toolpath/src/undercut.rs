@@ -24,6 +24,7 @@
 //! stays clear of the material left (the exact [`RemainingMaterial`] query), back the way it
 //! came, and out. No move goes down or up inside the stock's outline.
 
+use rayon::prelude::*;
 use s2g_gcode::{Coolant, Motion, MotionSink, SpindleDirection};
 use s2g_geom::{Aabb, Mesh, Point3, Setup};
 
@@ -300,7 +301,8 @@ pub fn undercut_levels(
     let useful = |z: f64| volume(z) >= opts.min_volume;
     let n = ((hi - lo) / opts.scan_step).floor() as usize;
     let zs: Vec<f64> = (0..=n).map(|k| lo + k as f64 * opts.scan_step).collect();
-    let vols: Vec<f64> = zs.iter().map(|&z| volume(z)).collect();
+    // Each level on its own (in order, so the same on any number of threads).
+    let vols: Vec<f64> = zs.par_iter().map(|&z| volume(z)).collect();
     let Some(first) = vols.iter().position(|&v| v >= opts.min_volume) else {
         return (Vec::new(), vols.iter().copied().fold(0.0, f64::max));
     };
