@@ -19,7 +19,7 @@ use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
     FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup_left_out, part_in_setup_frame,
 };
-use crate::toolpath::undercut::{UndercutOptions, part_columns, plan_undercut};
+use crate::toolpath::undercut::{Undercut, UndercutOptions, part_columns, plan_undercut};
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
 use crate::voxsim::{
@@ -281,7 +281,9 @@ fn write_program(
                 ..UndercutOptions::default()
             };
             let columns = part_columns(part, &job.setup, &stock, &job.tool, uopts.cell);
-            plan_undercut(&columns, &job.setup, &job.tool, &stock, &rest, levels, &uopts, &mut writer)
+            let (setup, tool) = (&job.setup, &job.tool);
+            let u = Undercut { columns: &columns, setup, tool, stock: &stock, rest: &rest, levels };
+            plan_undercut(&u, &uopts, &mut writer)
         }
         None => plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch),
     }

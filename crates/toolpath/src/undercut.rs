@@ -415,20 +415,32 @@ fn beyond(
     points.into_iter().find(|p| outside(p) >= want * (1.0 - 1e-12) && free.segment_inside(v, p, 1e-6))
 }
 
-/// Plans the undercut pass of `tool` (a T-slot cutter) at `levels` ([`undercut_levels`])
-/// in `setup` over `columns` of the part, the `stock` box (setup frame) and the material
-/// `rest` left, into `sink`: tool change, spindle and coolant, the contours, spindle off.
-#[allow(clippy::too_many_arguments)]
+/// An undercut pass: `tool` (a T-slot cutter) at `levels` ([`undercut_levels`]) in `setup`
+/// over `columns` of the part, the `stock` box (setup frame) and the material `rest` left.
+#[derive(Clone, Copy)]
+pub struct Undercut<'a> {
+    /// The part's columns ([`part_columns`]).
+    pub columns: &'a Columns,
+    /// The setup whose frame the pass is planned in.
+    pub setup: &'a Setup,
+    /// The T-slot cutter.
+    pub tool: &'a Tool,
+    /// The stock box in the setup's frame.
+    pub stock: &'a Aabb,
+    /// The material left before the pass.
+    pub rest: &'a dyn RemainingMaterial,
+    /// The disc bottoms, floor up.
+    pub levels: &'a [f64],
+}
+
+/// Plans the undercut pass `u` into `sink`: tool change, spindle and coolant, the contours,
+/// spindle off.
 pub fn plan_undercut<S: MotionSink>(
-    columns: &Columns,
-    setup: &Setup,
-    tool: &Tool,
-    stock: &Aabb,
-    rest: &dyn RemainingMaterial,
-    levels: &[f64],
+    u: &Undercut<'_>,
     opts: &UndercutOptions,
     sink: &mut S,
 ) -> Result<PlanSummary, ToolpathError<S::Error>> {
+    let Undercut { columns, setup, tool, stock, rest, levels } = *u;
     let c = &tool.cutter;
     let (r, t) = (c.radius, c.flute_length);
     let neck_r = c.neck.map_or(c.shank_radius, |n| n.radius);
@@ -508,18 +520,10 @@ pub fn plan_undercut<S: MotionSink>(
     Ok(pass.summary)
 }
 
-/// Whether the undercut pass of `tool` at `levels` cuts anything ([`plan_undercut`] into a
-/// sink that keeps nothing): a level may hold material while no contour around it can be
-/// entered from outside.
-pub fn undercut_cuts(
-    columns: &Columns,
-    setup: &Setup,
-    tool: &Tool,
-    stock: &Aabb,
-    rest: &dyn RemainingMaterial,
-    levels: &[f64],
-    opts: &UndercutOptions,
-) -> bool {
+/// Whether the undercut pass `u` cuts anything ([`plan_undercut`] into a sink that keeps
+/// nothing): a level may hold material while no contour around it can be entered from
+/// outside.
+pub fn undercut_cuts(u: &Undercut<'_>, opts: &UndercutOptions) -> bool {
     struct Discard;
     impl MotionSink for Discard {
         type Error = std::convert::Infallible;
@@ -527,8 +531,7 @@ pub fn undercut_cuts(
             Ok(())
         }
     }
-    plan_undercut(columns, setup, tool, stock, rest, levels, opts, &mut Discard)
-        .is_ok_and(|s| s.lead_in_entries > 0)
+    plan_undercut(u, opts, &mut Discard).is_ok_and(|s| s.lead_in_entries > 0)
 }
 
 #[cfg(test)]

@@ -111,17 +111,15 @@ impl ColumnTests {
     }
 }
 
-/// The distance from the rectangle `[lo, hi]` to the segment `p q` in the plane (0 where
-/// they meet).
-pub(crate) fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
-    // Clip the segment to the rectangle (Liang-Barsky): a piece inside means they meet.
+/// Whether the segment `p q` meets the rectangle `[lo, hi]`: the segment clipped to it
+/// (Liang-Barsky) keeps a piece.
+fn segment_meets_rect(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> bool {
     let d = [q[0] - p[0], q[1] - p[1]];
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for k in 0..2 {
         if d[k] == 0.0 {
             if p[k] < lo[k] || p[k] > hi[k] {
-                t0 = 1.0;
-                t1 = 0.0;
+                return false;
             }
         } else {
             let (a, b) = ((lo[k] - p[k]) / d[k], (hi[k] - p[k]) / d[k]);
@@ -129,9 +127,16 @@ pub(crate) fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: 
             t1 = t1.min(a.max(b));
         }
     }
-    if t0 <= t1 {
+    t0 <= t1
+}
+
+/// The distance from the rectangle `[lo, hi]` to the segment `p q` in the plane (0 where
+/// they meet).
+pub(crate) fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
+    if segment_meets_rect(lo, hi, p, q) {
         return 0.0;
     }
+    let d = [q[0] - p[0], q[1] - p[1]];
     // Apart: the nearest pair has an end of the segment or a corner of the rectangle. The
     // least of the six squared distances, then one square root: the root is monotone, so
     // it is the least of their roots, bit for bit.
@@ -154,24 +159,10 @@ pub(crate) fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: 
 /// [`rect_segment_distance`] as the least of six square roots: its baseline (the same
 /// bits).
 pub(crate) fn rect_segment_distance_roots(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
-    // Clip the segment to the rectangle (Liang-Barsky): a piece inside means they meet.
-    let d = [q[0] - p[0], q[1] - p[1]];
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for k in 0..2 {
-        if d[k] == 0.0 {
-            if p[k] < lo[k] || p[k] > hi[k] {
-                t0 = 1.0;
-                t1 = 0.0;
-            }
-        } else {
-            let (a, b) = ((lo[k] - p[k]) / d[k], (hi[k] - p[k]) / d[k]);
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
-        }
-    }
-    if t0 <= t1 {
+    if segment_meets_rect(lo, hi, p, q) {
         return 0.0;
     }
+    let d = [q[0] - p[0], q[1] - p[1]];
     // Apart: the nearest pair has an end of the segment or a corner of the rectangle.
     let to_rect = |x: [f64; 2]| {
         let dx = (lo[0] - x[0]).max(x[0] - hi[0]).max(0.0);

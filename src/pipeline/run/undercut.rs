@@ -9,7 +9,7 @@ use crate::pipeline::job::{Job, stock_in_setup};
 use crate::pipeline::per_setup::machine_setup;
 use crate::policy::Action;
 use crate::toolpath::VoxelMaterial;
-use crate::toolpath::undercut::{UndercutOptions, part_columns, undercut_cuts, undercut_levels};
+use crate::toolpath::undercut::{Undercut, UndercutOptions, part_columns, undercut_cuts, undercut_levels};
 
 /// The least material one level of an undercut pass is for, as a fraction of the part's
 /// volume: a pass worth a percent of the IoU at least (the T-slot block's wings are 4 %).
@@ -59,9 +59,15 @@ impl MillRun {
                 let columns = part_columns(&self.part, &setup, &stock, &tool.0, uopts.cell);
                 let rest = VoxelMaterial::new(&self.remaining, setup);
                 let (levels, _) = undercut_levels(&columns, &tool.0, &stock, &rest, &uopts);
-                if levels.is_empty()
-                    || !undercut_cuts(&columns, &setup, &tool.0, &stock, &rest, &levels, &uopts)
-                {
+                let pass = Undercut {
+                    columns: &columns,
+                    setup: &setup,
+                    tool: &tool.0,
+                    stock: &stock,
+                    rest: &rest,
+                    levels: &levels,
+                };
+                if levels.is_empty() || !undercut_cuts(&pass, &uopts) {
                     continue;
                 }
                 let action = Action { tool_radius: tool.0.radius(), ..action };

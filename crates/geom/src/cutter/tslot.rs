@@ -1,6 +1,7 @@
 //! The T-slot (disc) cutter.
 
-use super::{EndShape, Solid, Solids};
+use super::flat::Flat;
+use super::{EndShape, Solids};
 
 /// T-slot cutter: a flat-faced disc (the flutes, as thick as the flute length) on a neck
 /// narrower than the disc ([`Neck`](super::Neck), which [`Cutter::validate`](super::Cutter::validate)
@@ -10,20 +11,21 @@ use super::{EndShape, Solid, Solids};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct TSlot;
 
+/// The disc's end is a flat end mill's: the same profile and solid.
 impl EndShape for TSlot {
     fn name(&self) -> &'static str {
         "tslot"
     }
 
-    fn corner_radius(&self, _radius: f64) -> f64 {
-        0.0
+    fn corner_radius(&self, radius: f64) -> f64 {
+        Flat.corner_radius(radius)
     }
 
-    fn profile(&self, radius: f64, _h: f64) -> f64 {
-        radius
+    fn profile(&self, radius: f64, h: f64) -> f64 {
+        Flat.profile(radius, h)
     }
 
     fn solids(&self, radius: f64, flute_length: f64) -> Solids {
-        Solids::new(&[Solid::Cylinder { h0: 0.0, h1: flute_length, r: radius }])
+        Flat.solids(radius, flute_length)
     }
 }
