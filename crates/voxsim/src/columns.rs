@@ -131,15 +131,29 @@ fn segment_meets_rect(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> b
 }
 
 /// The distance from the rectangle `[lo, hi]` to the segment `p q` in the plane (0 where
-/// they meet).
+/// they meet): the least of the six squared distances ([`apart_squared`]), then one square
+/// root; the root is monotone, so it is the least of their roots, bit for bit.
 pub(crate) fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
     if segment_meets_rect(lo, hi, p, q) {
         return 0.0;
     }
+    apart_squared(lo, hi, p, q).into_iter().fold(f64::INFINITY, f64::min).sqrt()
+}
+
+/// [`rect_segment_distance`] as the least of six square roots: its baseline (the same
+/// bits).
+pub(crate) fn rect_segment_distance_roots(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
+    if segment_meets_rect(lo, hi, p, q) {
+        return 0.0;
+    }
+    apart_squared(lo, hi, p, q).into_iter().map(f64::sqrt).fold(f64::INFINITY, f64::min)
+}
+
+/// Where the segment `p q` and the rectangle `[lo, hi]` are apart, the nearest pair has an
+/// end of the segment or a corner of the rectangle: the squared distances from the four
+/// corners to the segment and from its two ends to the rectangle.
+fn apart_squared(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> [f64; 6] {
     let d = [q[0] - p[0], q[1] - p[1]];
-    // Apart: the nearest pair has an end of the segment or a corner of the rectangle. The
-    // least of the six squared distances, then one square root: the root is monotone, so
-    // it is the least of their roots, bit for bit.
     let to_rect = |x: [f64; 2]| {
         let dx = (lo[0] - x[0]).max(x[0] - hi[0]).max(0.0);
         let dy = (lo[1] - x[1]).max(x[1] - hi[1]).max(0.0);
@@ -152,32 +166,7 @@ pub(crate) fn rect_segment_distance(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: 
         let (ex, ey) = (x[0] - p[0] - d[0] * u, x[1] - p[1] - d[1] * u);
         ex * ex + ey * ey
     };
-    let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
-    corners.into_iter().map(to_seg).chain([to_rect(p), to_rect(q)]).fold(f64::INFINITY, f64::min).sqrt()
-}
-
-/// [`rect_segment_distance`] as the least of six square roots: its baseline (the same
-/// bits).
-pub(crate) fn rect_segment_distance_roots(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> f64 {
-    if segment_meets_rect(lo, hi, p, q) {
-        return 0.0;
-    }
-    let d = [q[0] - p[0], q[1] - p[1]];
-    // Apart: the nearest pair has an end of the segment or a corner of the rectangle.
-    let to_rect = |x: [f64; 2]| {
-        let dx = (lo[0] - x[0]).max(x[0] - hi[0]).max(0.0);
-        let dy = (lo[1] - x[1]).max(x[1] - hi[1]).max(0.0);
-        (dx * dx + dy * dy).sqrt()
-    };
-    let dd = d[0] * d[0] + d[1] * d[1];
-    let to_seg = |x: [f64; 2]| {
-        let u =
-            if dd > 0.0 { (((x[0] - p[0]) * d[0] + (x[1] - p[1]) * d[1]) / dd).clamp(0.0, 1.0) } else { 0.0 };
-        let (ex, ey) = (x[0] - p[0] - d[0] * u, x[1] - p[1] - d[1] * u);
-        (ex * ex + ey * ey).sqrt()
-    };
-    let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
-    corners.into_iter().map(to_seg).chain([to_rect(p), to_rect(q)]).fold(f64::INFINITY, f64::min)
+    [to_seg(lo), to_seg([hi[0], lo[1]]), to_seg(hi), to_seg([lo[0], hi[1]]), to_rect(p), to_rect(q)]
 }
 
 #[cfg(test)]
