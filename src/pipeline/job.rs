@@ -8,6 +8,7 @@ use crate::geom::{Aabb, MeshIndex, Point3, Setup, Vector3};
 use crate::policy::{Action, ActionSpace, FinishChoice, SetupFeatures};
 use crate::toolpath::finish::{FinishOptions, RoughedStock};
 use crate::toolpath::library::Cutting;
+use crate::toolpath::undercut::{Columns, UndercutOptions};
 use crate::toolpath::{PlanOptions, Tool, strategies};
 
 /// What one setup is planned with.
@@ -26,9 +27,19 @@ pub(super) struct Job {
     /// A rest-roughing job ([`MillOptions::rest_roughing`]): the 0-based setup it machines
     /// again with a smaller tool; `None` for a setup's own.
     pub(super) rest_of: Option<usize>,
-    /// An undercut pass's levels (its tool a T-slot cutter): planned by
+    /// An undercut pass (its tool a T-slot cutter): planned by
     /// [`plan_undercut`](crate::toolpath::undercut::plan_undercut), not layer by layer.
-    pub(super) undercut: Option<Vec<f64>>,
+    pub(super) undercut: Option<UndercutJob>,
+}
+
+/// What an undercut pass's scan found and its plan reads: the part's columns in the setup's
+/// frame, the levels, and the options they were found with (one computation for the scan
+/// and the program).
+#[derive(Clone)]
+pub(super) struct UndercutJob {
+    pub(super) columns: std::sync::Arc<Columns>,
+    pub(super) levels: Vec<f64>,
+    pub(super) opts: UndercutOptions,
 }
 
 /// What a setup is finished with.

@@ -19,7 +19,7 @@ use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
     FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup_left_out, part_in_setup_frame,
 };
-use crate::toolpath::undercut::{Undercut, UndercutOptions, part_columns, plan_undercut};
+use crate::toolpath::undercut::{Undercut, plan_undercut};
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
 use crate::trace::PathTrace;
 use crate::voxsim::{
@@ -271,19 +271,13 @@ fn write_program(
     }
     let plan = match &job.undercut {
         // An undercut pass: the T-slot cutter's contours at its levels.
-        Some(levels) => {
+        Some(u) => {
             let Some(stock) = job.popts.stock else {
                 return Err(MillError::InvalidOption("an undercut pass needs its stock box".into()));
             };
-            let uopts = UndercutOptions {
-                clearance: job.popts.clearance_height,
-                rapid_feed: job.popts.rapid_feed,
-                ..UndercutOptions::default()
-            };
-            let columns = part_columns(part, &job.setup, &stock, &job.tool, uopts.cell);
-            let (setup, tool) = (&job.setup, &job.tool);
-            let u = Undercut { columns: &columns, setup, tool, stock: &stock, rest: &rest, levels };
-            plan_undercut(&u, &uopts, &mut writer)
+            let (setup, tool, levels) = (&job.setup, &job.tool, &u.levels);
+            let pass = Undercut { columns: &u.columns, setup, tool, stock: &stock, rest: &rest, levels };
+            plan_undercut(&pass, &u.opts, &mut writer)
         }
         None => plan_setup_watched(part, &job.setup, &job.tool, &job.popts, Some(&rest), &mut writer, watch),
     }

@@ -5,7 +5,7 @@
 
 use super::MillRun;
 use crate::pipeline::api::{MillError, Preset, Stage};
-use crate::pipeline::job::{Job, stock_in_setup};
+use crate::pipeline::job::{Job, UndercutJob, stock_in_setup};
 use crate::pipeline::per_setup::machine_setup;
 use crate::policy::Action;
 use crate::toolpath::VoxelMaterial;
@@ -78,7 +78,8 @@ impl MillRun {
                     None => format!("undercut pass of setup {}", k + 1),
                 });
                 job.rest_of = Some(k);
-                job.undercut = Some(levels);
+                job.undercut =
+                    Some(UndercutJob { columns: std::sync::Arc::new(columns), levels, opts: uopts });
                 self.jobs.push(job);
                 let at = self.jobs.len() - 1;
                 let mut times = self.times;
