@@ -7,8 +7,11 @@
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,arch,bracket,bunny
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --mount table|head]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --dump DIR --mount table|head]
 //! ```
+//!
+//! `--dump DIR` writes each part's program and its planar program there
+//! (`PART.gcode`, `PART_planar.gcode`).
 //!
 //! The parts, standing on `z = 0`: the bent arm of `support_free` (radius 6, column 12,
 //! bend 16 through 60°, arm 24), an arch (centreline radius 14, band 6 wide, pillars 10
@@ -46,11 +49,13 @@ fn part(name: &str) -> Result<Mesh, Box<dyn std::error::Error>> {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut options = PrintMeshOptions::default();
     let mut parts = "arm,arch,bracket,bunny".to_string();
+    let mut dump: Option<std::path::PathBuf> = None;
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
         let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;
         match flag.as_str() {
             "--parts" => parts = value,
+            "--dump" => dump = Some(value.into()),
             "--steps" => options.optimisation.steps = value.parse()?,
             "--pretrain" => options.optimisation.pretrain_steps = value.parse()?,
             "--seed" => {
@@ -90,6 +95,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let beads = read_beads(&run.program.text, o.rotary, o.mount, w, o.filament_diameter)?;
         let (_, misses) = overhang_misses(&beads, w, options.optimisation.constants.max_overhang_deg, 0.0);
         let low = misses.iter().filter(|q| q.z < 2.0).count();
+        if let Some(dir) = &dump {
+            std::fs::write(dir.join(format!("{name}.gcode")), &p.text)?;
+            std::fs::write(dir.join(format!("{name}_planar.gcode")), &pp.text)?;
+        }
         println!(
             "| {name} | {} | {:.3} | {:.4} | {} / {} | {:.1} | {:.3} | {:.3} | {:.4} | {} | {:.0} | {:.1} | {:.1} | {:.1} | {:.1} |",
             p.layers,

@@ -2,11 +2,66 @@
 //! program, the print rebuilt from the program text and scored.
 
 use s2g_field::{
-    LayerField, MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions,
+    Bead, LayerField, MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions,
     PrintProgramOptions, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print,
     overhang_misses, planar_support, print_mesh, print_program, read_beads,
 };
 use s2g_geom::{Aabb, Mesh, Point3, Vector3};
+
+/// The platform supports a bead's underside as a printed flat layer of the same
+/// thickness would: for beads tilted 0-50° off vertical at heights up to 2 mm over the
+/// platform, the samples the platform (`z = 0`, nothing printed) supports are those that a
+/// layer of flat beads 0.8 thick and 1 wide with its top at `z = 0` supports (the platform
+/// moved 100 below), wherever the rule's margin exceeds 0.25 (the layer's mid-heights
+/// sample the plane every 0.25). A vertical bead keeps the old rule (`½ t`), a tilted one
+/// is supported higher up, and a bead 2 mm up is not supported at all.
+#[test]
+fn the_platform_supports_as_a_flat_layer_of_beads_would() {
+    let t: f64 = 0.8;
+    // Beads a quarter width apart: their mid-heights sample the plane every 0.25.
+    let layer: Vec<Bead> = (-16..=16)
+        .map(|j| Bead {
+            start: Point3::new(-4.0, 0.25 * j as f64, 0.0),
+            end: Point3::new(4.0, 0.25 * j as f64, 0.0),
+            axis: Vector3::z(),
+            thickness: t,
+        })
+        .collect();
+    let mut tilted_helped = false;
+    for deg in [0.0f64, 10.0, 20.0, 35.0, 50.0] {
+        let (s, c) = deg.to_radians().sin_cos();
+        let axis = Vector3::new(s, 0.0, c);
+        for k in 0..=40 {
+            // The bead's underside centre `h` above the platform, running along y.
+            let h = 0.025 + 0.05 * k as f64;
+            let mid = Point3::new(0.0, 0.0, h) + axis * t;
+            let bead = Bead { start: mid - Vector3::y(), end: mid + Vector3::y(), axis, thickness: t };
+            let (n, alone) = overhang_misses(&[bead], 1.0, 45.0, 0.0);
+            let mut on_layer = layer.clone();
+            on_layer.push(bead);
+            let (_, over) = overhang_misses(&on_layer, 1.0, 45.0, -100.0);
+            // Only the tilted bead's samples can miss on the layer (the layer's own rest
+            // on nothing below z = -100 and are counted too): compare its samples alone.
+            let own = |v: &[Point3]| v.iter().filter(|p| p.z > -0.5 * t).count();
+            assert_eq!(n, 3 * 8);
+            // The rule's slack at the centre (`e = 0`) and the edges (`e = ±1`).
+            let margin = |e: f64| t * c + (0.5 + t) * s - (h + 0.5 * e * s + 0.5 * t);
+            if [-1.0, 0.0, 1.0].iter().all(|&e| margin(e).abs() > 0.25) {
+                assert_eq!(own(&alone), own(&over), "{deg}° at {h}: {alone:?} vs {over:?}");
+            }
+            if deg == 0.0 {
+                assert_eq!(alone.is_empty(), h <= 0.5 * t, "vertical bead at {h}");
+            }
+            if deg >= 20.0 && h > 0.5 * t + 0.05 && alone.is_empty() {
+                tilted_helped = true;
+            }
+            if h >= 2.0 {
+                assert_eq!(alone.len(), n, "{deg}° at {h}");
+            }
+        }
+    }
+    assert!(tilted_helped, "a tilted bead above ½ t is supported");
+}
 
 fn arm() -> Mesh {
     bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12).unwrap()

@@ -9,12 +9,14 @@
 //!   across the nozzle axis, is at most `w/2`, and which lie between the tip and `t` below
 //!   it along the axis (a flat bead under the nozzle, rounded ends).
 //! - **Overhang**: bead samples every `w/4` along each bead, at its centre and both edges
-//!   of its underside. A sample is supported when the platform lies within `½ t` below it,
-//!   or an earlier bead's mid-height point lies below it (`0 < v ≤ ¾ t' + ¼ t` along the
-//!   axis, `t'` that bead's thickness, ideally `½ t'`) within `w/2 + t'·tan α` across the
-//!   axis: the cone of the self-supporting angle `α` below the sample reaches that bead's
-//!   body within its thickness. The overhang fraction is
-//!   the fraction of samples (by bead length) not supported.
+//!   of its underside. A sample is supported when an earlier bead's mid-height point lies
+//!   below it (`0 < v ≤ ¾ t' + ¼ t` along the axis, `t'` that bead's thickness, ideally
+//!   `½ t'`) within `w/2 + t'·tan α` across the axis: the cone of the self-supporting
+//!   angle `α` below the sample reaches that bead's body within its thickness; or when
+//!   the platform supports it as a flat layer of beads of thickness `t` with its top on the
+//!   platform's surface would by the same rule (`platform_supports`: within `½ t` below a vertical bead's
+//!   sample, farther below a tilted one's, whose cone meets the platform sooner). The
+//!   overhang fraction is the fraction of samples (by bead length) not supported.
 
 use std::collections::HashMap;
 
@@ -188,6 +190,20 @@ pub fn overhang_fraction(beads: &[Bead], width: f64, max_overhang_deg: f64, plat
     if total == 0 { 0.0 } else { misses.len() as f64 / total as f64 }
 }
 
+/// Whether the platform (`z = platform`) supports the underside sample `p` of a bead of
+/// thickness `t` along the axis `d`: by the rule of a supporting bead (module docs) applied
+/// to a flat layer of beads of thickness `t` whose top is the platform's surface (their
+/// mid-heights on `z = platform - t/2`), some point of that mid-plane lies below `p` along
+/// `d` by at most `¾ t + ¼ t = t` and within `w/2 + t·tan α` of `p`'s axis, i.e.
+/// `z(p) - platform + t/2 <= t cos ψ + (w/2 + t tan α) sin ψ` with `ψ` the axis's tilt
+/// off `+z`. For a vertical axis this is `z(p) <= platform + t/2` (the rule before it); it
+/// is never stricter than that while `w/2 + t tan α >= t`.
+fn platform_supports(p: &Point3, d: &Vector3, t: f64, width: f64, tan: f64, platform: f64) -> bool {
+    let c = d.z.clamp(0.0, 1.0);
+    let s = (1.0 - c * c).sqrt();
+    p.z - platform + 0.5 * t <= t * c + (0.5 * width + t * tan) * s
+}
+
 /// The bead samples [`overhang_fraction`] checks, and those of them with nothing below
 /// (where the overhang lies), in bead order.
 pub fn overhang_misses(
@@ -219,7 +235,7 @@ pub fn overhang_misses(
         for e in [-0.5, 0.0, 0.5] {
             let p = bottom + s * (e * width);
             total += 1;
-            if p.z <= platform + 0.5 * th {
+            if platform_supports(&p, &d, th, width, tan, platform) {
                 continue;
             }
             let r = (0.5 * width + 3.0 * th * tan.max(1.0)) / cell;
