@@ -462,14 +462,18 @@ fn narrow_slot_block() -> Mesh {
 /// The rest chain goes down the library while material it may reach is left (issue 35): a
 /// slot narrower than the second rest tool stays full with two passes, is cut by the third
 /// tool where a third pass may follow, and with a volume no leftover reaches, no setup
-/// gets a rest pass.
+/// gets a rest pass. With the library less its 2 mm end mill reaching 25 mm (T34), which
+/// in a setup deeper than the 3 mm one reaches is the second rest tool after the 5 mm.
 #[test]
 fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
     let part = narrow_slot_block();
     let slot = 2.6 * 3.0 * 20.0;
-    let two = rest_run(&part, 2, 0.0, None);
-    let three = rest_run(&part, 3, 0.002, None);
-    let capped = rest_run(&part, 3, 1e9, None);
+    let mut lib = MillOptions::default().library().clone();
+    lib.tools.retain(|t| t.cutter.is_t_slot() || t.cutter.neck.is_none_or(|n| n.reach < 25.0));
+    let run = |rest: usize, more: f64| rest_run_opts(&part, rest, more, None, Some(lib.clone()));
+    let two = run(2, 0.0);
+    let three = run(3, 0.002);
+    let capped = run(3, 1e9);
     for m in [&two, &three, &capped] {
         assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
     }
