@@ -259,8 +259,9 @@ impl Tooling {
     /// shorter neck, the one it would take. None where `long` has no neck (a plain end mill
     /// is the stiffest of its width) or no such tool is in the library. A rest pass takes
     /// it where it takes about as much as `long` (`MillRun::worth_a_pass`): the 2 mm end
-    /// mill reaching 25 mm (T34) gives way to the plain 3 mm one beside the L-bracket's
-    /// upright and to the 2 mm one reaching 12 mm in the turned shaft's grooves.
+    /// mill reaching 25 mm (T34) gives way to the plain 3 mm one on the L-bracket and the
+    /// T-slot block, and to the 2 mm one reaching 12 mm in one of the turned shaft's
+    /// setups.
     pub(super) fn stiffer_rest_tool(
         &self,
         radius: f64,
@@ -361,9 +362,8 @@ mod tests {
     /// after the 4 and 5 mm end mills in a stock deeper than the others reach; the stiffer
     /// tool in its place is the plain 3 mm one after the 5 mm (wider) and the 2 mm one
     /// reaching 12 mm after the 4 mm (as wide, a shorter neck). Where the stock is no
-    /// deeper than 12 mm the 12 mm one is the rest tool, and no tool is stiffer than it (the
-    /// plain 2 mm one, as wide, reaches less than its flutes' holder allows but has no
-    /// neck), nor than a plain end mill.
+    /// deeper than 12 mm the 12 mm one is the rest tool, and none is stiffer in the rule's
+    /// sense (the plain 2 mm one is as wide, with no neck), nor than a plain end mill.
     #[test]
     fn a_long_reach_rest_tool_gives_way_to_a_stiffer_one() {
         let opts = MillOptions { preset: Preset::Shop, ..MillOptions::default() };
