@@ -10,9 +10,10 @@ Cutting data per material: a surface speed and a chip load per tooth proportiona
 diameter (within a floor and a ceiling), with axial and radial depth limits in diameters,
 from the usual starting values of carbide tool makers' charts for slotting.
 
-Long-reach end mills (T31-T33) have flutes 1.5 D long, a relieved neck 0.95 D wide up to
-their reach (10, 12 and 16 mm for 1, 2 and 3 mm), then a 4 or 6 mm shank, 10 mm of it out
-of the chuck; their cutting data are conservative: 0.8 times the surface speed, half the
+Long-reach end mills (T31-T34) have flutes 1.5 D long, a relieved neck 0.95 D wide up to
+their reach (10, 12 and 16 mm for 1, 2 and 3 mm, and T34, a 2 mm one to 25 mm, 12.5 D,
+for slots under 4 mm wide and over 16 mm deep, such as example007's 4 mm cross slots 22 mm
+below its top), then a 4 or 6 mm shank, 10 mm of it out of the chuck; their cutting data are conservative: 0.8 times the surface speed, half the
 chip load and half the axial depth of the short tools'.
 
 T-slot cutters (T41-T42, DIN 851 sizes) are discs as thick as their flute length on a
@@ -29,7 +30,7 @@ FLATS = [1, 2, 3, 4, 5, 6, 8, 10, 12]
 BALLS = [1, 2, 3, 4, 6, 8, 10]
 BULLS = [(6, 0.5), (10, 1.0)]
 # Long-reach (necked) flat end mills: diameter, reach (tip to the neck's top), shank.
-LONG = [(1, 10.0, 4.0), (2, 12.0, 4.0), (3, 16.0, 6.0)]
+LONG = [(1, 10.0, 4.0), (2, 12.0, 4.0), (3, 16.0, 6.0), (2, 25.0, 4.0)]
 # T-slot cutters: disc diameter, thickness, neck diameter, reach, shank, teeth.
 TSLOTS = [(21.0, 9.0, 10.0, 30.0, 12.0, 6), (12.5, 6.0, 6.0, 20.0, 10.0, 6)]
 

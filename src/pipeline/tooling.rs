@@ -13,7 +13,7 @@ use crate::toolpath::library::{Cutting, LibraryTool, Material, ToolLibrary};
 use crate::voxsim::{Cutter, ToolTable};
 
 /// The shipped tool library, `assets/tools/default.toml`: flat end mills of 1-12 mm, ball
-/// end mills of 1-10 mm, two bull noses, three long-reach end mills and two T-slot
+/// end mills of 1-10 mm, two bull noses, four long-reach end mills and two T-slot
 /// cutters, with cutting data for aluminium 6061, mild steel, POM and machining wax, on a
 /// generic router.
 pub fn default_tool_library() -> &'static ToolLibrary {
@@ -216,6 +216,17 @@ impl Tooling {
         radius: f64,
         depth: f64,
     ) -> Result<Option<(Tool, Option<Cutting>)>, MillError> {
+        self.ranked_rest_tool(radius, depth, |_| true)
+    }
+
+    /// Of the library's flat end mills at most 0.7 times as wide as one of `radius` that
+    /// `keep` keeps, the one that reaches deepest into a stock `depth` deep ([`rest_tool`](Self::rest_tool)'s rule).
+    fn ranked_rest_tool(
+        &self,
+        radius: f64,
+        depth: f64,
+        keep: impl Fn(&LibraryTool) -> bool,
+    ) -> Result<Option<(Tool, Option<Cutting>)>, MillError> {
         let Self::Library(shop) = self else { return Ok(None) };
         // How deep the stack stays no wider than the flutes (`Cutter::reach`): a long-reach
         // end mill as deep as its neck. Of equals, a plain end mill (stiffer, with the
@@ -225,7 +236,9 @@ impl Tooling {
             .all
             .iter()
             .filter(|t| {
-                matches!(t.cutter.shape, CutterShape::Flat(_)) && t.cutter.radius <= 0.7 * radius + 1e-9
+                matches!(t.cutter.shape, CutterShape::Flat(_))
+                    && t.cutter.radius <= 0.7 * radius + 1e-9
+                    && keep(t)
             })
             .max_by(|a, b| {
                 reach(a)
@@ -238,6 +251,33 @@ impl Tooling {
             return Ok(None);
         };
         shop.planned(t).map(Some)
+    }
+
+    /// A stiffer rest tool than the long-reach end mill `long`, the rest tool after one of
+    /// `radius` in a stock `depth` deep ([`rest_tool`](Self::rest_tool)): of the tools that
+    /// rule considers, reaching less deep than `long`, wider than it or as wide on a
+    /// shorter neck, the one it would take. None where `long` has no neck (a plain end mill
+    /// is the stiffest of its width) or no such tool is in the library. A rest pass takes
+    /// it where it takes about as much as `long` (`MillRun::worth_a_pass`): the 2 mm end
+    /// mill reaching 25 mm (T34) gives way to the plain 3 mm one on the L-bracket and the
+    /// T-slot block, and to the 2 mm one reaching 12 mm in one of the turned shaft's
+    /// setups.
+    pub(super) fn stiffer_rest_tool(
+        &self,
+        radius: f64,
+        depth: f64,
+        long: &Tool,
+    ) -> Result<Option<(Tool, Option<Cutting>)>, MillError> {
+        let c = &long.cutter;
+        if c.neck.is_none() {
+            return Ok(None);
+        }
+        let deep = c.reach().min(depth);
+        self.ranked_rest_tool(radius, depth, |t| {
+            let wider = t.cutter.radius > c.radius;
+            let as_wide_shorter = t.cutter.radius == c.radius && t.cutter.neck.is_some();
+            t.cutter.reach().min(depth) < deep && (wider || as_wide_shorter)
+        })
     }
 
     /// The finishing tool of a setup roughed with `rough` whose stock is `depth` deep along
@@ -311,5 +351,38 @@ pub(super) fn planned_tool(radius: f64, number: u32, diag: f64, feed: f64) -> To
         spindle_rpm: 12000.0,
         number,
         ..Tool::new(Cutter::flat(radius, diag))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With the shipped library, the 2 mm end mill reaching 25 mm (T34) is the rest tool
+    /// after the 4 and 5 mm end mills in a stock deeper than the others reach; the stiffer
+    /// tool in its place is the plain 3 mm one after the 5 mm (wider) and the 2 mm one
+    /// reaching 12 mm after the 4 mm (as wide, a shorter neck). Where the stock is no
+    /// deeper than 12 mm the 12 mm one is the rest tool, and none is stiffer in the rule's
+    /// sense (the plain 2 mm one is as wide, with no neck), nor than a plain end mill.
+    #[test]
+    fn a_long_reach_rest_tool_gives_way_to_a_stiffer_one() {
+        let opts = MillOptions { preset: Preset::Shop, ..MillOptions::default() };
+        let tooling = Tooling::new(&opts, 100.0, 1000.0).expect("the shop tooling");
+        let rest =
+            |radius: f64, depth: f64| tooling.rest_tool(radius, depth).expect("rest").expect("a tool").0;
+        let stiffer = |radius: f64, depth: f64, t: &Tool| {
+            tooling.stiffer_rest_tool(radius, depth, t).expect("stiffer").map(|s| s.0.number)
+        };
+        let after_5 = rest(2.5, 40.0);
+        let after_4 = rest(2.0, 40.0);
+        assert_eq!((after_5.number, after_4.number), (34, 34));
+        assert_eq!(stiffer(2.5, 40.0, &after_5), Some(3));
+        assert_eq!(stiffer(2.0, 40.0, &after_4), Some(32));
+        let shallow = rest(2.0, 10.0);
+        assert_eq!(shallow.number, 32);
+        assert_eq!(stiffer(2.0, 10.0, &shallow), None);
+        let plain = rest(4.0, 40.0);
+        assert!(plain.cutter.neck.is_none());
+        assert_eq!(stiffer(4.0, 40.0, &plain), None);
     }
 }

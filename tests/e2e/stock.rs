@@ -462,14 +462,18 @@ fn narrow_slot_block() -> Mesh {
 /// The rest chain goes down the library while material it may reach is left (issue 35): a
 /// slot narrower than the second rest tool stays full with two passes, is cut by the third
 /// tool where a third pass may follow, and with a volume no leftover reaches, no setup
-/// gets a rest pass.
+/// gets a rest pass. With the library less its 2 mm end mill reaching 25 mm (T34), which
+/// in a setup deeper than the 3 mm one reaches is the second rest tool after the 5 mm.
 #[test]
 fn a_slot_narrower_than_the_second_rest_tool_is_cut_by_a_third() {
     let part = narrow_slot_block();
     let slot = 2.6 * 3.0 * 20.0;
-    let two = rest_run(&part, 2, 0.0, None);
-    let three = rest_run(&part, 3, 0.002, None);
-    let capped = rest_run(&part, 3, 1e9, None);
+    let mut lib = MillOptions::default().library().clone();
+    lib.tools.retain(|t| t.cutter.is_t_slot() || t.cutter.neck.is_none_or(|n| n.reach < 25.0));
+    let run = |rest: usize, more: f64| rest_run_opts(&part, rest, more, None, Some(lib.clone()));
+    let two = run(2, 0.0);
+    let three = run(3, 0.002);
+    let capped = run(3, 1e9);
     for m in [&two, &three, &capped] {
         assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
     }
@@ -714,4 +718,36 @@ fn a_t_slot_cutter_takes_the_wings_from_the_side() {
         without.metrics.iou,
         with.metrics.iou
     );
+}
+
+/// A slot deeper than the plain 3 mm end mill reaches (example007's cross slots, 4 mm wide
+/// and 22 mm below its top): 4 x 12 mm, 24 mm deep in a 30 x 20 x 30 mm block, open only
+/// from above. The 3 mm end mill's holder stops it about 18 mm down, the 2 mm one reaching
+/// 12 mm (T32) shallower; without the 2 mm end mill reaching 25 mm (T34) in the library the
+/// slot's lowest 6 mm (288 mm³) stay. With it, the rest rule takes it (of the tools after
+/// the 5 mm one it reaches deepest, and the stiffer 3 mm one takes less), and more than half
+/// of that goes, with no gouge, rapid through material or holder collision (its neck and
+/// shank are simulated).
+#[test]
+fn a_slot_deeper_than_the_3_mm_end_mill_reaches_is_cut_by_the_25_mm_long_reach_one() {
+    let part = pocketed_block([30., 20., 30.], [13., 17., 4., 16.], 6.0);
+    let reaches_25 = |t: &shape2gcode::toolpath::library::LibraryTool| {
+        !t.cutter.is_t_slot() && t.cutter.neck.is_some_and(|n| n.reach >= 25.0)
+    };
+    let run = |long: bool| {
+        let mut lib = MillOptions::default().library().clone();
+        assert!(lib.tools.iter().any(reaches_25), "a long-reach end mill to 25 mm");
+        if !long {
+            lib.tools.retain(|t| !reaches_25(t));
+        }
+        rest_run_with(&part, 3, MillOptions::default().rest_continue, Some(lib))
+    };
+    let (with, without) = (run(true), run(false));
+    for m in [&with, &without] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    let tools = with.setups.iter().map(|s| (s.rest_of, s.tool.number)).collect::<Vec<_>>();
+    assert!(with.setups.iter().any(|s| s.rest_of.is_some() && s.tool.number == 34), "{tools:?}");
+    rest_took(&with, &without, 4.0 * 12.0 * 6.0, 0.5);
 }

@@ -343,17 +343,47 @@ impl MillRun {
         tried: &mut usize,
         finisher: Option<&Tool>,
     ) -> Result<Option<RestTool>, MillError> {
+        let mut bound = wider.radius();
         while let Some(t) = candidate {
             if *tried >= self.opts.rest_roughing {
                 break;
             }
             *tried += 1;
-            if self.reachable_left(remaining, scope, &t.0, wider, finisher) >= self.rest_volume() {
-                return Ok(Some(t));
+            let left = self.reachable_left(remaining, scope, &t.0, wider, finisher);
+            if left >= self.rest_volume() {
+                return Ok(Some(
+                    self.stiffer_if_as_good(remaining, k, scope, [wider, &t.0], bound, left, finisher)?
+                        .unwrap_or(t),
+                ));
             }
-            candidate = self.smaller_tool(k, t.0.radius())?;
+            bound = t.0.radius();
+            candidate = self.smaller_tool(k, bound)?;
         }
         Ok(None)
+    }
+
+    /// Where the rest tool `long` (after one of `bound` radius), a long-reach end mill, is
+    /// for `left` of the material left after `wider`, the stiffer tool the rest rule would
+    /// take in its place (`Tooling::stiffer_rest_tool`: wider, or as wide on a shorter neck,
+    /// reaching less deep) if that one is for as much less at most
+    /// [`rest_volume`](Self::rest_volume): the extra reach buys nothing there, and the
+    /// stiffer tool cuts faster (or the wider one leaves less).
+    #[allow(clippy::too_many_arguments)]
+    fn stiffer_if_as_good(
+        &self,
+        remaining: &VoxelGrid,
+        k: usize,
+        scope: &RestScope,
+        [wider, long]: [&Tool; 2],
+        bound: f64,
+        left: f64,
+        finisher: Option<&Tool>,
+    ) -> Result<Option<RestTool>, MillError> {
+        let depth = stock_in_setup(&self.stock, &self.orientation.setups[k]).extent().z;
+        let Some(stiff) = self.tooling.stiffer_rest_tool(bound, depth, long)? else { return Ok(None) };
+        let theirs = self.reachable_left(remaining, scope, &stiff.0, wider, finisher);
+        let worth = self.rest_volume();
+        Ok((theirs >= worth && theirs + worth > left).then_some(stiff))
     }
 
     /// The rest rule's verdict on setup `k` (0-based), just roughed by its own job, the

@@ -28,15 +28,27 @@ fn the_default_library_has_what_the_issue_asks_for() {
     assert_eq!((flats.first(), flats.last()), (Some(&1.0), Some(&12.0)), "{flats:?}");
     assert_eq!((balls.first(), balls.last()), (Some(&1.0), Some(&10.0)), "{balls:?}");
     assert!(bulls.len() >= 2, "{bulls:?}");
-    // Long-reach end mills of 1, 2 and 3 mm: necks under the flutes, reaching past them
-    // and, with the shank wider than the flutes, as far as the tool reaches.
+    // Long-reach end mills of 1, 2, 3 and 2 mm: necks under the flutes, reaching past them
+    // and, with the shank wider than the flutes, as far as the tool reaches; the second
+    // 2 mm one (at most 0.7 of the 4 mm end mill, the rest tool's step) 25 mm, past every
+    // other end mill of at most 0.7 of 4 or 5 mm (a 4 mm slot 22 mm deep, example007's).
     let long: Vec<_> = lib
         .tools
         .iter()
         .filter(|t| !t.cutter.is_t_slot())
         .filter_map(|t| t.cutter.neck.map(|n| (t, n)))
         .collect();
-    assert_eq!(long.iter().map(|(t, _)| t.cutter.diameter()).collect::<Vec<_>>(), [1.0, 2.0, 3.0]);
+    assert_eq!(long.iter().map(|(t, _)| t.cutter.diameter()).collect::<Vec<_>>(), [1.0, 2.0, 3.0, 2.0]);
+    let deep = |w: f64| {
+        lib.tools
+            .iter()
+            .filter(|t| {
+                t.cutter.radius <= 0.7 * w / 2.0 + 1e-9 && matches!(t.cutter.shape, CutterShape::Flat(_))
+            })
+            .map(|t| t.cutter.reach())
+            .fold(0.0, f64::max)
+    };
+    assert!(deep(4.0) >= 25.0 && deep(5.0) >= 25.0, "{} {}", deep(4.0), deep(5.0));
     for (t, n) in &long {
         t.cutter.validate().expect("a valid long-reach cutter");
         assert!(n.radius < t.cutter.radius && n.reach >= 3.0 * t.cutter.flute_length, "T{}: {n:?}", t.number);
