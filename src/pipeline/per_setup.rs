@@ -12,8 +12,8 @@ use super::job::Job;
 use super::pipe::{ChunkWriter, chunk_channel};
 use super::rest_finish::Unfinished;
 use crate::gcode::{
-    Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, Tee, ToolChange,
-    WriterOptions, parse_reader,
+    Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, SinkThread, Tee,
+    ToolChange, WriterOptions, parse_reader,
 };
 use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
@@ -213,6 +213,9 @@ pub(super) fn machine_setup(
     if let Some(err) = summary.errors.first() {
         return Err(MillError::program(i + 1, "re-reading the program", err.clone()));
     }
+    // The height field's thread has the whole program once it has swept its last batch.
+    let surface = surface.map(SinkThread::join).transpose();
+    let surface = surface.map_err(|e| MillError::program(i + 1, "re-reading the program", e))?;
     // Flushes the simulator, so its report is complete for this setup.
     let remaining = ctx.excess()?;
     let sim = ctx.sim.borrow();
@@ -373,16 +376,23 @@ fn prepare_finishing(
                     .then_some(0.75 * stepover),
                 ..HeightFieldOptions::default()
             };
-            watcher.surface = Some(
-                HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
-                    .map_err(sim_error)?,
-            );
+            let mut field = HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
+                .map_err(sim_error)?;
+            // Swept on a thread of its own, beside the simulator, every move there: handing
+            // each long finishing move to rayon from the parser's thread cost a context
+            // switch or two per move.
+            field.set_parallel_columns(usize::MAX);
+            watcher.surface = Some(SinkThread::spawn(field, SURFACE_BATCH, SURFACE_BATCHES));
             let rest = Unfinished::new(ctx.part, ctx.jobs, i)?;
             Some(Finishing { opts: job.finish_options(f, [lo.z, hi.z]), index, rest, stepover })
         }
         None => None,
     })
 }
+
+/// Motions per batch handed to the height field's thread, and batches waiting at most.
+const SURFACE_BATCH: usize = 1024;
+const SURFACE_BATCHES: usize = 8;
 
 /// A setup's finishing, prepared ([`prepare_finishing`]).
 pub(super) struct Finishing {
@@ -554,8 +564,9 @@ pub(super) struct Watcher<'a> {
     pub(super) tool_changes: usize,
     /// The clock's seconds at the finishing tool change (0 without a clock).
     pub(super) split_s: Option<f64>,
-    /// The height field the finishing moves cut, where the setup is finished.
-    pub(super) surface: Option<HeightField>,
+    /// The height field the finishing moves cut, where the setup is finished, fed on its
+    /// own thread.
+    pub(super) surface: Option<SinkThread<HeightField>>,
 }
 
 /// What a [`Watcher`] reports progress with.
@@ -619,7 +630,7 @@ impl MotionSink for Watcher<'_> {
             && let Some(field) = &mut self.surface
             && !matches!(m, Motion::Setup { .. })
         {
-            field.motion(m)?;
+            let Ok(()) = field.motion(m);
         }
         if let Some(clock) = &mut self.clock {
             let Ok(()) = clock.motion(m);
