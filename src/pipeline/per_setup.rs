@@ -17,7 +17,8 @@ use crate::gcode::{
 };
 use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
-    FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup_left_out, part_in_setup_frame,
+    FinishOptions, FinishPaths, FinishSummary, KeepPoint, LeftOut, finish_paths, finish_setup_paths,
+    part_in_setup_frame,
 };
 use crate::toolpath::undercut::{Undercut, plan_undercut};
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
@@ -165,9 +166,13 @@ pub(super) fn machine_setup(
             }) as Box<dyn FnMut() + '_>
         });
         let (watch, finishing) = (&watch, &finishing);
+        // The finishing's passes are planned from the start, beside the roughing.
+        let early =
+            finishing.as_ref().map(|_| scope.spawn(move || plan_finishing_aside(job, finishing.as_ref(), i)));
         let planner = scope.spawn(move || {
             let writer = GcodeWriter::new(out, dialect, wopts);
-            write_program(part, job, remaining, finishing.as_ref(), writer, watch, verdict, i)
+            let fin = (finishing.as_ref(), early);
+            write_program(part, job, remaining, fin, writer, watch, verdict, i)
         });
         let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
         // A planner still waiting at a checkpoint (the program ended before it) is told no.
@@ -259,7 +264,7 @@ fn write_program(
     part: &Mesh,
     job: &Job,
     remaining: &VoxelGrid,
-    finishing: Option<&Finishing>,
+    (finishing, early): (Option<&Finishing>, Option<EarlyFinish<'_>>),
     mut writer: GcodeWriter<ChunkWriter>,
     watch: &PlanProgress,
     verdict: Option<std::sync::mpsc::Receiver<bool>>,
@@ -287,7 +292,16 @@ fn write_program(
     .map_err(|source| MillError::Plan { setup: i + 1, source })?;
     // The finishing follows the roughing in the same program.
     let finished = match finish_follows(&mut writer, verdict, i)? {
-        true => emit_finishing(job, finishing, &mut writer, i)?,
+        true => {
+            // Waiting for the passes planned beside the roughing counts as planning.
+            let planned = match early {
+                Some(h) => h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))?,
+                None => plan_finishing(job, finishing, i)?,
+            };
+            emit_finishing(job, finishing, planned, &mut writer, i)?
+        }
+        // Passes planned for a finishing that does not follow are dropped (the scope
+        // waits for them).
         false => None,
     };
     writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
@@ -295,6 +309,9 @@ fn write_program(
         writer.into_inner().finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
     Ok(((plan, finished), text, t.elapsed().saturating_sub(blocked)))
 }
+
+/// The thread planning a setup's finishing passes beside its roughing ([`plan_finishing_aside`]).
+type EarlyFinish<'scope> = std::thread::ScopedJoinHandle<'scope, Result<Option<FinishPaths>, MillError>>;
 
 /// A setup's plans (roughing, finishing), its text where kept, and the planning time.
 type Planned = ((PlanSummary, Option<(FinishSummary, LeftOut)>), Vec<u8>, std::time::Duration);
@@ -406,13 +423,13 @@ pub(super) struct Finishing {
     stepover: f64,
 }
 
-/// The finishing of setup `i` (0-based) into `writer`, after its roughing.
-fn emit_finishing<W: std::io::Write>(
+/// The passes of setup `i`'s (0-based) finishing, planned ([`finish_paths`]); `None` for
+/// a setup roughed only.
+fn plan_finishing(
     job: &Job,
     finishing: Option<&Finishing>,
-    writer: &mut GcodeWriter<W>,
     i: usize,
-) -> Result<Option<(FinishSummary, LeftOut)>, MillError> {
+) -> Result<Option<FinishPaths>, MillError> {
     let (Some(f), Some(fin)) = (&job.finish, finishing) else {
         return Ok(None);
     };
@@ -425,7 +442,46 @@ fn emit_finishing<W: std::io::Write>(
         (!sculpted || sculpted_contact(index, tip, radius)) && rest.is_none_or(|r| r.keep(tip))
     };
     let keep = (sculpted || rest.is_some()).then_some(&both as &dyn KeepPoint);
-    finish_setup_left_out(&fin.index, &job.setup, &f.tool, &*strategy, &fin.opts, keep, writer)
+    finish_paths(&fin.index, &f.tool, &*strategy, &fin.opts, keep)
+        .map(Some)
+        .map_err(|source| MillError::Plan { setup: i + 1, source: source.widen() })
+}
+
+/// [`plan_finishing`] on a rayon pool of its own, as many threads as the global one: run
+/// beside the roughing's planner and simulator (which use the global pool), its work and
+/// theirs share the cores by the system's scheduling instead of queueing behind each
+/// other's jobs. On the global pool where no pool can be built.
+fn plan_finishing_aside(
+    job: &Job,
+    finishing: Option<&Finishing>,
+    i: usize,
+) -> Result<Option<FinishPaths>, MillError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .thread_name(|k| format!("s2g-finish-{k}"))
+        .build();
+    match pool {
+        Ok(pool) => pool.install(|| plan_finishing(job, finishing, i)),
+        Err(_) => plan_finishing(job, finishing, i),
+    }
+}
+
+/// The finishing of setup `i` (0-based) into `writer`, after its roughing: the passes
+/// `planned` ahead ([`plan_finishing_aside`], on its thread, while the roughing was written
+/// and simulated), written ([`finish_setup_paths`]): the motions `finish_setup_left_out`
+/// writes.
+fn emit_finishing<W: std::io::Write>(
+    job: &Job,
+    finishing: Option<&Finishing>,
+    planned: Option<FinishPaths>,
+    writer: &mut GcodeWriter<W>,
+    i: usize,
+) -> Result<Option<(FinishSummary, LeftOut)>, MillError> {
+    let (Some(f), Some(fin), Some(planned)) = (&job.finish, finishing, planned) else {
+        return Ok(None);
+    };
+    let name = f.choice.strategy.strategy();
+    finish_setup_paths(&fin.index, &job.setup, &f.tool, name.name(), &fin.opts, planned, writer)
         .map(Some)
         .map_err(|source| MillError::Plan { setup: i + 1, source })
 }

@@ -16,8 +16,8 @@ mod scallop;
 mod strategy;
 
 pub use emit::{
-    FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup, finish_setup_keep, finish_setup_left_out,
-    finish_setup_opt, part_in_setup_frame,
+    FinishOptions, FinishPaths, FinishSummary, KeepPoint, LeftOut, finish_paths, finish_setup,
+    finish_setup_keep, finish_setup_left_out, finish_setup_opt, finish_setup_paths, part_in_setup_frame,
 };
 pub use guard::RoughedStock;
 pub use parallel::{
