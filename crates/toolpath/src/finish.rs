@@ -39,4 +39,7 @@ pub enum FinishError {
     /// A drop-cutter or waterline query refused its arguments.
     #[error("finishing geometry query failed")]
     Geometry(#[source] s2g_geom::GeomError),
+    /// The planning was stopped ([`FinishContext::cancel`]).
+    #[error("finishing planning was cancelled")]
+    Cancelled,
 }

@@ -11,11 +11,11 @@ use common::sphere;
 use rayon::prelude::*;
 use s2g_gcode::MotionRecorder;
 use s2g_geom::{Aabb, Holder, Mesh, MeshIndex, Point3, Setup, Similarity3, Vector3};
-use s2g_toolpath::Tool;
 use s2g_toolpath::finish::{
-    Crossed, FinishOptions, FinishingStrategy, KeepPoint, RoughedStock, finish_paths, finish_setup_left_out,
-    finish_setup_paths,
+    Crossed, FinishError, FinishOptions, FinishingStrategy, KeepPoint, RoughedStock, finish_paths,
+    finish_setup_left_out, finish_setup_paths,
 };
+use s2g_toolpath::{Tool, ToolpathError};
 use s2g_voxsim::Cutter;
 
 /// A 60 x 60 x 10 plate with a 24 x 24 boss from 10 to 50 on it, a wavy dome on the boss.
@@ -68,7 +68,8 @@ fn finishing_planned_ahead_on_its_own_pool_writes_the_motions_of_finishing_in_on
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         // Planned on another thread while this one keeps the global pool busy.
         let planned = std::thread::scope(|s| {
-            let ahead = s.spawn(|| pool.install(|| finish_paths(&index, &ball, &strategy, &opts, keep)));
+            let ahead =
+                s.spawn(|| pool.install(|| finish_paths(&index, &ball, &strategy, &opts, keep, None)));
             let busy: f64 = (0..200_000u32).into_par_iter().map(|k| f64::from(k).sqrt()).sum();
             assert!(busy > 0.0);
             ahead.join().unwrap().unwrap()
@@ -82,5 +83,12 @@ fn finishing_planned_ahead_on_its_own_pool_writes_the_motions_of_finishing_in_on
         assert_eq!(left2, left);
         assert_eq!(later.motions.len(), whole.motions.len(), "{threads} threads");
         assert!(later.motions == whole.motions, "{threads} threads: the motions differ");
+    }
+    // Stopped (the pipeline's verdict called the finishing off), the planning fails as
+    // cancelled instead of running on.
+    let stop = std::sync::atomic::AtomicBool::new(true);
+    match finish_paths(&index, &ball, &strategy, &opts, keep, Some(&stop)) {
+        Err(ToolpathError::Cancelled | ToolpathError::Finish(FinishError::Cancelled)) => {}
+        other => panic!("expected a cancelled planning, got {:?}", other.map(|p| p.paths.len())),
     }
 }

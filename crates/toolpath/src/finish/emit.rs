@@ -230,7 +230,7 @@ pub fn finish_setup_left_out<S: MotionSink>(
     keep: Option<&dyn KeepPoint>,
     sink: &mut S,
 ) -> Result<(FinishSummary, LeftOut), ToolpathError<S::Error>> {
-    let planned = finish_paths(part, tool, strategy, opts, keep).map_err(ToolpathError::widen)?;
+    let planned = finish_paths(part, tool, strategy, opts, keep, None).map_err(ToolpathError::widen)?;
     finish_setup_paths(part, setup, tool, strategy.name(), opts, planned, sink)
 }
 
@@ -250,13 +250,16 @@ pub struct FinishPaths {
 /// fill checks, filters and checks), which a caller may run on another thread while the
 /// roughing before it is written and simulated; [`finish_setup_paths`] then writes them,
 /// the same motions as `finish_setup_left_out`. Its errors are those of
-/// `finish_setup_left_out` but the sink's.
+/// `finish_setup_left_out` but the sink's, and [`ToolpathError::Cancelled`] (or the
+/// strategy's [`FinishError::Cancelled`](super::FinishError::Cancelled)) once `cancel` is
+/// set.
 pub fn finish_paths(
     part: &MeshIndex,
     tool: &Tool,
     strategy: &dyn FinishingStrategy,
     opts: &FinishOptions,
     keep: Option<&dyn KeepPoint>,
+    cancel: Option<&std::sync::atomic::AtomicBool>,
 ) -> Result<FinishPaths, ToolpathError<std::convert::Infallible>> {
     tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     check(opts)?;
@@ -273,8 +276,12 @@ pub fn finish_paths(
         max,
         z_range: [floor, hi[2]],
         scallop: opts.scallop,
+        cancel,
     };
     let paths = strategy.paths(&ctx).map_err(ToolpathError::Finish)?;
+    if ctx.cancelled() {
+        return Err(ToolpathError::Cancelled);
+    }
     let paths = match keep {
         // Grown by one and a half flat stepovers, so that the edge of what is left out is
         // cut by the passes on both sides of it.
