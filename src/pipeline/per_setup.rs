@@ -157,8 +157,7 @@ pub(super) fn machine_setup(
         None => (None, None),
     };
     // Set once the finishing planned beside the roughing is not wanted.
-    let stop_early = AtomicBool::new(false);
-    let certain = verdict.is_none();
+    let (stop_early, certain) = (AtomicBool::new(false), verdict.is_none());
     let (planned, parsed, waited) = std::thread::scope(|scope| {
         let (mut out, mut reader) = chunk_channel(keep);
         out.copy = copy;
@@ -170,15 +169,7 @@ pub(super) fn machine_setup(
             }) as Box<dyn FnMut() + '_>
         });
         let (watch, finishing) = (&watch, &finishing);
-        // The finishing's passes are planned from the start, beside the roughing.
-        let stop_early = &stop_early;
-        // Only a finishing sure to follow: one a verdict may call off (a rest pass then
-        // carries it, planned anew) would cost its planning for nothing, and planned beside
-        // the roughing most of it is done before the verdict (1.5-2 s of CPU on the turned
-        // shaft).
-        let early = finishing.as_ref().filter(|_| certain).map(|_| {
-            (scope.spawn(move || plan_finishing_aside(job, finishing.as_ref(), i, stop_early)), stop_early)
-        });
+        let early = plan_beside(scope, job, finishing, i, certain, &stop_early);
         let planner = scope.spawn(move || {
             let writer = GcodeWriter::new(out, dialect, wopts);
             let fin = (finishing.as_ref(), early);
@@ -197,7 +188,6 @@ pub(super) fn machine_setup(
         drop(reader);
         watch.cancel();
         let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
-        // Passes still being planned for a finishing that did not follow stop.
         stop_early.store(true, Ordering::Relaxed);
         (planned, parsed, waited)
     });
@@ -230,7 +220,6 @@ pub(super) fn machine_setup(
     if let Some(err) = summary.errors.first() {
         return Err(MillError::program(i + 1, "re-reading the program", err.clone()));
     }
-    // The height field's thread has the whole program once it has swept its last batch.
     let surface = surface.map(SinkThread::join).transpose();
     let surface = surface.map_err(|e| MillError::program(i + 1, "re-reading the program", e))?;
     // Flushes the simulator, so its report is complete for this setup.
@@ -327,6 +316,25 @@ fn write_program(
 }
 
 /// The thread planning a setup's finishing passes beside its roughing ([`plan_finishing_aside`]).
+/// The finishing's passes of setup `i`, where it has them and is `certain` to follow its
+/// roughing, planned from the setup's start beside the roughing ([`plan_finishing_aside`]),
+/// stopped by `stop`. Only a finishing sure to follow: one a verdict may call off (a rest
+/// pass then carries it, planned anew) would cost its planning for nothing, and planned
+/// beside the roughing most of it is done before the verdict (1.5-2 s of CPU on the turned
+/// shaft). `machine_setup` sets `stop` once its planner is done, and joins the height
+/// field's thread ([`SinkThread::join`]) once the program is parsed.
+fn plan_beside<'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    job: &'scope Job,
+    finishing: &'scope Option<Finishing>,
+    i: usize,
+    certain: bool,
+    stop: &'scope AtomicBool,
+) -> Option<EarlyFinish<'scope>> {
+    let fin = finishing.as_ref().filter(|_| certain)?;
+    Some((scope.spawn(move || plan_finishing_aside(job, Some(fin), i, stop)), stop))
+}
+
 /// With the flag that stops it.
 type EarlyFinish<'scope> =
     (std::thread::ScopedJoinHandle<'scope, Result<Option<FinishPaths>, MillError>>, &'scope AtomicBool);
