@@ -16,14 +16,25 @@
 //! above them, and their closest point where they do not count. Both give the same
 //! deviation (asserted here and in `crates/voxsim/tests/surface.rs`).
 //!
+//! Group `height_field_beside_simulator`: the pipeline's two sinks of a finishing program,
+//! the voxel simulator and the finished surface's height field (columns 0.05 mm apart,
+//! passes marked), fed the crossed raster above: `direct`, the baseline, feeds both from
+//! one thread, each move of the field over 4096 columns swept on rayon's threads (a hand-off
+//! per move); `own_thread` feeds the simulator there and the field on a thread of its own
+//! (`s2g_gcode::SinkThread`, batches of 1024 motions), every move swept on that thread
+//! (`HeightField::set_parallel_columns`). Both leave the same field bit for bit (asserted
+//! here and in `crates/voxsim/tests/surface_sweep.rs`).
+//!
 //! Run: `cargo bench --bench height_field`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use shape2gcode::gcode::{Motion, MotionSink};
-use shape2gcode::geom::{DropCutter, Mesh, MeshIndex, Point3, Similarity3, Vector3, load_mesh};
+use shape2gcode::gcode::{Motion, MotionSink, SinkThread};
+use shape2gcode::geom::{
+    Aabb, DropCutter, GridSpec, Mesh, MeshIndex, Point3, Similarity3, Vector3, VoxelGrid, load_mesh,
+};
 use shape2gcode::voxsim::{
-    Cutter, DeviationOptions, HeightField, HeightFieldOptions, ToolTable, surface_deviation_opt,
-    surface_deviation_reference,
+    Cutter, DeviationOptions, HeightField, HeightFieldOptions, SimOptions, Simulator, ToolTable,
+    surface_deviation_opt, surface_deviation_reference,
 };
 
 fn surface(x: f64, y: f64) -> f64 {
@@ -169,5 +180,44 @@ fn deviation(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, deviation);
+/// The simulator and the field fed `ms`, the field on its own thread with `own_thread`;
+/// the field.
+fn beside_simulator(ms: &[Motion<'_>], own_thread: bool) -> HeightField {
+    let ball = Cutter::ball(5.0, 30.0);
+    let stock = Aabb::new(Point3::new(-6.0, -6.0, -6.0), Point3::new(30.0, 30.0, 12.0));
+    let spec = GridSpec::new(&stock, [144, 144, 72]).expect("grid");
+    let mut sim = Simulator::new(VoxelGrid::full(spec), ToolTable::single(ball), SimOptions::default())
+        .expect("simulator");
+    let o = HeightFieldOptions { spacing: 0.05, pass_width: Some(0.45), ..Default::default() };
+    let mut f = HeightField::new_opt([-6.0, -6.0], [30.0, 30.0], ToolTable::single(ball), &o).expect("field");
+    if own_thread {
+        f.set_parallel_columns(usize::MAX);
+        let mut fed = SinkThread::spawn(f, 1024, 8);
+        for m in ms {
+            let Ok(()) = fed.motion(m);
+            sim.motion(m).expect("motion");
+        }
+        sim.finish().expect("simulation");
+        return fed.join().expect("field");
+    }
+    for m in ms {
+        f.motion(m).expect("motion");
+        sim.motion(m).expect("motion");
+    }
+    sim.finish().expect("simulation");
+    f
+}
+
+fn feed(c: &mut Criterion) {
+    let ms = program();
+    let want = beside_simulator(&ms, false);
+    assert_eq!(beside_simulator(&ms, true).columns(), want.columns(), "the fields must be the same");
+    let mut g = c.benchmark_group("height_field_beside_simulator");
+    g.sample_size(10);
+    g.bench_function("direct", |b| b.iter(|| beside_simulator(&ms, false)));
+    g.bench_function("own_thread", |b| b.iter(|| beside_simulator(&ms, true)));
+    g.finish();
+}
+
+criterion_group!(benches, bench, deviation, feed);
 criterion_main!(benches);

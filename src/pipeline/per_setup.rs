@@ -4,6 +4,7 @@
 use std::cell::RefCell;
 use std::collections::BTreeSet;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use super::api::{MillError, SetupFinish, SetupProgram, Stage, StageSeconds};
@@ -12,12 +13,13 @@ use super::job::Job;
 use super::pipe::{ChunkWriter, chunk_channel};
 use super::rest_finish::Unfinished;
 use crate::gcode::{
-    Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, Tee, ToolChange,
-    WriterOptions, parse_reader,
+    Dialect, GcodeWriter, MachineProfile, MachineTime, Motion, MotionSink, ParseOptions, SinkThread, Tee,
+    ToolChange, WriterOptions, parse_reader,
 };
 use crate::geom::{Mesh, MeshIndex, Point3, Setup, VoxelGrid};
 use crate::toolpath::finish::{
-    FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup_left_out, part_in_setup_frame,
+    FinishOptions, FinishPaths, FinishSummary, KeepPoint, LeftOut, finish_paths, finish_setup_paths,
+    part_in_setup_frame,
 };
 use crate::toolpath::undercut::{Undercut, plan_undercut};
 use crate::toolpath::{PlanProgress, PlanSummary, VoxelMaterial, plan_setup_watched};
@@ -154,6 +156,8 @@ pub(super) fn machine_setup(
         }
         None => (None, None),
     };
+    // Set once the finishing planned beside the roughing is not wanted.
+    let (stop_early, certain) = (AtomicBool::new(false), verdict.is_none());
     let (planned, parsed, waited) = std::thread::scope(|scope| {
         let (mut out, mut reader) = chunk_channel(keep);
         out.copy = copy;
@@ -165,9 +169,11 @@ pub(super) fn machine_setup(
             }) as Box<dyn FnMut() + '_>
         });
         let (watch, finishing) = (&watch, &finishing);
+        let early = plan_beside(scope, job, finishing, i, certain, &stop_early);
         let planner = scope.spawn(move || {
             let writer = GcodeWriter::new(out, dialect, wopts);
-            write_program(part, job, remaining, finishing.as_ref(), writer, watch, verdict, i)
+            let fin = (finishing.as_ref(), early);
+            write_program(part, job, remaining, fin, writer, watch, verdict, i)
         });
         let parsed = parse_reader(&mut reader, &ParseOptions::default(), &mut tee);
         // A planner still waiting at a checkpoint (the program ended before it) is told no.
@@ -182,6 +188,7 @@ pub(super) fn machine_setup(
         drop(reader);
         watch.cancel();
         let planned = planner.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        stop_early.store(true, Ordering::Relaxed);
         (planned, parsed, waited)
     });
     let mut clock = tee.first.clock.take();
@@ -213,6 +220,8 @@ pub(super) fn machine_setup(
     if let Some(err) = summary.errors.first() {
         return Err(MillError::program(i + 1, "re-reading the program", err.clone()));
     }
+    let surface = surface.map(SinkThread::join).transpose();
+    let surface = surface.map_err(|e| MillError::program(i + 1, "re-reading the program", e))?;
     // Flushes the simulator, so its report is complete for this setup.
     let remaining = ctx.excess()?;
     let sim = ctx.sim.borrow();
@@ -256,7 +265,7 @@ fn write_program(
     part: &Mesh,
     job: &Job,
     remaining: &VoxelGrid,
-    finishing: Option<&Finishing>,
+    (finishing, early): (Option<&Finishing>, Option<EarlyFinish<'_>>),
     mut writer: GcodeWriter<ChunkWriter>,
     watch: &PlanProgress,
     verdict: Option<std::sync::mpsc::Receiver<bool>>,
@@ -284,14 +293,51 @@ fn write_program(
     .map_err(|source| MillError::Plan { setup: i + 1, source })?;
     // The finishing follows the roughing in the same program.
     let finished = match finish_follows(&mut writer, verdict, i)? {
-        true => emit_finishing(job, finishing, &mut writer, i)?,
-        false => None,
+        true => {
+            // Waiting for the passes planned beside the roughing counts as planning.
+            let planned = match early {
+                Some((h, _)) => h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))?,
+                None => plan_finishing(job, finishing, i, None)?,
+            };
+            emit_finishing(job, finishing, planned, &mut writer, i)?
+        }
+        // Passes planned for a finishing that does not follow are stopped and dropped.
+        false => {
+            if let Some((_, stop)) = early {
+                stop.store(true, Ordering::Relaxed);
+            }
+            None
+        }
     };
     writer.finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
     let (text, blocked) =
         writer.into_inner().finish().map_err(|e| MillError::program(i + 1, "writing the program", e))?;
     Ok(((plan, finished), text, t.elapsed().saturating_sub(blocked)))
 }
+
+/// The thread planning a setup's finishing passes beside its roughing ([`plan_finishing_aside`]).
+/// The finishing's passes of setup `i`, where it has them and is `certain` to follow its
+/// roughing, planned from the setup's start beside the roughing ([`plan_finishing_aside`]),
+/// stopped by `stop`. Only a finishing sure to follow: one a verdict may call off (a rest
+/// pass then carries it, planned anew) would cost its planning for nothing, and planned
+/// beside the roughing most of it is done before the verdict (1.5-2 s of CPU on the turned
+/// shaft). `machine_setup` sets `stop` once its planner is done, and joins the height
+/// field's thread ([`SinkThread::join`]) once the program is parsed.
+fn plan_beside<'scope>(
+    scope: &'scope std::thread::Scope<'scope, '_>,
+    job: &'scope Job,
+    finishing: &'scope Option<Finishing>,
+    i: usize,
+    certain: bool,
+    stop: &'scope AtomicBool,
+) -> Option<EarlyFinish<'scope>> {
+    let fin = finishing.as_ref().filter(|_| certain)?;
+    Some((scope.spawn(move || plan_finishing_aside(job, Some(fin), i, stop)), stop))
+}
+
+/// With the flag that stops it.
+type EarlyFinish<'scope> =
+    (std::thread::ScopedJoinHandle<'scope, Result<Option<FinishPaths>, MillError>>, &'scope AtomicBool);
 
 /// A setup's plans (roughing, finishing), its text where kept, and the planning time.
 type Planned = ((PlanSummary, Option<(FinishSummary, LeftOut)>), Vec<u8>, std::time::Duration);
@@ -373,16 +419,23 @@ fn prepare_finishing(
                     .then_some(0.75 * stepover),
                 ..HeightFieldOptions::default()
             };
-            watcher.surface = Some(
-                HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
-                    .map_err(sim_error)?,
-            );
+            let mut field = HeightField::new_opt([lo.x - m, lo.y - m], [hi.x + m, hi.y + m], tools, &hopts)
+                .map_err(sim_error)?;
+            // Swept on a thread of its own, beside the simulator, every move there: handing
+            // each long finishing move to rayon from the parser's thread cost a context
+            // switch or two per move.
+            field.set_parallel_columns(usize::MAX);
+            watcher.surface = Some(SinkThread::spawn(field, SURFACE_BATCH, SURFACE_BATCHES));
             let rest = Unfinished::new(ctx.part, ctx.jobs, i)?;
             Some(Finishing { opts: job.finish_options(f, [lo.z, hi.z]), index, rest, stepover })
         }
         None => None,
     })
 }
+
+/// Motions per batch handed to the height field's thread, and batches waiting at most.
+const SURFACE_BATCH: usize = 1024;
+const SURFACE_BATCHES: usize = 8;
 
 /// A setup's finishing, prepared ([`prepare_finishing`]).
 pub(super) struct Finishing {
@@ -396,13 +449,14 @@ pub(super) struct Finishing {
     stepover: f64,
 }
 
-/// The finishing of setup `i` (0-based) into `writer`, after its roughing.
-fn emit_finishing<W: std::io::Write>(
+/// The passes of setup `i`'s (0-based) finishing, planned ([`finish_paths`]); `None` for
+/// a setup roughed only.
+fn plan_finishing(
     job: &Job,
     finishing: Option<&Finishing>,
-    writer: &mut GcodeWriter<W>,
     i: usize,
-) -> Result<Option<(FinishSummary, LeftOut)>, MillError> {
+    cancel: Option<&AtomicBool>,
+) -> Result<Option<FinishPaths>, MillError> {
     let (Some(f), Some(fin)) = (&job.finish, finishing) else {
         return Ok(None);
     };
@@ -415,7 +469,48 @@ fn emit_finishing<W: std::io::Write>(
         (!sculpted || sculpted_contact(index, tip, radius)) && rest.is_none_or(|r| r.keep(tip))
     };
     let keep = (sculpted || rest.is_some()).then_some(&both as &dyn KeepPoint);
-    finish_setup_left_out(&fin.index, &job.setup, &f.tool, &*strategy, &fin.opts, keep, writer)
+    finish_paths(&fin.index, &f.tool, &*strategy, &fin.opts, keep, cancel)
+        .map(Some)
+        .map_err(|source| MillError::Plan { setup: i + 1, source: source.widen() })
+}
+
+/// [`plan_finishing`] on a rayon pool of its own, as many threads as the global one: run
+/// beside the roughing's planner and simulator (which use the global pool), its work and
+/// theirs share the cores by the system's scheduling instead of queueing behind each
+/// other's jobs. On the global pool where no pool can be built. Stops early once `cancel`
+/// is set (the finishing does not follow the roughing: a rest pass carries it).
+fn plan_finishing_aside(
+    job: &Job,
+    finishing: Option<&Finishing>,
+    i: usize,
+    cancel: &AtomicBool,
+) -> Result<Option<FinishPaths>, MillError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .thread_name(|k| format!("s2g-finish-{k}"))
+        .build();
+    match pool {
+        Ok(pool) => pool.install(|| plan_finishing(job, finishing, i, Some(cancel))),
+        Err(_) => plan_finishing(job, finishing, i, Some(cancel)),
+    }
+}
+
+/// The finishing of setup `i` (0-based) into `writer`, after its roughing: the passes
+/// `planned` ahead ([`plan_finishing_aside`], on its thread, while the roughing was written
+/// and simulated), written ([`finish_setup_paths`]): the motions `finish_setup_left_out`
+/// writes.
+fn emit_finishing<W: std::io::Write>(
+    job: &Job,
+    finishing: Option<&Finishing>,
+    planned: Option<FinishPaths>,
+    writer: &mut GcodeWriter<W>,
+    i: usize,
+) -> Result<Option<(FinishSummary, LeftOut)>, MillError> {
+    let (Some(f), Some(fin), Some(planned)) = (&job.finish, finishing, planned) else {
+        return Ok(None);
+    };
+    let name = f.choice.strategy.strategy();
+    finish_setup_paths(&fin.index, &job.setup, &f.tool, name.name(), &fin.opts, planned, writer)
         .map(Some)
         .map_err(|source| MillError::Plan { setup: i + 1, source })
 }
@@ -554,8 +649,9 @@ pub(super) struct Watcher<'a> {
     pub(super) tool_changes: usize,
     /// The clock's seconds at the finishing tool change (0 without a clock).
     pub(super) split_s: Option<f64>,
-    /// The height field the finishing moves cut, where the setup is finished.
-    pub(super) surface: Option<HeightField>,
+    /// The height field the finishing moves cut, where the setup is finished, fed on its
+    /// own thread.
+    pub(super) surface: Option<SinkThread<HeightField>>,
 }
 
 /// What a [`Watcher`] reports progress with.
@@ -619,7 +715,7 @@ impl MotionSink for Watcher<'_> {
             && let Some(field) = &mut self.surface
             && !matches!(m, Motion::Setup { .. })
         {
-            field.motion(m)?;
+            let Ok(()) = field.motion(m);
         }
         if let Some(clock) = &mut self.clock {
             let Ok(()) = clock.motion(m);

@@ -19,6 +19,7 @@ mod motion;
 mod parser;
 mod rotary;
 mod sink;
+mod sink_thread;
 mod spine;
 mod stats;
 mod writer;
@@ -56,6 +57,7 @@ pub use crate::rotary::{
     RotaryAxes, RotaryMount, axis_angles, rotary_angles, rotary_axis, rotary_frame, rotary_twist,
 };
 pub use crate::sink::{Tee, Transformed};
+pub use crate::sink_thread::SinkThread;
 pub use crate::spine::{Spine, SpineBuilder, SpineOptions, SpineRule};
 pub use crate::stats::{Stats, StatsOptions};
 pub use crate::writer::{

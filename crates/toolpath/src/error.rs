@@ -27,3 +27,19 @@ pub enum ToolpathError<E> {
     #[error("the motion sink failed: {0}")]
     Sink(E),
 }
+
+impl ToolpathError<std::convert::Infallible> {
+    /// The error of a planner without a sink (which cannot fail with a sink's error) as
+    /// one with any sink's error type.
+    pub fn widen<E>(self) -> ToolpathError<E> {
+        match self {
+            ToolpathError::InvalidTool(m) => ToolpathError::InvalidTool(m),
+            ToolpathError::InvalidOptions(m) => ToolpathError::InvalidOptions(m),
+            ToolpathError::EmptyMesh => ToolpathError::EmptyMesh,
+            ToolpathError::InvalidStock(m) => ToolpathError::InvalidStock(m),
+            ToolpathError::Cancelled => ToolpathError::Cancelled,
+            ToolpathError::Finish(f) => ToolpathError::Finish(f),
+            ToolpathError::Sink(never) => match never {},
+        }
+    }
+}

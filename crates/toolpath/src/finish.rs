@@ -16,8 +16,8 @@ mod scallop;
 mod strategy;
 
 pub use emit::{
-    FinishOptions, FinishSummary, KeepPoint, LeftOut, finish_setup, finish_setup_keep, finish_setup_left_out,
-    finish_setup_opt, part_in_setup_frame,
+    FinishOptions, FinishPaths, FinishSummary, KeepPoint, LeftOut, finish_paths, finish_setup,
+    finish_setup_keep, finish_setup_left_out, finish_setup_opt, finish_setup_paths, part_in_setup_frame,
 };
 pub use guard::RoughedStock;
 pub use parallel::{
@@ -39,4 +39,7 @@ pub enum FinishError {
     /// A drop-cutter or waterline query refused its arguments.
     #[error("finishing geometry query failed")]
     Geometry(#[source] s2g_geom::GeomError),
+    /// The planning was stopped ([`FinishContext::cancel`]).
+    #[error("finishing planning was cancelled")]
+    Cancelled,
 }

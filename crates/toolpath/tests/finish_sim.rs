@@ -82,6 +82,7 @@ fn pass_ys(index: &MeshIndex, tool: &Tool, strategy: &Parallel, opts: &FinishOpt
         max,
         z_range: [lo[2], hi[2]],
         scallop: opts.scallop,
+        cancel: None,
     };
     let mut ys: Vec<f64> = strategy
         .paths(&ctx)
@@ -459,6 +460,7 @@ fn parallel_runs_end_at_the_floor() {
         max: [17.0, 10.0],
         z_range: [floor, 20.0],
         scallop: 0.05,
+        cancel: None,
     };
     let runs = Parallel::default().paths(&ctx).unwrap();
     assert!(runs.len() > 20, "{} runs", runs.len());

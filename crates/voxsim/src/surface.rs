@@ -86,7 +86,13 @@ pub struct HeightField {
     /// distance by six (the tiled sweep's baseline before [`ColumnTests`] and
     /// [`rect_segment_distance`]).
     exact_tests: bool,
+    /// A move whose box holds more columns than this is swept on rayon's threads
+    /// ([`HeightField::set_parallel_columns`]).
+    parallel_columns: usize,
 }
+
+/// [`HeightField::set_parallel_columns`]'s default.
+const PARALLEL_COLUMNS: usize = 4096;
 
 /// Columns along each side of a block of [`HeightField::tile_max`].
 const TILE: usize = 8;
@@ -143,6 +149,7 @@ impl HeightField {
             tile_max: vec![f64::INFINITY; nx.div_ceil(TILE) * ny.div_ceil(TILE)],
             reference: false,
             exact_tests: false,
+            parallel_columns: PARALLEL_COLUMNS,
         })
     }
 
@@ -214,6 +221,16 @@ impl HeightField {
     #[doc(hidden)]
     pub fn use_exact_column_tests(&mut self) {
         self.exact_tests = true;
+    }
+
+    /// Sweeps a move whose box holds more than `columns` columns on rayon's threads (in
+    /// rows of blocks), any other on the calling thread; default 4096. `usize::MAX`: every
+    /// move on the calling thread, for a field fed on a thread of its own beside other
+    /// work (each parallel sweep costs a hand-off to the pool and back). The field is the
+    /// same bit for bit either way: each column is computed by the same expressions, by
+    /// one thread.
+    pub fn set_parallel_columns(&mut self, columns: usize) {
+        self.parallel_columns = columns;
     }
 
     /// What a move from `a` to `b` (`feed`: a feed, which marks the columns it passes over)
@@ -325,7 +342,7 @@ impl HeightField {
         let (top0, top1) = (tj0 * TILE * nx, ((tj1 + 1) * TILE).min(ny) * nx);
         let rows = &mut self.top[top0..top1];
         let tmax = &mut self.tile_max[tj0 * tnx..(tj1 + 1) * tnx];
-        let parallel = (i1 - i0 + 1) * (j1 - j0 + 1) > 4096;
+        let parallel = (i1 - i0 + 1) * (j1 - j0 + 1) > self.parallel_columns;
         let chunk = TILE * nx;
         match width {
             Some(_) => {
@@ -409,7 +426,7 @@ impl HeightField {
         } else {
             marks.chunks_mut(nx).collect()
         };
-        if (i1 - i0 + 1) * (j1 - j0 + 1) > 4096 {
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > self.parallel_columns {
             rows.par_chunks_mut(nx).zip(mark_rows).enumerate().for_each(row);
         } else {
             rows.chunks_mut(nx).zip(mark_rows).enumerate().for_each(row);

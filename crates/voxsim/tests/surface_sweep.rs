@@ -116,3 +116,38 @@ proptest! {
         prop_assert_eq!(bits(p1), bits(p2));
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(12))]
+
+    /// The pipeline's way of feeding the field: on a thread of its own, in batches, every
+    /// move swept on that thread (`set_parallel_columns(usize::MAX)`), leaves the same cut
+    /// heights and pass marks, bit for bit, as the field fed directly, its long moves
+    /// swept on rayon's threads (the default): the same moves in the same order, each
+    /// column computed by the same expressions.
+    #[test]
+    fn a_field_fed_on_its_own_thread_in_batches_is_the_field_fed_directly(
+        seed in any::<u64>(),
+        ball in any::<bool>(),
+        r in 2.0f64..6.0,
+        spacing in 0.04f64..0.1,
+        batch in 1usize..300,
+        width in proptest::option::of(0.1f64..1.0),
+    ) {
+        let cutter = if ball { Cutter::ball(r, 30.0) } else { Cutter::bull(r, 0.4 * r, 30.0) };
+        let o = HeightFieldOptions { spacing, pass_width: width, ..Default::default() };
+        let ms = program(seed, 400);
+        let direct = field(&cutter, &o, &ms, false);
+        let mut serial = HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(cutter), &o).unwrap();
+        serial.set_parallel_columns(usize::MAX);
+        let mut fed = s2g_gcode::SinkThread::spawn(serial, batch, 4);
+        for m in &ms {
+            let Ok(()) = fed.motion(m);
+        }
+        let threaded = fed.join().unwrap();
+        let ((t1, p1), (t2, p2)) = (direct.columns(), threaded.columns());
+        prop_assert!(t1.iter().filter(|t| t.is_finite()).count() > t1.len() / 10);
+        prop_assert_eq!(bits(t1), bits(t2));
+        prop_assert_eq!(bits(p1), bits(p2));
+    }
+}

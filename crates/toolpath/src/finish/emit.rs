@@ -230,6 +230,37 @@ pub fn finish_setup_left_out<S: MotionSink>(
     keep: Option<&dyn KeepPoint>,
     sink: &mut S,
 ) -> Result<(FinishSummary, LeftOut), ToolpathError<S::Error>> {
+    let planned = finish_paths(part, tool, strategy, opts, keep, None).map_err(ToolpathError::widen)?;
+    finish_setup_paths(part, setup, tool, strategy.name(), opts, planned, sink)
+}
+
+/// A setup's finishing passes as [`finish_setup_left_out`] machines them, planned ahead
+/// ([`finish_paths`]): the strategy's passes less the points `keep` and the shank and
+/// holder check leave out, in machining order and direction, and what the check left out.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FinishPaths {
+    /// The passes, in machining order (tool-tip points, setup frame).
+    pub paths: Vec<Vec<Point3>>,
+    /// The pass points the shank and holder check left out.
+    pub left_out: LeftOut,
+}
+
+/// The passes [`finish_setup_left_out`] machines (see [`FinishPaths`]), planned without
+/// writing a motion: the costly part of finishing (the strategy's drop-cutter sampling,
+/// fill checks, filters and checks), which a caller may run on another thread while the
+/// roughing before it is written and simulated; [`finish_setup_paths`] then writes them,
+/// the same motions as `finish_setup_left_out`. Its errors are those of
+/// `finish_setup_left_out` but the sink's, and [`ToolpathError::Cancelled`] (or the
+/// strategy's [`FinishError::Cancelled`](super::FinishError::Cancelled)) once `cancel` is
+/// set.
+pub fn finish_paths(
+    part: &MeshIndex,
+    tool: &Tool,
+    strategy: &dyn FinishingStrategy,
+    opts: &FinishOptions,
+    keep: Option<&dyn KeepPoint>,
+    cancel: Option<&std::sync::atomic::AtomicBool>,
+) -> Result<FinishPaths, ToolpathError<std::convert::Infallible>> {
     tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
     check(opts)?;
     let cutter = profile_cutter(&tool.cutter);
@@ -245,8 +276,12 @@ pub fn finish_setup_left_out<S: MotionSink>(
         max,
         z_range: [floor, hi[2]],
         scallop: opts.scallop,
+        cancel,
     };
     let paths = strategy.paths(&ctx).map_err(ToolpathError::Finish)?;
+    if ctx.cancelled() {
+        return Err(ToolpathError::Cancelled);
+    }
     let paths = match keep {
         // Grown by one and a half flat stepovers, so that the edge of what is left out is
         // cut by the passes on both sides of it.
@@ -257,16 +292,41 @@ pub fn finish_setup_left_out<S: MotionSink>(
         }
         None => paths,
     };
+    let (paths, left_out) = match opts.holder_stock {
+        Some(stock) => match Guard::new(part, &tool.cutter, stock)? {
+            Some(g) => g.split(paths, opts.link_check_step),
+            None => (paths, LeftOut::default()),
+        },
+        None => (paths, LeftOut::default()),
+    };
+    Ok(FinishPaths { paths: super::order::link_order(paths), left_out })
+}
+
+/// Writes `planned` (from [`finish_paths`] with the same part, tool, options and the
+/// strategy named `strategy`) to `sink` as [`finish_setup_left_out`] does: the setup
+/// frame, a comment naming the strategy, the tool change, each pass with its links, and the
+/// end. The same motions and summary as `finish_setup_left_out`.
+pub fn finish_setup_paths<S: MotionSink>(
+    part: &MeshIndex,
+    setup: &Setup,
+    tool: &Tool,
+    strategy: &str,
+    opts: &FinishOptions,
+    planned: FinishPaths,
+    sink: &mut S,
+) -> Result<(FinishSummary, LeftOut), ToolpathError<S::Error>> {
+    tool.validate().map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
+    check(opts)?;
+    let cutter = profile_cutter(&tool.cutter);
+    let dc = DropCutter::new(part, &cutter).map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
+    let (lo, hi) = dc.bounds();
+    let floor = opts.floor.unwrap_or(lo[2]);
     let guard = match opts.holder_stock {
         Some(stock) => Guard::new(part, &tool.cutter, stock)?,
         None => None,
     };
-    let (paths, left_out) = match &guard {
-        Some(g) => g.split(paths, opts.link_check_step),
-        None => (paths, LeftOut::default()),
-    };
+    let FinishPaths { paths, left_out } = planned;
     let guarded_points = left_out.points;
-    let paths = super::order::link_order(paths);
     // The cutter grown by the stock left: where it touches the part, the cutter itself is
     // that far from it.
     let grown = opts.stock_left.map(|t| {
@@ -296,7 +356,7 @@ pub fn finish_setup_left_out<S: MotionSink>(
         pos: None,
         sum: FinishSummary { clear_z: hi[2] + opts.clearance, guarded_points, ..Default::default() },
     };
-    em.begin(setup, strategy.name())?;
+    em.begin(setup, strategy)?;
     for path in paths.iter().filter(|p| !p.is_empty()) {
         em.pass(path)?;
     }

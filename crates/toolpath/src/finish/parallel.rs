@@ -10,6 +10,8 @@
 // NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use rayon::prelude::*;
 use s2g_geom::{DropCutter, Point3};
 
@@ -118,7 +120,20 @@ pub fn parallel_finish_opt(
     max: [f64; 2],
     opts: &ParallelFinishOptions,
 ) -> Result<Vec<Vec<Point3>>, FinishError> {
+    parallel_finish_until(dc, min, max, opts, None)
+}
+
+/// [`parallel_finish_opt`], stopped with [`FinishError::Cancelled`] once `cancel` is set
+/// (looked at before each pass and each gap's fill check).
+pub(super) fn parallel_finish_until(
+    dc: &DropCutter<'_>,
+    min: [f64; 2],
+    max: [f64; 2],
+    opts: &ParallelFinishOptions,
+    cancel: Option<&AtomicBool>,
+) -> Result<Vec<Vec<Point3>>, FinishError> {
     check(min, max, opts)?;
+    let stop = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
     let (sin, cos) = opts.angle.sin_cos();
     let (dir, normal) = ([cos, sin], [-sin, cos]);
     let corners = [[min[0], min[1]], [max[0], min[1]], [max[0], max[1]], [min[0], max[1]]];
@@ -141,17 +156,26 @@ pub fn parallel_finish_opt(
         .into_par_iter()
         .map(|k| {
             let o = first + k as f64 * opts.stepover;
-            line(o).map(|pass| Line { offset: o, pass, points: sample_points(dc, &pass, opts) })
+            line(o).filter(|_| !stop()).map(|pass| Line {
+                offset: o,
+                pass,
+                points: sample_points(dc, &pass, opts),
+            })
         })
         .collect();
     // The fill passes after each pass, between it and the next.
     let fills: Vec<Vec<Line>> = (0..count)
         .into_par_iter()
         .map(|k| match (opts.fill, sampled.get(k), sampled.get(k + 1)) {
-            (Some(f), Some(Some(a)), Some(Some(b))) => fill_between(dc, opts, &f, &line, a, b, f.depth),
+            (Some(f), Some(Some(a)), Some(Some(b))) if !stop() => {
+                fill_between(dc, opts, &f, &line, a, b, f.depth)
+            }
             _ => Vec::new(),
         })
         .collect();
+    if stop() {
+        return Err(FinishError::Cancelled);
+    }
     let mut out = Vec::new();
     for (k, (main, fills)) in sampled.into_iter().zip(fills).enumerate() {
         let lines =

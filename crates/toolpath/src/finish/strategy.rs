@@ -5,10 +5,13 @@
 // NaN-aware negated comparisons (`!(x > 0.0)`) are deliberate: NaN takes the safe branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use rayon::prelude::*;
 use s2g_geom::{Cutter, DropCutter, Point3, WaterlineOptions};
 
-use super::{FillOptions, FinishError, ParallelFinishOptions, parallel_finish_opt, stepover_for_scallop};
+use super::parallel::parallel_finish_until;
+use super::{FillOptions, FinishError, ParallelFinishOptions, stepover_for_scallop};
 
 /// What a finishing strategy plans over: a drop-cutter over the part in the setup frame
 /// (tool axis +Z), the XY rectangle to finish, and the scallop height allowed.
@@ -27,6 +30,17 @@ pub struct FinishContext<'a> {
     pub z_range: [f64; 2],
     /// The scallop height allowed, in mesh units (mm).
     pub scallop: f64,
+    /// Set (by another thread) to stop the planning early: the strategies look at it
+    /// between passes and levels and then fail with [`FinishError::Cancelled`]. `None`:
+    /// never stopped.
+    pub cancel: Option<&'a AtomicBool>,
+}
+
+impl FinishContext<'_> {
+    /// Whether [`FinishContext::cancel`] is set.
+    pub fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+    }
 }
 
 /// A finishing strategy: cutter-location polylines (tool-tip points on the drop-cutter
@@ -97,7 +111,7 @@ impl Parallel {
                     depth: 2,
                 }),
         };
-        let runs = parallel_finish_opt(ctx.drop_cutter, ctx.min, ctx.max, &opts)?;
+        let runs = parallel_finish_until(ctx.drop_cutter, ctx.min, ctx.max, &opts, ctx.cancel)?;
         Ok(split_at_floor(ctx.drop_cutter, runs, ctx.z_range[0]))
     }
 }
@@ -174,8 +188,14 @@ impl Waterline {
         let opts = WaterlineOptions { step: self.step, tolerance: self.tolerance, ..Default::default() };
         let per_level: Result<Vec<_>, _> = levels
             .par_iter()
-            .map(|&z| ctx.drop_cutter.waterline_opt(z, &opts).map_err(FinishError::Geometry))
+            .map(|&z| match ctx.cancelled() {
+                true => Ok(Vec::new()),
+                false => ctx.drop_cutter.waterline_opt(z, &opts).map_err(FinishError::Geometry),
+            })
             .collect();
+        if ctx.cancelled() {
+            return Err(FinishError::Cancelled);
+        }
         let (min, max) = (ctx.min, ctx.max);
         let inside = |p: &Point3| p.x >= min[0] && p.x <= max[0] && p.y >= min[1] && p.y <= max[1];
         let mut out = Vec::new();
@@ -317,6 +337,9 @@ impl FinishingStrategy for Crossed {
         let dc = ctx.drop_cutter;
         let mut out = Vec::new();
         for (i, p) in across.iter().enumerate() {
+            if ctx.cancelled() {
+                return Err(FinishError::Cancelled);
+            }
             let par = Parallel {
                 angle: self.parallel.angle + std::f64::consts::PI * i as f64 / k as f64,
                 ..self.parallel
