@@ -348,6 +348,28 @@ fn rest_run_opts(
     run.finish("fixed", &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
+/// The three-tool rest chain on `part` with the default library (`with`) and without the
+/// tools `left_out` picks (`without`), both checked safe: no gouge, no rapid through
+/// material, no holder collision.
+fn with_and_without(
+    part: &Mesh,
+    left_out: impl Fn(&shape2gcode::toolpath::library::LibraryTool) -> bool,
+) -> (Milled, Milled) {
+    let run = |all: bool| {
+        let mut lib = MillOptions::default().library().clone();
+        if !all {
+            lib.tools.retain(|t| !left_out(t));
+        }
+        rest_run_with(part, 3, MillOptions::default().rest_continue, Some(lib))
+    };
+    let (with, without) = (run(true), run(false));
+    for m in [&with, &without] {
+        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    }
+    (with, without)
+}
+
 /// Asserts that the run `with` more rest passes removed more than `least` of a feature of
 /// `volume` mm³ beyond what the run `without` them did, and scores a higher IoU.
 fn rest_took(with: &Milled, without: &Milled, volume: f64, least: f64) {
@@ -636,18 +658,7 @@ fn a_pocket_s_square_corners_get_the_next_rest_tool() {
 #[test]
 fn a_narrow_deep_slot_is_cut_by_a_long_reach_end_mill() {
     let part = pocketed_block([30., 20., 14.], [7., 23., 8.55, 11.45], 6.0);
-    let run = |long: bool| {
-        let mut lib = MillOptions::default().library().clone();
-        if !long {
-            lib.tools.retain(|t| t.cutter.neck.is_none());
-        }
-        rest_run_with(&part, 3, MillOptions::default().rest_continue, Some(lib))
-    };
-    let (with, without) = (run(true), run(false));
-    for m in [&with, &without] {
-        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
-        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
-    }
+    let (with, without) = with_and_without(&part, |t| t.cutter.neck.is_some());
     let tools = with.setups.iter().map(|s| (s.rest_of, s.tool.number)).collect::<Vec<_>>();
     assert!(with.setups.iter().any(|s| s.rest_of.is_some() && s.tool.number == 32), "{tools:?}");
     rest_took(&with, &without, 2.9 * 16.0 * 2.0, 0.5);
@@ -734,19 +745,9 @@ fn a_slot_deeper_than_the_3_mm_end_mill_reaches_is_cut_by_the_25_mm_long_reach_o
     let reaches_25 = |t: &shape2gcode::toolpath::library::LibraryTool| {
         !t.cutter.is_t_slot() && t.cutter.neck.is_some_and(|n| n.reach >= 25.0)
     };
-    let run = |long: bool| {
-        let mut lib = MillOptions::default().library().clone();
-        assert!(lib.tools.iter().any(reaches_25), "a long-reach end mill to 25 mm");
-        if !long {
-            lib.tools.retain(|t| !reaches_25(t));
-        }
-        rest_run_with(&part, 3, MillOptions::default().rest_continue, Some(lib))
-    };
-    let (with, without) = (run(true), run(false));
-    for m in [&with, &without] {
-        assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
-        assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
-    }
+    let lib = MillOptions::default().library().clone();
+    assert!(lib.tools.iter().any(reaches_25), "a long-reach end mill to 25 mm");
+    let (with, without) = with_and_without(&part, reaches_25);
     let tools = with.setups.iter().map(|s| (s.rest_of, s.tool.number)).collect::<Vec<_>>();
     assert!(with.setups.iter().any(|s| s.rest_of.is_some() && s.tool.number == 34), "{tools:?}");
     rest_took(&with, &without, 4.0 * 12.0 * 6.0, 0.5);
