@@ -315,10 +315,9 @@ fn write_program(
     Ok(((plan, finished), text, t.elapsed().saturating_sub(blocked)))
 }
 
-/// The thread planning a setup's finishing passes beside its roughing ([`plan_finishing_aside`]).
-/// The finishing's passes of setup `i`, where it has them and is `certain` to follow its
-/// roughing, planned from the setup's start beside the roughing ([`plan_finishing_aside`]),
-/// stopped by `stop`. Only a finishing sure to follow: one a verdict may call off (a rest
+/// The thread planning setup `i`'s finishing passes from the setup's start beside its
+/// roughing ([`plan_finishing_aside`]), where it has them and they are `certain` to
+/// follow, stopped by `stop`. Only a finishing sure to follow: one a verdict may call off (a rest
 /// pass then carries it, planned anew) would cost its planning for nothing, and planned
 /// beside the roughing most of it is done before the verdict (1.5-2 s of CPU on the turned
 /// shaft). `machine_setup` sets `stop` once its planner is done, and joins the height
