@@ -9,13 +9,25 @@
 //!   grid points at 1/256 where |SDF - r| < eps, from the mesh's signed distance, sorted by
 //!   nearest neighbour.
 //!
+//! - `undercut_scan/bounded`: the undercut pass's level scan (`undercut::undercut_levels`)
+//!   for a 21 mm T-slot cutter over the bunny at 100 mm seen from +Z, with no material
+//!   left within the disc's reach (as after the bunny's finishing): every level passed over
+//!   on its material bound; `undercut_scan/unbounded` (baseline,
+//!   `undercut_levels_unbounded`): every level's free region built and measured. The same
+//!   levels (none).
+//!
 //! Run: `cargo bench --bench toolpath`.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use shape2gcode::gcode::{Motion, MotionSink};
-use shape2gcode::geom::{MeshIndex, Setup, load_mesh, normalize_unit_cube};
+use shape2gcode::geom::{
+    Aabb, Cutter, MeshIndex, Point3, Setup, Similarity3, Vector3, load_mesh, normalize_unit_cube,
+};
+use shape2gcode::toolpath::undercut::{
+    UndercutOptions, part_columns, undercut_levels, undercut_levels_unbounded,
+};
 use shape2gcode::toolpath::{PlanOptions, Point2, Tool, baseline, plan_setup, slice_setup};
 
 const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/meshes/classic/stanford_bunny.stl");
@@ -88,5 +100,30 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The undercut scan over the bunny at 100 mm from +Z (see the module's documentation).
+fn undercut_scan(c: &mut Criterion) {
+    let unit = normalize_unit_cube(&load_mesh(BUNNY).expect("bundled bunny")).expect("normalise").0;
+    let mesh = unit.transformed(&Similarity3::new(Vector3::zeros(), Vector3::zeros(), 100.0));
+    let part = mesh.bbox().expect("a bounded part");
+    let margin = Point3::new(5.0, 5.0, 5.0).coords;
+    let stock = Aabb::new(part.min - margin, part.max + margin);
+    let mut tool = Tool::new(Cutter::t_slot(10.5, 9.0, 5.0, 30.0));
+    tool.cutter.stickout = 40.0;
+    let opts = UndercutOptions { min_volume: 2000.0, ..UndercutOptions::default() };
+    let columns = part_columns(&mesh, &Setup::top(), &stock, &tool, opts.cell);
+    // Material only in the stock's lowest 2 mm, out of the disc's reach from the top.
+    let floor = stock.min.z + 2.0;
+    let rest = move |min: &Point3, _: &Point3| min.z < floor;
+    let mut g = c.benchmark_group("undercut_scan");
+    g.sample_size(10);
+    g.bench_function("bounded", |b| {
+        b.iter(|| black_box(undercut_levels(&columns, &tool, &stock, &rest, &opts).0.len()))
+    });
+    g.bench_function("unbounded", |b| {
+        b.iter(|| black_box(undercut_levels_unbounded(&columns, &tool, &stock, &rest, &opts).0.len()))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, undercut_scan);
 criterion_main!(benches);
