@@ -135,8 +135,13 @@ impl MillRun {
 
     /// The rest tool after one of `radius` in setup `k` (`Tooling::rest_tool`), if smaller.
     fn smaller_tool(&self, k: usize, radius: f64) -> Result<Option<RestTool>, MillError> {
-        let depth = stock_in_setup(&self.stock, &self.orientation.setups[k]).extent().z;
-        Ok(self.tooling.rest_tool(radius, depth)?.filter(|t| t.0.radius() < radius))
+        Ok(self.tooling.rest_tool(radius, self.stock_depth(k))?.filter(|t| t.0.radius() < radius))
+    }
+
+    /// How deep the stock is along setup `k`'s (0-based) axis: the depth the rest tool rule
+    /// ranks reach over.
+    fn stock_depth(&self, k: usize) -> f64 {
+        stock_in_setup(&self.stock, &self.orientation.setups[k]).extent().z
     }
 
     /// How deep below the setup's stock top a rest pass with `tool` may cut (its planning
@@ -379,8 +384,9 @@ impl MillRun {
         left: f64,
         finisher: Option<&Tool>,
     ) -> Result<Option<RestTool>, MillError> {
-        let depth = stock_in_setup(&self.stock, &self.orientation.setups[k]).extent().z;
-        let Some(stiff) = self.tooling.stiffer_rest_tool(bound, depth, long)? else { return Ok(None) };
+        let Some(stiff) = self.tooling.stiffer_rest_tool(bound, self.stock_depth(k), long)? else {
+            return Ok(None);
+        };
         let theirs = self.reachable_left(remaining, scope, &stiff.0, wider, finisher);
         let worth = self.rest_volume();
         Ok((theirs >= worth && theirs + worth > left).then_some(stiff))
