@@ -120,17 +120,25 @@ pub fn parallel_finish_opt(
     max: [f64; 2],
     opts: &ParallelFinishOptions,
 ) -> Result<Vec<Vec<Point3>>, FinishError> {
-    parallel_finish_until(dc, min, max, opts, None)
+    parallel_finish_until(dc, min, max, opts, None, None)
 }
 
+/// A predicate on cutter-location points: those a caller keeps of the passes.
+pub(super) type Keep<'a> = &'a (dyn Fn(&Point3) -> bool + Sync);
+
 /// [`parallel_finish_opt`], stopped with [`FinishError::Cancelled`] once `cancel` is set
-/// (looked at before each pass and each gap's fill check).
+/// (looked at before each pass and each gap's fill check). With `kept` (the points a
+/// caller keeps of the passes, the rest left out), a gap is fill-checked only near the
+/// points of its two passes that `kept` accepts (within [`KEPT_REACH`] sampling steps
+/// along them) and over every fill stretch that reaches there, whole: see
+/// [`fill_between`].
 pub(super) fn parallel_finish_until(
     dc: &DropCutter<'_>,
     min: [f64; 2],
     max: [f64; 2],
     opts: &ParallelFinishOptions,
     cancel: Option<&AtomicBool>,
+    kept: Option<Keep<'_>>,
 ) -> Result<Vec<Vec<Point3>>, FinishError> {
     check(min, max, opts)?;
     let stop = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
@@ -163,12 +171,25 @@ pub(super) fn parallel_finish_until(
             })
         })
         .collect();
+    // Where each pass has points the caller keeps, grown along it (`None`: everywhere).
+    let reach = KEPT_REACH * opts.sample_step;
+    let near_kept: Vec<Option<Vec<(f64, f64)>>> = match (kept, opts.fill) {
+        (Some(keep), Some(_)) => sampled
+            .par_iter()
+            .map(|l| Some(l.as_ref().map_or_else(Vec::new, |l| kept_spans(l, keep, reach))))
+            .collect(),
+        _ => vec![None; count],
+    };
     // The fill passes after each pass, between it and the next.
     let fills: Vec<Vec<Line>> = (0..count)
         .into_par_iter()
         .map(|k| match (opts.fill, sampled.get(k), sampled.get(k + 1)) {
             (Some(f), Some(Some(a)), Some(Some(b))) if !stop() => {
-                fill_between(dc, opts, &f, &line, a, b, f.depth)
+                let spans = match (&near_kept[k], near_kept.get(k + 1)) {
+                    (Some(x), Some(Some(y))) => Some(merge_spans(x, y)),
+                    _ => None,
+                };
+                fill_between(dc, opts, &f, &line, (a, b), f.depth, spans.as_deref())
             }
             _ => Vec::new(),
         })
@@ -309,15 +330,19 @@ pub fn centre_distances(
 const MAX_STEEP_CHECKS: f64 = 256.0;
 
 /// The fill passes between `a` and `b` (neighbours, `a` at the lower offset), in order of
-/// offset: see [`FillOptions`].
+/// offset: see [`FillOptions`]. With `spans` (increasing, disjoint ranges along the
+/// passes), only the checks there are asked for, and from each such run of checks on
+/// outwards until it has no flagged check within two sampling steps of either end (or the
+/// gap ends), so that every fill stretch with a flagged check in `spans` is found whole,
+/// with the same samples as without: what is left out is the stretches wholly outside.
 fn fill_between(
     dc: &DropCutter<'_>,
     o: &ParallelFinishOptions,
     f: &FillOptions,
     line: &impl Fn(f64) -> Option<Pass>,
-    a: &Line,
-    b: &Line,
+    (a, b): (&Line, &Line),
     depth: u32,
+    spans: Option<&[(f64, f64)]>,
 ) -> Vec<Line> {
     if depth == 0 {
         return Vec::new();
@@ -327,65 +352,23 @@ fn fill_between(
     if !(w > 0.0 && t1 > t0) {
         return Vec::new();
     }
-    let normal = [-a.pass.dir[1], a.pass.dir[0]];
     // A hollow of the scanned surface may be narrower than a sampling step: check a
     // quarter step apart, and sample the fill passes that finely too.
     let fine = ParallelFinishOptions { sample_step: 0.25 * o.sample_step, ..*o };
     let n = ((t1 - t0) / fine.sample_step).ceil().max(1.0) as usize;
-    let r = f.radius;
-    const ACROSS: [f64; 3] = [0.25, 0.5, 0.75];
-    let at = |t: f64, u: f64| {
-        let s = a.offset + u * w;
-        (s * normal[0] + t * a.pass.dir[0], s * normal[1] + t * a.pass.dir[1])
+    let gap = Gap { dc, f, a, b, w, normal: [-a.pass.dir[1], a.pass.dir[0]] };
+    let grid = |i: usize| t0 + (t1 - t0) * i as f64 / n as f64;
+    let wanted: Vec<bool> = match spans {
+        None => vec![true; n + 1],
+        Some(s) => (0..=n)
+            .map(|i| {
+                let t = grid(i);
+                let k = s.partition_point(|r| r.1 < t);
+                s.get(k).is_some_and(|r| r.0 <= t)
+            })
+            .collect(),
     };
-    let heights = |t: f64| ACROSS.map(|u| at(t, u)).map(|(x, y)| dc.height(x, y));
-    let leaves = |t: f64, h: &[Option<f64>; 3]| -> bool {
-        ACROSS.iter().zip(h).any(|(&u, h)| {
-            let (x, y) = at(t, u);
-            let Some(z) = *h else { return false };
-            let Some(n) = dc.contact_normal(x, y, z) else { return false };
-            // The contact may lie beyond either pass (a slope across them): the balls
-            // between the two cut it all the same.
-            let p = [x - r * n[0], y - r * n[1], z + r - r * n[2]];
-            // Where neither pass has samples near (a hole, the part's outline), the passes
-            // there are not what to judge them by. The nearer pass first: where it leaves
-            // no more than the limit, neither does the nearer of the two (`min` is no more
-            // than either, and subtracting `r` keeps the order), so the other is not asked.
-            let (first, second) = if u <= 0.5 { (a, b) } else { (b, a) };
-            let near = first.centre_distance(&p, r);
-            if !(near - r > f.limit) && !near.is_nan() {
-                return false;
-            }
-            let left = near.min(second.centre_distance(&p, r)) - r;
-            left.is_finite() && left > f.limit
-        })
-    };
-    // The checks stand a fine step apart along the passes in XY, and closer where the
-    // surface between them rises or falls faster: on a wall steeper than the XY step can
-    // see (an 88 degree one rises 3.6 mm over 0.125 mm), a step of the cutter-location
-    // surface is split so that the checks stand at most a fine step apart in Z as well.
-    let grid: Vec<(f64, [Option<f64>; 3])> =
-        (0..=n).map(|i| t0 + (t1 - t0) * i as f64 / n as f64).map(|t| (t, heights(t))).collect();
-    let mut checks: Vec<(f64, [Option<f64>; 3])> = Vec::with_capacity(grid.len());
-    for (k, g) in grid.iter().enumerate() {
-        if let Some(prev) = k.checked_sub(1).map(|j| grid[j]) {
-            let rise = prev.1.iter().zip(&g.1).fold(0.0f64, |m, (p, q)| match (p, q) {
-                (Some(p), Some(q)) => m.max((q - p).abs()),
-                _ => m,
-            });
-            let parts = (rise / fine.sample_step).ceil().min(MAX_STEEP_CHECKS);
-            if parts > 1.0 {
-                let parts = parts as usize;
-                checks.extend(
-                    (1..parts)
-                        .map(|j| prev.0 + (g.0 - prev.0) * j as f64 / parts as f64)
-                        .map(|t| (t, heights(t))),
-                );
-            }
-        }
-        checks.push(*g);
-    }
-    let flagged: Vec<f64> = checks.iter().filter(|(t, h)| leaves(*t, h)).map(|c| c.0).collect();
+    let flagged = flagged_checks(&gap, &fine, n, &grid, wanted, o.sample_step);
     // Stretches of flagged samples, each grown by a sampling step.
     let grow = o.sample_step;
     let mut stretches: Vec<(f64, f64)> = Vec::new();
@@ -404,14 +387,184 @@ fn fill_between(
             continue;
         }
         let m = Line { offset: mid, pass, points: sample_points(dc, &pass, &fine) };
-        let below = fill_between(dc, o, f, line, a, &m, depth - 1);
-        let above = fill_between(dc, o, f, line, &m, b, depth - 1);
+        let below = fill_between(dc, o, f, line, (a, &m), depth - 1, None);
+        let above = fill_between(dc, o, f, line, (&m, b), depth - 1, None);
         out.extend(below);
         out.push(m);
         out.extend(above);
     }
     out
 }
+
+/// The gap between two neighbouring passes `a` and `b` that a fill check looks at.
+struct Gap<'a, 'd> {
+    dc: &'a DropCutter<'d>,
+    f: &'a FillOptions,
+    a: &'a Line,
+    b: &'a Line,
+    /// `b.offset - a.offset`.
+    w: f64,
+    /// The unit vector across the passes.
+    normal: [f64; 2],
+}
+
+impl Gap<'_, '_> {
+    /// The fractions of the way across at which the checks stand.
+    const ACROSS: [f64; 3] = [0.25, 0.5, 0.75];
+
+    fn at(&self, t: f64, u: f64) -> (f64, f64) {
+        let (s, d) = (self.a.offset + u * self.w, self.a.pass.dir);
+        (s * self.normal[0] + t * d[0], s * self.normal[1] + t * d[1])
+    }
+
+    /// The drop-cutter heights of a check at `t`.
+    fn heights(&self, t: f64) -> [Option<f64>; 3] {
+        Self::ACROSS.map(|u| self.at(t, u)).map(|(x, y)| self.dc.height(x, y))
+    }
+
+    /// Whether the passes leave more than the limit at the check at `t` with heights `h`.
+    fn leaves(&self, t: f64, h: &[Option<f64>; 3]) -> bool {
+        let (r, dc) = (self.f.radius, self.dc);
+        Self::ACROSS.iter().zip(h).any(|(&u, h)| {
+            let (x, y) = self.at(t, u);
+            let Some(z) = *h else { return false };
+            let Some(n) = dc.contact_normal(x, y, z) else { return false };
+            // The contact may lie beyond either pass (a slope across them): the balls
+            // between the two cut it all the same.
+            let p = [x - r * n[0], y - r * n[1], z + r - r * n[2]];
+            // Where neither pass has samples near (a hole, the part's outline), the passes
+            // there are not what to judge them by. The nearer pass first: where it leaves
+            // no more than the limit, neither does the nearer of the two (`min` is no more
+            // than either, and subtracting `r` keeps the order), so the other is not asked.
+            let (first, second) = if u <= 0.5 { (self.a, self.b) } else { (self.b, self.a) };
+            let near = first.centre_distance(&p, r);
+            if !(near - r > self.f.limit) && !near.is_nan() {
+                return false;
+            }
+            let left = near.min(second.centre_distance(&p, r)) - r;
+            left.is_finite() && left > self.f.limit
+        })
+    }
+}
+
+/// The positions of the flagged checks of `gap` (increasing): those of the grid points
+/// `grid(0..=n)` that `wanted` marks, each with the checks between it and the grid point
+/// before (closer where the drop-cutter heights at the checks rise or fall fast: on a
+/// wall steeper than the XY step can see, an 88 degree one rising 3.6 mm over 0.125 mm, a
+/// step of the cutter-location surface is split so that the checks stand at most a fine
+/// step apart in Z as well), and outwards from every run of them until the run has no
+/// flagged check within `2 grow` (and rounding) of an end (where a fill stretch could
+/// reach beyond it), or the gap ends. Every grid point wanted: all checks, as before.
+fn flagged_checks(
+    gap: &Gap<'_, '_>,
+    fine: &ParallelFinishOptions,
+    n: usize,
+    grid: &impl Fn(usize) -> f64,
+    mut wanted: Vec<bool>,
+    grow: f64,
+) -> Vec<f64> {
+    let mut heights: Vec<Option<[Option<f64>; 3]>> = vec![None; n + 1];
+    // The checks up to grid point `k` from the one before, each with whether it is flagged.
+    let mut units: Vec<Option<Vec<(f64, bool)>>> = vec![None; n + 1];
+    let reach = 2.0 * grow + 1e-9 * (1.0 + grow + grid(0).abs() + grid(n).abs());
+    loop {
+        for k in 0..=n {
+            if !wanted[k] || units[k].is_some() {
+                continue;
+            }
+            let mut at = |i: usize| *heights[i].get_or_insert_with(|| gap.heights(grid(i)));
+            let g = (grid(k), at(k));
+            let mut checks = Vec::new();
+            if let Some(prev) = k.checked_sub(1).map(|j| (grid(j), at(j))) {
+                let rise = prev.1.iter().zip(&g.1).fold(0.0f64, |m, (p, q)| match (p, q) {
+                    (Some(p), Some(q)) => m.max((q - p).abs()),
+                    _ => m,
+                });
+                let parts = (rise / fine.sample_step).ceil().min(MAX_STEEP_CHECKS);
+                if parts > 1.0 {
+                    let parts = parts as usize;
+                    checks.extend(
+                        (1..parts)
+                            .map(|j| prev.0 + (g.0 - prev.0) * j as f64 / parts as f64)
+                            .map(|t| (t, gap.heights(t))),
+                    );
+                }
+            }
+            checks.push(g);
+            units[k] = Some(checks.iter().map(|(t, h)| (*t, gap.leaves(*t, h))).collect());
+        }
+        // Each run of checked grid points open at an end takes the grid point beyond it.
+        let mut grown = false;
+        let mut k = 0;
+        while k <= n {
+            if units[k].is_none() {
+                k += 1;
+                continue;
+            }
+            let s = k;
+            while k < n && units[k + 1].is_some() {
+                k += 1;
+            }
+            let e = k;
+            let run = || units[s..=e].iter().flatten().flatten();
+            if s > 0 {
+                let lim = grid(s - 1) + reach;
+                if !(grid(e) > lim) || run().any(|&(t, f)| f && t <= lim) {
+                    wanted[s - 1] = true;
+                    grown = true;
+                }
+            }
+            if e < n {
+                let lim = grid(e) - reach;
+                if !(grid(s) < lim) || run().any(|&(t, f)| f && t >= lim) {
+                    wanted[e + 1] = true;
+                    grown = true;
+                }
+            }
+            k += 1;
+        }
+        if !grown {
+            break;
+        }
+    }
+    units.into_iter().flatten().flatten().filter(|c| c.1).map(|c| c.0).collect()
+}
+
+/// The ranges along a pass within `reach` of a sample that `keep` accepts, increasing
+/// and disjoint.
+fn kept_spans(l: &Line, keep: Keep<'_>, reach: f64) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for &(t, h) in &l.points {
+        let Some(z) = h else { continue };
+        let p = l.pass.at(t);
+        if !keep(&Point3::new(p[0], p[1], z)) {
+            continue;
+        }
+        match out.last_mut() {
+            Some(s) if t - reach <= s.1 => s.1 = t + reach,
+            _ => out.push((t - reach, t + reach)),
+        }
+    }
+    out
+}
+
+/// The union of two increasing lists of disjoint ranges, increasing and disjoint.
+fn merge_spans(x: &[(f64, f64)], y: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut all: Vec<(f64, f64)> = x.iter().chain(y).copied().collect();
+    all.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for (lo, hi) in all {
+        match out.last_mut() {
+            Some(s) if lo <= s.1 => s.1 = s.1.max(hi),
+            _ => out.push((lo, hi)),
+        }
+    }
+    out
+}
+
+/// How far along a pass, in sampling steps, from a point the caller keeps, the gaps beside
+/// it are fill-checked.
+pub(super) const KEPT_REACH: f64 = 4.0;
 
 fn check(min: [f64; 2], max: [f64; 2], o: &ParallelFinishOptions) -> Result<(), FinishError> {
     let bad = |m: String| Err(FinishError::InvalidOptions(m));

@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use rayon::prelude::*;
 use s2g_geom::{Cutter, DropCutter, Point3, WaterlineOptions};
 
-use super::parallel::parallel_finish_until;
+use super::parallel::{Keep, parallel_finish_until};
 use super::{FillOptions, FinishError, ParallelFinishOptions, stepover_for_scallop};
 
 /// What a finishing strategy plans over: a drop-cutter over the part in the setup frame
@@ -90,11 +90,17 @@ impl Parallel {
     }
 
     fn raw_paths(&self, ctx: &FinishContext<'_>) -> Result<Vec<Vec<Point3>>, FinishError> {
-        self.raw_paths_at(ctx, self.stepover(ctx.cutter, ctx.scallop)?)
+        self.raw_paths_at(ctx, self.stepover(ctx.cutter, ctx.scallop)?, None)
     }
 
-    /// The passes `stepover` apart, cut below the floor.
-    fn raw_paths_at(&self, ctx: &FinishContext<'_>, stepover: f64) -> Result<Vec<Vec<Point3>>, FinishError> {
+    /// The passes `stepover` apart, cut below the floor; with `kept`, the gaps fill-checked
+    /// only near the points it accepts (`parallel_finish_until`).
+    fn raw_paths_at(
+        &self,
+        ctx: &FinishContext<'_>,
+        stepover: f64,
+        kept: Option<Keep<'_>>,
+    ) -> Result<Vec<Vec<Point3>>, FinishError> {
         let opts = ParallelFinishOptions {
             angle: self.angle,
             stepover,
@@ -111,7 +117,7 @@ impl Parallel {
                     depth: 2,
                 }),
         };
-        let runs = parallel_finish_until(ctx.drop_cutter, ctx.min, ctx.max, &opts, ctx.cancel)?;
+        let runs = parallel_finish_until(ctx.drop_cutter, ctx.min, ctx.max, &opts, ctx.cancel, kept)?;
         Ok(split_at_floor(ctx.drop_cutter, runs, ctx.z_range[0]))
     }
 }
@@ -289,11 +295,24 @@ pub struct Crossed {
     /// A run of points another direction takes, shorter than this along a pass between
     /// two this one keeps, is kept too (cut twice rather than entered twice). Default `5`.
     pub max_gap: f64,
+    /// Fill-check a direction's gaps only near the points it keeps (within four sampling
+    /// steps along its passes) and over every fill stretch that reaches there, whole
+    /// (`parallel_finish_until`), rather than over the whole part: the same passes
+    /// wherever no fill stretch wholly away from the kept points of both its passes holds
+    /// a point the direction keeps. Default `true`.
+    pub narrow_fills: bool,
 }
 
 impl Default for Crossed {
     fn default() -> Self {
-        Self { parallel: Parallel::default(), directions: 2, overlap: 0.05, slope_step: 0.05, max_gap: 5.0 }
+        Self {
+            parallel: Parallel::default(),
+            directions: 2,
+            overlap: 0.05,
+            slope_step: 0.05,
+            max_gap: 5.0,
+            narrow_fills: true,
+        }
     }
 }
 
@@ -357,7 +376,8 @@ impl FinishingStrategy for Crossed {
                         dot(p) <= least + o
                     }
                 };
-            out.extend(split_par(par.raw_paths_at(ctx, stepover)?, keep, self.max_gap, 0.0));
+            let paths = par.raw_paths_at(ctx, stepover, self.narrow_fills.then_some(&keep))?;
+            out.extend(split_par(paths, keep, self.max_gap, 0.0));
         }
         Ok(out)
     }
