@@ -15,13 +15,20 @@
 //! away, as the fill check asks them (the contact under the ball at a quarter and half the
 //! way across).
 //!
+//! Group `crossed_fill_checks`: the crossed finisher's two directions with fill passes
+//! (`Crossed::paths`) over a 40 x 40 mm window of the same bunny (base up, a 10 mm ball,
+//! the shop library's 0.01 mm scallop), each direction's gaps fill-checked only near the
+//! points it keeps (`narrow`, `fperf12`) against its baseline in the same run, the check
+//! over the whole window (`whole`, the routine before; the same passes bit for bit,
+//! asserted before timing).
+//!
 //! Run: `cargo bench --bench fill_check`.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use shape2gcode::geom::{Cutter, DropCutter, MeshIndex, load_mesh};
-use shape2gcode::toolpath::finish::centre_distances;
+use shape2gcode::toolpath::finish::{Crossed, FinishContext, FinishingStrategy, centre_distances};
 
 const BUNNY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/stanford_bunny.stl");
 
@@ -60,6 +67,35 @@ fn bench(c: &mut Criterion) {
     g.bench_function("outward", |bch| {
         bch.iter(|| black_box(centre_distances(&points, dir, offset, r, &queries, false)))
     });
+    g.finish();
+    crossed(c, &index);
+}
+
+fn crossed(c: &mut Criterion, index: &MeshIndex) {
+    let cutter = Cutter::ball(5.0, 40.0);
+    let dc = DropCutter::new(index, &cutter).expect("drop-cutter");
+    let ctx = FinishContext {
+        drop_cutter: &dc,
+        cutter: &cutter,
+        min: [-20.0, -20.0],
+        max: [20.0, 20.0],
+        z_range: [-60.0, 60.0],
+        scallop: 0.01,
+        cancel: None,
+    };
+    let narrow = Crossed::default();
+    let whole = Crossed { narrow_fills: false, ..narrow };
+    let bits = |p: Vec<Vec<shape2gcode::geom::Point3>>| -> Vec<[u64; 3]> {
+        p.iter().flatten().map(|q| [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()]).collect()
+    };
+    assert!(
+        bits(narrow.paths(&ctx).expect("narrow")) == bits(whole.paths(&ctx).expect("whole")),
+        "narrow checks must give the whole checks' passes bit for bit"
+    );
+    let mut g = c.benchmark_group("crossed_fill_checks");
+    g.sample_size(10);
+    g.bench_function("whole", |bch| bch.iter(|| black_box(whole.paths(&ctx).map(|p| p.len()))));
+    g.bench_function("narrow", |bch| bch.iter(|| black_box(narrow.paths(&ctx).map(|p| p.len()))));
     g.finish();
 }
 
