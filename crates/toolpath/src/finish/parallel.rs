@@ -449,85 +449,134 @@ impl Gap<'_, '_> {
 
 /// The positions of the flagged checks of `gap` (increasing): those of the grid points
 /// `grid(0..=n)` that `wanted` marks, each with the checks between it and the grid point
-/// before (closer where the drop-cutter heights at the checks rise or fall fast: on a
-/// wall steeper than the XY step can see, an 88 degree one rising 3.6 mm over 0.125 mm, a
-/// step of the cutter-location surface is split so that the checks stand at most a fine
-/// step apart in Z as well), and outwards from every run of them until the run has no
-/// flagged check within `2 grow` (and rounding) of an end (where a fill stretch could
-/// reach beyond it), or the gap ends. Every grid point wanted: all checks, as before.
+/// before (see [`Checks::unit`]), and outwards from every run of them until the run has
+/// no flagged check within `2 grow` (and rounding) of an end, where a fill stretch could
+/// reach beyond it, or the gap ends. Every grid point wanted: all checks, as before.
 fn flagged_checks(
     gap: &Gap<'_, '_>,
     fine: &ParallelFinishOptions,
     n: usize,
     grid: &impl Fn(usize) -> f64,
-    mut wanted: Vec<bool>,
+    wanted: Vec<bool>,
     grow: f64,
 ) -> Vec<f64> {
-    let mut heights: Vec<Option<[Option<f64>; 3]>> = vec![None; n + 1];
-    // The checks up to grid point `k` from the one before, each with whether it is flagged.
-    let mut units: Vec<Option<Vec<(f64, bool)>>> = vec![None; n + 1];
+    let mut c = Checks { gap, fine, grid, heights: vec![None; n + 1], units: vec![None; n + 1] };
+    for k in (0..=n).filter(|&k| wanted[k]) {
+        c.unit(k);
+    }
     let reach = 2.0 * grow + 1e-9 * (1.0 + grow + grid(0).abs() + grid(n).abs());
-    loop {
-        for k in 0..=n {
-            if !wanted[k] || units[k].is_some() {
-                continue;
+    // Each run's start, moved back until no flagged check of the run lies within `reach`
+    // of the grid point before it and the run reaches beyond that (checking on forwards
+    // as far as needed): then no stretch crosses it.
+    let mut k = 0;
+    while k <= n {
+        if c.units[k].is_none() || (k > 0 && c.units[k - 1].is_some()) {
+            k += 1;
+            continue;
+        }
+        let mut s = k;
+        while s > 0 {
+            let lim = grid(s - 1) + reach;
+            let mut open = false;
+            let mut j = s;
+            loop {
+                open |= c.unit(j).iter().any(|&(t, f)| f && t <= lim);
+                if open || grid(j) > lim || j == n {
+                    break;
+                }
+                j += 1;
             }
-            let mut at = |i: usize| *heights[i].get_or_insert_with(|| gap.heights(grid(i)));
-            let g = (grid(k), at(k));
+            if !open {
+                break;
+            }
+            s -= 1;
+            c.unit(s);
+            if s > 0 && c.units[s - 1].is_some() {
+                // Joined the run before, whose start is settled.
+                break;
+            }
+        }
+        k += 1;
+    }
+    // Likewise each run's end, moved on (a run with a settled start reaches back beyond
+    // the test's reach, but for rounding: the test stops at the run's start).
+    let mut k = n + 1;
+    while k > 0 {
+        k -= 1;
+        if c.units[k].is_none() || (k < n && c.units[k + 1].is_some()) {
+            continue;
+        }
+        let mut e = k;
+        while e < n {
+            let lim = grid(e) - reach;
+            let mut open = false;
+            let mut j = e;
+            loop {
+                open |= c.unit(j).iter().any(|&(t, f)| f && t >= lim);
+                if open || j == 0 || grid(j - 1) < lim || c.units[j - 1].is_none() {
+                    break;
+                }
+                j -= 1;
+            }
+            if !open {
+                break;
+            }
+            e += 1;
+            c.unit(e);
+            if e < n && c.units[e + 1].is_some() {
+                break;
+            }
+        }
+    }
+    c.units.into_iter().flatten().flatten().filter(|c| c.1).map(|c| c.0).collect()
+}
+
+/// The checks of a gap, computed on demand and kept: the heights at the grid points and
+/// each grid point's unit of checks.
+struct Checks<'a, 'g, 'd, G> {
+    gap: &'a Gap<'g, 'd>,
+    fine: &'a ParallelFinishOptions,
+    grid: &'a G,
+    heights: Vec<Option<[Option<f64>; 3]>>,
+    /// Per grid point, its checks (`t`, whether flagged), once computed.
+    units: Vec<Option<Vec<(f64, bool)>>>,
+}
+
+impl<G: Fn(usize) -> f64> Checks<'_, '_, '_, G> {
+    fn at(&mut self, i: usize) -> (f64, [Option<f64>; 3]) {
+        let t = (self.grid)(i);
+        (t, *self.heights[i].get_or_insert_with(|| self.gap.heights(t)))
+    }
+
+    /// The checks up to grid point `k` from the one before, each with whether it is
+    /// flagged: closer than the grid where the drop-cutter heights rise or fall fast (on
+    /// a wall steeper than the XY step can see, an 88 degree one rising 3.6 mm over 0.125
+    /// mm, a step of the cutter-location surface is split so that the checks stand at
+    /// most a fine step apart in Z as well), then the grid point.
+    fn unit(&mut self, k: usize) -> &[(f64, bool)] {
+        if self.units[k].is_none() {
+            let g = self.at(k);
             let mut checks = Vec::new();
-            if let Some(prev) = k.checked_sub(1).map(|j| (grid(j), at(j))) {
+            if let Some(prev) = k.checked_sub(1).map(|j| self.at(j)) {
                 let rise = prev.1.iter().zip(&g.1).fold(0.0f64, |m, (p, q)| match (p, q) {
                     (Some(p), Some(q)) => m.max((q - p).abs()),
                     _ => m,
                 });
-                let parts = (rise / fine.sample_step).ceil().min(MAX_STEEP_CHECKS);
+                let parts = (rise / self.fine.sample_step).ceil().min(MAX_STEEP_CHECKS);
                 if parts > 1.0 {
                     let parts = parts as usize;
                     checks.extend(
                         (1..parts)
                             .map(|j| prev.0 + (g.0 - prev.0) * j as f64 / parts as f64)
-                            .map(|t| (t, gap.heights(t))),
+                            .map(|t| (t, self.gap.heights(t))),
                     );
                 }
             }
             checks.push(g);
-            units[k] = Some(checks.iter().map(|(t, h)| (*t, gap.leaves(*t, h))).collect());
+            self.units[k] = Some(checks.iter().map(|(t, h)| (*t, self.gap.leaves(*t, h))).collect());
         }
-        // Each run of checked grid points open at an end takes the grid point beyond it.
-        let mut grown = false;
-        let mut k = 0;
-        while k <= n {
-            if units[k].is_none() {
-                k += 1;
-                continue;
-            }
-            let s = k;
-            while k < n && units[k + 1].is_some() {
-                k += 1;
-            }
-            let e = k;
-            let run = || units[s..=e].iter().flatten().flatten();
-            if s > 0 {
-                let lim = grid(s - 1) + reach;
-                if !(grid(e) > lim) || run().any(|&(t, f)| f && t <= lim) {
-                    wanted[s - 1] = true;
-                    grown = true;
-                }
-            }
-            if e < n {
-                let lim = grid(e) - reach;
-                if !(grid(s) < lim) || run().any(|&(t, f)| f && t >= lim) {
-                    wanted[e + 1] = true;
-                    grown = true;
-                }
-            }
-            k += 1;
-        }
-        if !grown {
-            break;
-        }
+        self.units[k].as_deref().unwrap_or_default()
     }
-    units.into_iter().flatten().flatten().filter(|c| c.1).map(|c| c.0).collect()
 }
 
 /// The ranges along a pass within `reach` of a sample that `keep` accepts, increasing
