@@ -326,7 +326,11 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
             // makes the descent to it safe, see the module docs).
             // The same holds for every level cut before (material only goes): the tool
             // rises in its own column, crosses at the lowest such height whose level's free
-            // region holds the segment, and comes down in this level's region.
+            // region holds the segment, and comes down in this level's region. Where none
+            // does, it crosses a gap above the stock's top, over which nothing ever lies
+            // (the retract's path, rising and descending in the same columns, only lower),
+            // where that is below the clearance plane.
+            let above_stock = self.p.stock.max.z + self.p.gap;
             let low = self.pos.filter(|_| self.p.local_retract).and_then(|p| {
                 let a = Point2::new(p.x, p.y);
                 let here = (top, index);
@@ -334,6 +338,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                     .chain(self.crossings.iter().map(|(h, i)| (*h, i)))
                     .filter(|(_, i)| i.segment_inside(&a, &q, tol))
                     .map(|(h, _)| h)
+                    .chain((above_stock < self.p.clear_z).then_some(above_stock))
                     .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.min(h))))
                     .map(|h| (p, h.max(p.z)))
             });
