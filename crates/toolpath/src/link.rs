@@ -23,7 +23,9 @@
 //! free region of the roughing level below it, whose cut removed everything its tool
 //! centres reach from there up through the finer levels. And a clearing pass entered
 //! where it reaches air (outside the stock, or where the remaining material reports none)
-//! rather than at its start.
+//! rather than at its start. Where no level's free region holds a crossing, the tool
+//! crosses a gap above the stock's top instead of at the clearance plane: no material
+//! lies above the stock, and it rises and falls in the columns the retract would.
 
 use std::f64::consts::PI;
 
