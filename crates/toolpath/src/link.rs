@@ -23,7 +23,9 @@
 //! free region of the roughing level below it, whose cut removed everything its tool
 //! centres reach from there up through the finer levels. And a clearing pass entered
 //! where it reaches air (outside the stock, or where the remaining material reports none)
-//! rather than at its start.
+//! rather than at its start. Where no level's free region holds a crossing, the tool
+//! crosses a gap above the stock's top instead of at the clearance plane: no material
+//! lies above the stock, and it rises and falls in the columns the retract would.
 
 use std::f64::consts::PI;
 
@@ -62,6 +64,19 @@ pub(crate) fn book_move(
     }
     *pos = Some(to);
     true
+}
+
+/// The feed of a helix or ramp descending `slope` (drop over run) into material: the tool's
+/// cutting feed, but no faster than its descent along the axis stays within the plunge
+/// feed (the axial load the plunge feed is set for). At the default 3 degrees that is the
+/// cutting feed for any plunge feed above 5.2 % of it; a vertical descent (an infinite
+/// or NaN slope) gets the plunge feed.
+pub(crate) fn ramp_feed(tool: &Tool, slope: f64) -> f64 {
+    if !(slope.is_finite() && slope > 0.0) {
+        return if slope == 0.0 { tool.feed } else { tool.plunge_feed };
+    }
+    let sin = slope / (1.0 + slope * slope).sqrt();
+    tool.feed.min(tool.plunge_feed / sin)
 }
 
 pub(crate) struct LinkParams {
@@ -313,7 +328,11 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
             // makes the descent to it safe, see the module docs).
             // The same holds for every level cut before (material only goes): the tool
             // rises in its own column, crosses at the lowest such height whose level's free
-            // region holds the segment, and comes down in this level's region.
+            // region holds the segment, and comes down in this level's region. Where none
+            // does, it crosses a gap above the stock's top, over which nothing ever lies
+            // (the retract's path, rising and descending in the same columns, only lower),
+            // where that is below the clearance plane.
+            let above_stock = self.p.stock.max.z + self.p.gap;
             let low = self.pos.filter(|_| self.p.local_retract).and_then(|p| {
                 let a = Point2::new(p.x, p.y);
                 let here = (top, index);
@@ -321,6 +340,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                     .chain(self.crossings.iter().map(|(h, i)| (*h, i)))
                     .filter(|(_, i)| i.segment_inside(&a, &q, tol))
                     .map(|(h, _)| h)
+                    .chain((above_stock < self.p.clear_z).then_some(above_stock))
                     .fold(None, |m: Option<f64>, h| Some(m.map_or(h, |m| m.min(h))))
                     .map(|h| (p, h.max(p.z)))
             });
@@ -435,7 +455,9 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
 
     /// Feeds from `top` down to the layer at the path's start: straight in air, else by
     /// helix (when its circle fits in the free region), else by a zigzag ramp along the
-    /// first segment, else by a straight plunge.
+    /// first segment, else by a straight plunge. A descent in air runs at the cutting
+    /// feed, a straight plunge into material at the plunge feed, helices and ramps at
+    /// [`ramp_feed`].
     fn enter(
         &mut self,
         path: &Polyline2,
@@ -448,10 +470,12 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
         let depth = top - z;
         let plunge = self.tool.plunge_feed;
         let air = self.in_air(&s, z, top);
-        if depth <= 0.0 || air {
-            if !air {
-                self.stats.plunge += 1;
-            }
+        if air {
+            // Nothing to cut on the way down: no reason to crawl at the plunge feed.
+            return self.feed(Point3::new(s.x, s.y, z), self.tool.feed.max(plunge));
+        }
+        if depth <= 0.0 {
+            self.stats.plunge += 1;
             return self.feed(Point3::new(s.x, s.y, z), plunge);
         }
         // Helix.
@@ -464,8 +488,9 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                 if index.contains(&c) && !index.any_edge_within(&c, rh * (1.0 + 1e-6)) {
                     let revs = (depth / pitch).ceil().max(1.0);
                     let l = revs * ((2.0 * PI * rh).powi(2) + (depth / revs).powi(2)).sqrt();
+                    let feed = ramp_feed(&self.tool, depth / revs / (2.0 * PI * rh));
                     self.stats.cutting_length += l;
-                    self.stats.time_s += l / plunge * 60.0;
+                    self.stats.time_s += l / feed * 60.0;
                     self.stats.helix += 1;
                     let to = Point3::new(s.x, s.y, z);
                     self.pos = Some(to);
@@ -475,7 +500,7 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                         plane: Plane::XY,
                         direction: ArcDirection::CounterClockwise,
                         turns: revs as u32 - 1,
-                        feed: plunge,
+                        feed,
                         extrude: None,
                     });
                 }
@@ -490,16 +515,47 @@ impl<'s, S: MotionSink> Emitter<'s, S> {
                 let l = len.min(depth / self.ramp_tan).max(self.min_ramp.min(len));
                 let legs = (depth / (l * self.ramp_tan)).ceil().max(1.0) as usize;
                 let far = s + u * l;
+                let feed = ramp_feed(&self.tool, depth / (legs as f64 * l));
                 self.stats.ramp += 1;
                 for k in 1..=legs {
                     let zk = top - depth * k as f64 / legs as f64;
                     let xy = if k % 2 == 1 { far } else { s };
-                    self.feed(Point3::new(xy.x, xy.y, zk), plunge)?;
+                    self.feed(Point3::new(xy.x, xy.y, zk), feed)?;
                 }
                 return self.feed(Point3::new(s.x, s.y, z), self.tool.feed);
             }
         }
         self.stats.plunge += 1;
         self.feed(Point3::new(s.x, s.y, z), plunge)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ramp_runs_at_the_cutting_feed_unless_its_descent_outruns_the_plunge_feed() {
+        // 1000 mm/min cutting, 300 plunge.
+        let t = Tool::flat(1.0);
+        let slope = |deg: f64| deg.to_radians().tan();
+        // 3 degrees: the descent, 1000 sin 3 = 52 mm/min, is well within the plunge feed.
+        assert_eq!(ramp_feed(&t, slope(3.0)), t.feed);
+        // 30 degrees: at the cutting feed the tool would descend at 500 mm/min; the feed
+        // drops until it descends at 300.
+        let f = ramp_feed(&t, slope(30.0));
+        assert!(f < t.feed && f > t.plunge_feed, "{f}");
+        assert!((f * 30f64.to_radians().sin() - t.plunge_feed).abs() < 1e-9, "{f}");
+        // The descent never outruns the plunge feed, and a ramp never runs slower than a
+        // straight plunge would descend.
+        for deg in [0.5, 3.0, 10.0, 17.0, 45.0, 80.0, 89.9] {
+            let f = ramp_feed(&t, slope(deg));
+            assert!(f * deg.to_radians().sin() <= t.plunge_feed * (1.0 + 1e-12), "{deg}: {f}");
+            assert!(f >= t.plunge_feed && f <= t.feed, "{deg}: {f}");
+        }
+        // Vertical or undefined: the plunge feed; flat: the cutting feed.
+        assert_eq!(ramp_feed(&t, f64::INFINITY), t.plunge_feed);
+        assert_eq!(ramp_feed(&t, f64::NAN), t.plunge_feed);
+        assert_eq!(ramp_feed(&t, 0.0), t.feed);
     }
 }
