@@ -5,16 +5,16 @@ use crate::geom::{Aabb, GridSpec, Mesh, Vector3};
 
 /// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
 /// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
-/// of `1/resolution` of the part's longest side, covering the stock, with the voxel
-/// boundaries along each axis where [`face_lattice`] puts them: through the part's flat
-/// faces across that axis (the largest first), so that the residual's marching cubes put
-/// those faces where the part has them and every scorer, whatever its grid, finds them
-/// there (a boundary two thirds of a voxel from a flange's underside moved the residual's
-/// face 0.16 mm up over 2,500 mm^2: 1.2 % of a 60 mm bushing's volume, 6 % to a scorer of 1 mm
-/// cells whose centres fell in between). An axis with no such face keeps the lattice of the
-/// scorer's grid (the part's bounding box centred in a cube of its longest side). A stock
-/// more than 1.25 times the part's longest side keeps the grid over the stock, which
-/// bounds the grid's size.
+/// of about `1/resolution` of the part's longest side, covering the stock, with the voxel
+/// planes where [`face_lattice`] puts them: through the part's flat faces across the axes
+/// (the voxel within 2 % of that size), so that the residual's marching cubes put those
+/// faces where the part has them and every scorer, whatever its grid, finds them there (a
+/// plane two thirds of a voxel from a flange's underside moved the residual's face 0.16 mm
+/// up over 2,500 mm^2: 1.2 % of a 60 mm bushing's volume, 6 % to a scorer of 1 mm cells
+/// whose centres fell in between). Along an axis with no such face, and for a part with
+/// none, the lattice of the scorer's grid (the part's bounding box centred in a cube of
+/// its longest side). A stock more than 1.25 times the part's longest side keeps the grid
+/// over the stock, which bounds the grid's size.
 pub(super) fn simulation_grid(
     stock: &Aabb,
     part: &Mesh,
@@ -23,33 +23,72 @@ pub(super) fn simulation_grid(
 ) -> Result<GridSpec, MillError> {
     let cubic = GridSpec::cubic(stock, opts.resolution)?;
     let l = part_box.extent().max();
-    let h = l / opts.resolution as f64;
+    let h0 = l / opts.resolution as f64;
     if (opts.preset == Preset::Paper && opts.stock == Stock::Preset)
-        || !(h > 0.0 && h.is_finite())
+        || !(h0 > 0.0 && h0.is_finite())
         || stock.extent().max() > 1.25 * l
     {
         return Ok(cubic);
     }
+    let (h, planes) = face_lattice(part, h0).unwrap_or((h0, [None; 3]));
     let c = part_box.center();
     let (mut origin, mut dims) = (stock.min, [0; 3]);
     for a in 0..3 {
-        let base = face_lattice(part, a, h).unwrap_or(c[a] - 0.5 * l);
+        let base = planes[a].unwrap_or(c[a] - 0.5 * l);
         origin[a] = base + ((stock.min[a] - base) / h + 1e-9).floor() * h;
         dims[a] = (((stock.max[a] - origin[a]) / h - 1e-9).ceil() as usize).max(1);
     }
     Ok(GridSpec { origin, voxel: Vector3::repeat(h), dims })
 }
 
-/// A coordinate along `axis` for a lattice of spacing `h` that puts the part's flat faces
-/// across that axis on or nearest its planes: of the planes that hold such faces (facets
-/// whose normal is the axis, to 1e-9), the one whose lattice has the least area-weighted
-/// distance from all of them, the largest plane first among equals. `None` when the part
-/// has no such face or `h` is not positive.
-pub(super) fn face_lattice(part: &Mesh, axis: usize, h: f64) -> Option<f64> {
-    if !(h > 0.0 && h.is_finite()) {
+/// Voxel sizes [`face_lattice`] tries besides those that fit an axis's two largest faces:
+/// `h0` times `1 + j / 400` for `j` in -8..=8.
+const SIZE_STEPS: i32 = 8;
+
+/// The voxel size, within 2 % of `h0`, and per axis a coordinate of the lattice of that
+/// spacing, that put the part's flat faces across the axes (facets whose normal is an
+/// axis, to 1e-9) nearest the lattice's planes: the least misplaced volume, each face's
+/// area times its distance from the nearest plane, summed over the three axes. The sizes
+/// tried are [`SIZE_STEPS`]' and, per axis, the two nearest `h0` that divide the distance
+/// between its two largest faces; of sizes as good the nearest `h0` (the finer of two as
+/// near), of offsets as good the one through the largest face. An axis
+/// with no such face has none; `None` when the part has no such face or `h0` is not
+/// positive.
+pub(super) fn face_lattice(part: &Mesh, h0: f64) -> Option<(f64, [Option<f64>; 3])> {
+    if !(h0 > 0.0 && h0.is_finite()) {
         return None;
     }
-    // (plane coordinate in 1e-6 mm, area), summed per plane in coordinate order.
+    let planes = [0, 1, 2].map(|a| flat_planes(part, a));
+    if planes.iter().all(Vec::is_empty) {
+        return None;
+    }
+    let (lo, hi) = (h0 * (1.0 - 0.02), h0 * (1.0 + 0.02));
+    let mut sizes: Vec<f64> = (-SIZE_STEPS..=SIZE_STEPS).map(|j| h0 * (1.0 + f64::from(j) / 400.0)).collect();
+    // The sizes that put an axis's two largest faces both on planes.
+    for p in &planes {
+        let mut by_area: Vec<&(f64, f64)> = p.iter().collect();
+        by_area.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.total_cmp(&b.0)));
+        if let [a, b, ..] = by_area[..] {
+            let span = (a.0 - b.0).abs();
+            let n = (span / hi).ceil().max(1.0);
+            sizes.extend([n, n + 1.0].map(|n| span / n).into_iter().filter(|h| (lo..=hi).contains(h)));
+        }
+    }
+    sizes.sort_by(|a, b| (a - h0).abs().total_cmp(&(b - h0).abs()).then(a.total_cmp(b)));
+    let mut best: Option<(f64, f64, [Option<f64>; 3])> = None;
+    for h in sizes {
+        let per_axis = planes.each_ref().map(|p| best_offset(p, h));
+        let cost: f64 = per_axis.iter().flatten().map(|&(_, k)| k).sum();
+        if best.as_ref().is_none_or(|&(_, b, _)| cost < b - 1e-9 * b.max(1.0)) {
+            best = Some((h, cost, per_axis.map(|o| o.map(|(t, _)| t))));
+        }
+    }
+    best.map(|(h, _, t)| (h, t))
+}
+
+/// The planes across `axis` that hold flat faces of the part (facets whose normal is the
+/// axis, to 1e-9): (coordinate, area), in coordinate order, faces within 1e-6 mm merged.
+fn flat_planes(part: &Mesh, axis: usize) -> Vec<(f64, f64)> {
     let mut planes: Vec<(i64, f64)> = Vec::new();
     for t in 0..part.triangles().len() {
         let cross = part.triangle_cross(t);
@@ -62,34 +101,36 @@ pub(super) fn face_lattice(part: &Mesh, axis: usize, h: f64) -> Option<f64> {
         planes.push(((at * 1e6).round() as i64, 0.5 * twice));
     }
     planes.sort_by_key(|&(k, _)| k);
-    let mut merged: Vec<(f64, f64)> = Vec::new();
-    let mut last = None;
+    let mut merged: Vec<(i64, f64)> = Vec::new();
     for (k, area) in planes {
-        if last == Some(k) {
-            if let Some(m) = merged.last_mut() {
-                m.1 += area;
-            }
-        } else {
-            merged.push((k as f64 * 1e-6, area));
-            last = Some(k);
+        match merged.last_mut() {
+            Some(m) if m.0 == k => m.1 += area,
+            _ => merged.push((k, area)),
         }
     }
+    merged.into_iter().map(|(k, a)| (k as f64 * 1e-6, a)).collect()
+}
+
+/// Of the lattices of spacing `h` through one of `planes` (coordinate, area), the one
+/// with the least misplaced volume (area times distance from the nearest plane of the
+/// lattice, summed), the largest plane first among equals: (its coordinate, that volume).
+fn best_offset(planes: &[(f64, f64)], h: f64) -> Option<(f64, f64)> {
     let off = |x: f64| {
         let r = x / h;
         (r - r.round()).abs() * h
     };
-    let cost = |t: f64| merged.iter().map(|&(c, a)| a * off(c - t)).sum::<f64>();
-    let mut order: Vec<usize> = (0..merged.len()).collect();
-    order.sort_by(|&i, &j| merged[j].1.total_cmp(&merged[i].1).then(i.cmp(&j)));
+    let cost = |t: f64| planes.iter().map(|&(c, a)| a * off(c - t)).sum::<f64>();
+    let mut order: Vec<usize> = (0..planes.len()).collect();
+    order.sort_by(|&i, &j| planes[j].1.total_cmp(&planes[i].1).then(i.cmp(&j)));
     let mut best: Option<(f64, f64)> = None;
     for i in order {
-        let t = merged[i].0;
+        let t = planes[i].0;
         let k = cost(t);
-        if best.is_none_or(|(_, b)| k < b - 1e-12 * b.abs().max(1.0)) {
+        if best.is_none_or(|(_, b)| k < b - 1e-9 * b.max(1.0)) {
             best = Some((t, k));
         }
     }
-    best.map(|(t, _)| t)
+    best
 }
 
 #[cfg(test)]
@@ -110,7 +151,8 @@ mod tests {
     #[test]
     fn the_lattice_goes_through_the_largest_flat_faces() {
         // A 60 x 60 flange 8 thick under a 20 x 20 boss to 35: along Z the bottom (3,600 mm^2)
-        // and the flange's top (3,200) outweigh the boss's top (400); along X, its faces.
+        // and the flange's top (3,200) outweigh the boss's top (400); along X and Y, the
+        // flange's sides (480 each) the boss's (540).
         let flange = block([-30.0, -30.0, 0.0], [30.0, 30.0, 8.0]);
         let boss = block([-10.0, -10.0, 8.0], [10.0, 10.0, 35.0]);
         let mut v = flange.vertices().to_vec();
@@ -119,14 +161,33 @@ mod tests {
         v.extend_from_slice(boss.vertices());
         t.extend(boss.triangles().iter().map(|&[a, b, c]| [a + n, b + n, c + n]));
         let part = Mesh::new(v, t).unwrap();
-        let h = 60.0 / 128.0;
-        let z = face_lattice(&part, 2, h).unwrap();
-        // 8 / h = 17.07: both large faces lie within 0.04 mm of the lattice; the centred
-        // lattice of the part's box (17.5 - 30) misses the bottom by 2/3 of a voxel.
-        assert!(off(0.0, z, h) < 0.04 && off(8.0, z, h) < 0.04, "{z}");
-        assert!(off(0.0, 17.5 - 30.0, h) > 0.3 * h);
-        let x = face_lattice(&part, 0, h).unwrap();
-        assert!(off(-30.0, x, h) < 1e-9 && off(30.0, x, h) < 1e-9, "{x}");
+        let h0 = 60.0 / 128.0;
+        let (h, [x, y, z]) = face_lattice(&part, h0).unwrap();
+        assert!((h / h0 - 1.0).abs() <= 0.02 + 1e-12, "{h}");
+        let (x, y, z) = (x.unwrap(), y.unwrap(), z.unwrap());
+        // 8 / h0 = 17.07: a size within 2 % puts both large faces along Z on planes, and
+        // the misplaced volume is no more than h0's best (the centred lattice of the part's
+        // box, 17.5 - 30, misses the bottom by 2/3 of a voxel).
+        assert!(off(0.0, z, h) < 1e-9 && off(8.0, z, h) < 1e-9, "{z} {h}");
+        assert!(off(0.0, 17.5 - 30.0, h0) > 0.3 * h0);
+        let misplaced = |h: f64, t: [f64; 3]| {
+            let faces: [(usize, f64, f64); 10] = [
+                (2, 0.0, 3600.0),
+                (2, 8.0, 3200.0),
+                (2, 35.0, 400.0),
+                (0, -30.0, 480.0),
+                (0, 30.0, 480.0),
+                (0, -10.0, 540.0),
+                (0, 10.0, 540.0),
+                (1, -30.0, 480.0),
+                (1, 30.0, 480.0),
+                (1, -10.0, 540.0),
+            ];
+            faces.iter().map(|&(a, c, area)| area * off(c, t[a], h)).sum::<f64>() + 540.0 * off(10.0, t[1], h)
+        };
+        let centred = [-30.0, -30.0, 17.5 - 30.0];
+        assert!(misplaced(h, [x, y, z]) < 0.5 * misplaced(h0, centred));
+        assert!(off(-30.0, x, h) < 1e-9 && off(30.0, y, h) < 1e-9, "{x} {y}");
     }
 
     #[test]
@@ -135,26 +196,52 @@ mod tests {
         let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.2], [0.3, 1.0, 0.1], [0.2, 0.3, 1.0]];
         let v = v.iter().map(|&p| Point3::from(p)).collect();
         let part = Mesh::new(v, vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]).unwrap();
-        for a in 0..3 {
-            assert_eq!(face_lattice(&part, a, 0.1), None);
-        }
-        assert_eq!(face_lattice(&block([0.0; 3], [1.0; 3]), 2, 0.0), None);
+        assert_eq!(face_lattice(&part, 0.1), None);
+        assert_eq!(face_lattice(&block([0.0; 3], [1.0; 3]), 0.0), None);
+        // A prism along Z with a sloping side: faces across Z only.
+        let v = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [2.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ];
+        let v = v.iter().map(|&p| Point3::from(p)).collect();
+        let t = vec![[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [2, 0, 3], [2, 3, 5]];
+        let (_, [x, y, z]) = face_lattice(&Mesh::new(v, t).unwrap(), 0.1).unwrap();
+        assert!(x.is_some() && y.is_some() && z.is_some());
+        let v = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [2.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ];
+        let v: Vec<Point3> = v.iter().map(|&p| Point3::new(p[0] + 0.3 * p[1], p[1], p[2])).collect();
+        let t = vec![[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [2, 0, 3], [2, 3, 5]];
+        let (_, [x, y, z]) = face_lattice(&Mesh::new(v, t).unwrap(), 0.1).unwrap();
+        assert!(x.is_none() && y.is_some() && z.is_some(), "{x:?} {y:?} {z:?}");
     }
 
     #[test]
     fn the_simulation_grid_s_planes_hold_a_plate_s_faces() {
-        // A 50 x 50 x 10.3 plate from z 0.2: its bottom and top on the grid's planes along
-        // Z wherever the stock's margin puts the grid's corner (10.3 is not a whole number
-        // of 50/128 mm voxels, so the larger face wins: both are as large, the lower first).
+        // A 50 x 50 x 10.3 plate from z 0.2 (10.3 is no whole number of 50/128 mm voxels):
+        // a voxel within 2 % of that (10.3 / 26) puts its top and bottom on the grid's
+        // planes, wherever the stock's margin puts the grid's corner, and a side across X
+        // and Y each; the grid covers the stock.
         let part = block([0.0, 0.0, 0.2], [50.0, 50.0, 10.5]);
         let part_box = part.bbox().unwrap();
         let stock = part_box.inflated(1.0);
         let opts = MillOptions { preset: Preset::Shop, resolution: 128, ..MillOptions::default() };
         let g = simulation_grid(&stock, &part, &part_box, &opts).unwrap();
         let h = g.voxel.z;
-        assert!((h - 50.0 / 128.0).abs() < 1e-12);
-        assert!(off(0.2, g.origin.z, h) < 1e-9, "{:?}", g.origin);
-        assert!(off(0.0, g.origin.x, h) < 1e-9 && off(50.0, g.origin.y, h) < 1e-9);
+        assert!(g.voxel.x == h && g.voxel.y == h);
+        assert!((h / (50.0 / 128.0) - 1.0).abs() <= 0.02 + 1e-12, "{h}");
+        for (a, c) in [(0, 0.0), (1, 0.0), (2, 0.2), (2, 10.5)] {
+            assert!(off(c, g.origin[a], h) < 1e-6, "{c} along {a}: {:?} {h}", g.origin);
+        }
         for a in 0..3 {
             assert!(g.origin[a] <= stock.min[a] + 1e-9);
             assert!(g.origin[a] + g.dims[a] as f64 * h >= stock.max[a] - 1e-9);
