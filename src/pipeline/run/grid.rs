@@ -93,7 +93,7 @@ fn flat_planes(part: &Mesh, axis: usize) -> Vec<(f64, f64)> {
     for t in 0..part.triangles().len() {
         let cross = part.triangle_cross(t);
         let twice = cross.norm();
-        if !(twice > 0.0) || cross[axis].abs() < (1.0 - 1e-9) * twice {
+        if twice.is_nan() || twice <= 0.0 || cross[axis].abs() < (1.0 - 1e-9) * twice {
             continue;
         }
         let p = part.triangle(t);
