@@ -753,15 +753,14 @@ fn a_slot_deeper_than_the_3_mm_end_mill_reaches_is_cut_by_the_25_mm_long_reach_o
     rest_took(&with, &without, 4.0 * 12.0 * 6.0, 0.5);
 }
 
-/// The simulation's voxel planes go through the part's flat faces (issue 35; the stress
-/// bushings): an inverted T 30 mm wide and 40 voxels deep (at 64 voxels over 30 mm), its
-/// boss 16 voxels wide from 24, its flange's top 6 voxels up and its boss's top 20.5, whose
-/// box centred in a cube of its longest side (the lattice before) puts the flange's top a
-/// quarter voxel off the grid's planes.
-/// The residual's marching cubes then put the flange's top a quarter voxel (0.12 mm) too
-/// high, and a scorer whose cell centres fall in between counts a whole layer of cells as
-/// stock left; on the planes through the part's largest flat faces it is where the part has
-/// it.
+/// With `face_grid` the simulation's voxel planes go through the part's flat faces (issue
+/// 35; the stress bushings): an inverted T 30 mm wide and 40 voxels deep (at 64 voxels over
+/// 30 mm), its boss 16 voxels wide from 24, its flange's top 6 voxels up and its boss's top
+/// 20.5, whose box centred in a cube of its longest side (the lattice without the option)
+/// puts the flange's top a quarter voxel off the grid's planes. The residual's marching
+/// cubes then put the flange's top a quarter voxel (0.12 mm) too high, and a scorer whose
+/// cell centres fall in between counts a whole layer of cells as stock left; on the planes
+/// through the part's largest flat faces it is where the part has it.
 #[test]
 fn the_simulation_s_voxel_planes_go_through_the_part_s_flat_faces() {
     let h = 30.0 / 64.0;
@@ -776,6 +775,7 @@ fn the_simulation_s_voxel_planes_go_through_the_part_s_flat_faces() {
         resolution: 64,
         orient_points: 2048,
         metric_samples: 2000,
+        face_grid: true,
         ..MillOptions::default()
     };
     let m =

@@ -6,13 +6,13 @@ use crate::geom::{Aabb, GridSpec, Mesh, Vector3};
 /// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
 /// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
 /// of about `1/resolution` of the part's longest side, covering the stock, with the voxel
-/// planes where [`face_lattice`] puts them: through the part's flat faces across the axes
+/// planes, where [`MillOptions::face_grid`] asks, where [`face_lattice`] puts them: through the part's flat faces across the axes
 /// (the voxel within 2 % of that size), so that the residual's marching cubes put those
 /// faces where the part has them and every scorer, whatever its grid, finds them there (a
 /// plane two thirds of a voxel from a flange's underside moved the residual's face 0.16 mm
 /// up over 2,500 mm^2: 1.2 % of a 60 mm bushing's volume, 6 % to a scorer of 1 mm cells
-/// whose centres fell in between). Along an axis with no such face, and for a part with
-/// none, the lattice of the scorer's grid (the part's bounding box centred in a cube of
+/// whose centres fell in between). Otherwise, along an axis with no such face, and for a
+/// part with none, the lattice of the scorer's grid (the part's bounding box centred in a cube of
 /// its longest side). A stock more than 1.25 times the part's longest side keeps the grid
 /// over the stock, which bounds the grid's size.
 pub(super) fn simulation_grid(
@@ -30,7 +30,8 @@ pub(super) fn simulation_grid(
     {
         return Ok(cubic);
     }
-    let (h, planes) = face_lattice(part, h0).unwrap_or((h0, [None; 3]));
+    let chosen = if opts.face_grid { face_lattice(part, h0) } else { None };
+    let (h, planes) = chosen.unwrap_or((h0, [None; 3]));
     let c = part_box.center();
     let (mut origin, mut dims) = (stock.min, [0; 3]);
     for a in 0..3 {
@@ -237,7 +238,8 @@ mod tests {
         let part = block([0.0, 0.0, 0.2], [50.0, 50.0, 10.5]);
         let part_box = part.bbox().unwrap();
         let stock = part_box.inflated(1.0);
-        let opts = MillOptions { preset: Preset::Shop, resolution: 128, ..MillOptions::default() };
+        let opts =
+            MillOptions { preset: Preset::Shop, resolution: 128, face_grid: true, ..MillOptions::default() };
         let g = simulation_grid(&stock, &part, &part_box, &opts).unwrap();
         let h = g.voxel.z;
         assert!(g.voxel.x == h && g.voxel.y == h);
