@@ -574,11 +574,13 @@ impl MillRun {
         }
         let to_input = self.to_input;
         let residual = residual_plan.transformed(&to_input.inverse_similarity());
-        let metrics = compare(
-            &residual.transformed(&self.unit.as_similarity()),
-            &self.unit_part,
-            &MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() },
-        )?;
+        let mut mopts =
+            MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() };
+        if opts.face_grid {
+            let to_unit = self.unit.as_similarity() * to_input.inverse_similarity();
+            grid::scorer_on_grid(&mut mopts, simulated.residual().spec(), &to_unit);
+        }
+        let metrics = compare(&residual.transformed(&self.unit.as_similarity()), &self.unit_part, &mopts)?;
         self.times.scoring = t.elapsed().as_secs_f64();
 
         let stock = Aabb::new(to_input.from_unit(&self.stock.min), to_input.from_unit(&self.stock.max));

@@ -1,7 +1,8 @@
 //! The simulation grid, and where its voxel boundaries fall along each axis.
 
 use super::super::api::{MillError, MillOptions, Preset, Stock};
-use crate::geom::{Aabb, GridSpec, Mesh, Vector3};
+use crate::geom::{Aabb, GridSpec, Mesh, MetricOptions, Point3, Vector3};
+use nalgebra::Similarity3;
 
 /// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
 /// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
@@ -132,6 +133,35 @@ fn best_offset(planes: &[(f64, f64)], h: f64) -> Option<(f64, f64)> {
         }
     }
     best
+}
+
+/// The report's scorer on the simulation grid's lattice (with
+/// [`MillOptions::face_grid`]): cells of the grid's voxel, or of a whole fraction of it
+/// near the scorer's `1/resolution` of the unit cube, aligned with its voxels, over a cube
+/// that covers the unit cube. So the scorer's voxel-centre rule agrees with the
+/// simulation's on every cell, as the lattice of the unit cube did with the grid on it.
+/// `to_unit` maps the grid's frame to the scorer's; `opts` is left as it is where the grid
+/// is not cubic or the map is degenerate.
+pub(super) fn scorer_on_grid(opts: &mut MetricOptions, spec: &GridSpec, to_unit: &Similarity3<f64>) {
+    let h = spec.voxel.x;
+    if spec.voxel.y != h || spec.voxel.z != h {
+        return;
+    }
+    let o = to_unit * spec.origin;
+    let h_u = to_unit.scaling() * h;
+    let m = (h_u * opts.resolution as f64).round().max(1.0);
+    let cell = h_u / m;
+    if !(cell > 0.0 && cell.is_finite()) {
+        return;
+    }
+    let (b0, b1) = (opts.bounds.min, opts.bounds.max);
+    let lo = Point3::from([0, 1, 2].map(|a| o[a] + ((b0[a] - o[a]) / cell + 1e-9).floor() * cell));
+    let n = (0..3).map(|a| ((b1[a] - lo[a]) / cell - 1e-9).ceil()).fold(1.0, f64::max);
+    if n > 4.0 * opts.resolution as f64 {
+        return;
+    }
+    opts.bounds = Aabb::new(lo, lo + Vector3::repeat(n * cell));
+    opts.resolution = n as usize;
 }
 
 #[cfg(test)]
