@@ -283,4 +283,32 @@ mod tests {
             assert!(g.origin[a] + g.dims[a] as f64 * h >= stock.max[a] - 1e-9);
         }
     }
+
+    #[test]
+    fn the_report_s_scorer_lies_on_the_simulation_grid_s_lattice() {
+        // A grid of 0.47 mm voxels from (-1.3, -0.7, -1.1) mm; the scorer's frame maps 60 mm
+        // to 1 about the part's centre (17.5 mm up).
+        let spec =
+            GridSpec { origin: Point3::new(-1.3, -0.7, -1.1), voxel: Vector3::repeat(0.47), dims: [140; 3] };
+        let to_unit = Similarity3::new(Vector3::new(0.0, 0.0, -17.5 / 60.0), Vector3::zeros(), 1.0 / 60.0);
+        let mut opts = MetricOptions::default();
+        scorer_on_grid(&mut opts, &spec, &to_unit);
+        let n = opts.resolution as f64;
+        let cell = opts.bounds.extent().x / n;
+        // Half the grid's voxel (0.47 / 60 is two of 1/256), its planes on the grid's.
+        assert!((cell - 0.47 / 60.0 / 2.0).abs() < 1e-12, "{cell}");
+        let o = to_unit * spec.origin;
+        for a in 0..3 {
+            assert!((opts.bounds.extent()[a] - n * cell).abs() < 1e-9);
+            let k = (opts.bounds.min[a] - o[a]) / cell;
+            assert!((k - k.round()).abs() < 1e-6, "{k}");
+            assert!(opts.bounds.min[a] <= -0.5 && opts.bounds.max[a] >= 0.5);
+        }
+        // A grid that is not cubic leaves the scorer as it was.
+        let mut plain = MetricOptions::default();
+        let odd = GridSpec { voxel: Vector3::new(0.47, 0.5, 0.47), ..spec };
+        scorer_on_grid(&mut plain, &odd, &to_unit);
+        assert_eq!(plain.resolution, 256);
+        assert_eq!(plain.bounds, MetricOptions::default().bounds);
+    }
 }
