@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use super::api::{
     MillError, MillOptions, Milled, PartDeviation, Preset, ProgramLayout, SetupCount, SetupProgram, Stage,
-    StageSeconds, Stock,
+    StageSeconds,
 };
 use super::job::{FinishJob, Job, feeds, setup_features, stock_in_setup};
 use super::per_setup::{Ctx, FinishingPart, ProgramOutputs, sim_error};
@@ -16,7 +16,7 @@ use super::stock::{StockBody, datum_comment, datum_setup};
 use super::tooling::{Tooling, planned_tool};
 use crate::gcode::{FooterRetract, WriterOptions};
 use crate::geom::{
-    Aabb, GridSpec, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
+    Aabb, Mesh, MeshIndex, MetricOptions, Normalization, Point3, TAUBIN_LAMBDA, TAUBIN_MU, Vector3,
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
     voxelize,
 };
@@ -27,6 +27,7 @@ use crate::toolpath::library::Cutting;
 use crate::trace::PathTrace;
 use crate::voxsim::{RewardWeights, Rewards, SimOptions, SimReport, Simulator};
 
+mod grid;
 mod rest_rough;
 mod undercut;
 
@@ -138,7 +139,7 @@ impl MillRun {
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
-        let spec = simulation_grid(&stock, &part_box, opts)?;
+        let spec = grid::simulation_grid(&stock, &part, &part_box, opts)?;
         let (orientation, (target, index, samples, beside)) = rayon::join(
             || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),
             || {
@@ -573,11 +574,13 @@ impl MillRun {
         }
         let to_input = self.to_input;
         let residual = residual_plan.transformed(&to_input.inverse_similarity());
-        let metrics = compare(
-            &residual.transformed(&self.unit.as_similarity()),
-            &self.unit_part,
-            &MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() },
-        )?;
+        let mut mopts =
+            MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() };
+        if opts.face_grid {
+            let to_unit = self.unit.as_similarity() * to_input.inverse_similarity();
+            grid::scorer_on_grid(&mut mopts, simulated.residual().spec(), &to_unit);
+        }
+        let metrics = compare(&residual.transformed(&self.unit.as_similarity()), &self.unit_part, &mopts)?;
         self.times.scoring = t.elapsed().as_secs_f64();
 
         let stock = Aabb::new(to_input.from_unit(&self.stock.min), to_input.from_unit(&self.stock.max));
@@ -610,35 +613,6 @@ impl MillRun {
             stage_seconds: self.times,
         })
     }
-}
-
-/// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
-/// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
-/// of `1/resolution` of the part's longest side on the lattice of the scorer's grid (the
-/// part's bounding box centred in a cube of its longest side), covering the stock: the
-/// simulated part's faces then lie where the scorer puts them, and a flat part's score
-/// measures its machining rather than how the two grids happen to fall on its faces
-/// (half a voxel on each face of a 10 mm plate 50 mm long is 2 % of its volume). A stock
-/// more than 1.25 times the part's longest side keeps the grid over the stock, which
-/// bounds the grid's size.
-fn simulation_grid(stock: &Aabb, part: &Aabb, opts: &MillOptions) -> Result<GridSpec, MillError> {
-    let cubic = GridSpec::cubic(stock, opts.resolution)?;
-    let l = part.extent().max();
-    let h = l / opts.resolution as f64;
-    if (opts.preset == Preset::Paper && opts.stock == Stock::Preset)
-        || !(h > 0.0 && h.is_finite())
-        || stock.extent().max() > 1.25 * l
-    {
-        return Ok(cubic);
-    }
-    let c = part.center();
-    let (mut origin, mut dims) = (stock.min, [0; 3]);
-    for a in 0..3 {
-        let base = c[a] - 0.5 * l;
-        origin[a] = base + ((stock.min[a] - base) / h + 1e-9).floor() * h;
-        dims[a] = (((stock.max[a] - origin[a]) / h - 1e-9).ceil() as usize).max(1);
-    }
-    Ok(GridSpec { origin, voxel: Vector3::repeat(h), dims })
 }
 
 /// Refuses options no run can use, before any work.

@@ -870,3 +870,51 @@ impl MotionSink for Rapids {
         Ok(())
     }
 }
+
+/// With `face_grid` the simulation's voxel planes go through the part's flat faces (issue
+/// 35; the stress bushings): an inverted T 30 mm wide and 40 voxels deep (at 64 voxels over
+/// 30 mm), its boss 16 voxels wide from 24, its flange's top 6 voxels up and its boss's top
+/// 20.5, whose box centred in a cube of its longest side (the lattice without the option)
+/// puts the flange's top a quarter voxel off the grid's planes. The residual's marching
+/// cubes then put the flange's top a quarter voxel (0.12 mm) too high, and a scorer whose
+/// cell centres fall in between counts a whole layer of cells as stock left; on the planes
+/// through the part's largest flat faces it is where the part has it.
+#[test]
+fn the_simulation_s_voxel_planes_go_through_the_part_s_flat_faces() {
+    let h = 30.0 / 64.0;
+    let (f, top) = (6.0 * h, 20.5 * h);
+    let (b0, b1) = (24.0 * h, 40.0 * h);
+    let part = extruded(
+        &[[0.0, 0.0], [30.0, 0.0], [30.0, f], [b1, f], [b1, top], [b0, top], [b0, f], [0.0, f]],
+        40.0 * h,
+    );
+    let opts = MillOptions {
+        preset: Preset::Shop,
+        resolution: 64,
+        orient_points: 2048,
+        metric_samples: 2000,
+        face_grid: true,
+        ..MillOptions::default()
+    };
+    let m =
+        mill(&part, &mut HeuristicPolicy::default(), &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    // The residual's highest point over the flange on either side of the boss, away from
+    // its edges: the flange's top.
+    let over = |x0: f64, x1: f64| {
+        m.residual
+            .vertices()
+            .iter()
+            .filter(|p| (x0..=x1).contains(&p.x) && (4.0..=16.0).contains(&p.y))
+            .map(|p| p.z)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    for (x0, x1) in [(2.0, 8.0), (22.0, 28.0)] {
+        let z = over(x0, x1);
+        assert!((z - f).abs() < 0.01 * h, "the flange's top at {z} over x {x0}..{x1}, the part's at {f}");
+    }
+    // The boss's top, half a voxel off any lattice through the flange's faces, is within a
+    // voxel.
+    let z = over(12.0, 18.0);
+    assert!((z - top).abs() <= h, "the boss's top at {z}, the part's at {top}");
+}
