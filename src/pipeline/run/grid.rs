@@ -232,30 +232,25 @@ mod tests {
         let part = Mesh::new(v, vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]]).unwrap();
         assert_eq!(face_lattice(&part, 0.1), None);
         assert_eq!(face_lattice(&block([0.0; 3], [1.0; 3]), 0.0), None);
-        // A prism along Z with a sloping side: faces across Z only.
-        let v = [
-            [0.0, 0.0, 0.0],
-            [2.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-            [2.0, 0.0, 1.0],
-            [0.0, 1.0, 1.0],
-        ];
-        let v = v.iter().map(|&p| Point3::from(p)).collect();
-        let t = vec![[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [2, 0, 3], [2, 3, 5]];
-        let (_, [x, y, z]) = face_lattice(&Mesh::new(v, t).unwrap(), 0.1).unwrap();
-        assert!(x.is_some() && y.is_some() && z.is_some());
-        let v = [
-            [0.0, 0.0, 0.0],
-            [2.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 0.0, 1.0],
-            [2.0, 0.0, 1.0],
-            [0.0, 1.0, 1.0],
-        ];
-        let v: Vec<Point3> = v.iter().map(|&p| Point3::new(p[0] + 0.3 * p[1], p[1], p[2])).collect();
-        let t = vec![[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [2, 0, 3], [2, 3, 5]];
-        let (_, [x, y, z]) = face_lattice(&Mesh::new(v, t).unwrap(), 0.1).unwrap();
+        // A right prism on the triangle (0, 0), (2, 0), (0, 1), z 0 to 1: faces across every
+        // axis; sheared along X by 0.3 y, its face at x = 0 slopes: none across X.
+        let prism = |shear: f64| {
+            let v = [
+                [0.0, 0.0, 0.0],
+                [2.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [2.0, 0.0, 1.0],
+                [0.0, 1.0, 1.0],
+            ];
+            let v = v.iter().map(|p| Point3::new(p[0] + shear * p[1], p[1], p[2])).collect();
+            let t =
+                vec![[0, 2, 1], [3, 4, 5], [0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4], [2, 0, 3], [2, 3, 5]];
+            face_lattice(&Mesh::new(v, t).unwrap(), 0.1).unwrap().1
+        };
+        let [x, y, z] = prism(0.0);
+        assert!(x.is_some() && y.is_some() && z.is_some(), "{x:?} {y:?} {z:?}");
+        let [x, y, z] = prism(0.3);
         assert!(x.is_none() && y.is_some() && z.is_some(), "{x:?} {y:?} {z:?}");
     }
 
