@@ -580,29 +580,25 @@ impl<G: Fn(usize) -> f64> Checks<'_, '_, '_, G> {
 }
 
 /// The ranges along a pass within `reach` of a sample that `keep` accepts, increasing
-/// and disjoint.
+/// and disjoint (the samples lie in increasing order along the pass).
 fn kept_spans(l: &Line, keep: Keep<'_>, reach: f64) -> Vec<(f64, f64)> {
-    let mut out: Vec<(f64, f64)> = Vec::new();
-    for &(t, h) in &l.points {
-        let Some(z) = h else { continue };
-        let p = l.pass.at(t);
-        if !keep(&Point3::new(p[0], p[1], z)) {
-            continue;
-        }
-        match out.last_mut() {
-            Some(s) if t - reach <= s.1 => s.1 = t + reach,
-            _ => out.push((t - reach, t + reach)),
-        }
-    }
-    out
+    union_in_order(l.points.iter().filter_map(|&(t, h)| {
+        let (z, p) = (h?, l.pass.at(t));
+        keep(&Point3::new(p[0], p[1], z)).then_some((t - reach, t + reach))
+    }))
 }
 
 /// The union of two increasing lists of disjoint ranges, increasing and disjoint.
 fn merge_spans(x: &[(f64, f64)], y: &[(f64, f64)]) -> Vec<(f64, f64)> {
     let mut all: Vec<(f64, f64)> = x.iter().chain(y).copied().collect();
     all.sort_by(|p, q| p.0.total_cmp(&q.0));
+    union_in_order(all)
+}
+
+/// The union of ranges given in increasing order of their starts, increasing and disjoint.
+fn union_in_order(ranges: impl IntoIterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
     let mut out: Vec<(f64, f64)> = Vec::new();
-    for (lo, hi) in all {
+    for (lo, hi) in ranges {
         match out.last_mut() {
             Some(s) if lo <= s.1 => s.1 = s.1.max(hi),
             _ => out.push((lo, hi)),
