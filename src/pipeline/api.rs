@@ -116,11 +116,12 @@ pub struct MillOptions {
     /// Stock margin around the part's bounding box, as a fraction of its largest
     /// extent (shop preset only; the paper preset's stock is the unit cube). Default 0.02.
     pub stock_margin: f64,
-    /// Put the simulation grid's voxel planes through the part's flat faces (the voxel
-    /// within 2 % of the resolution's, offsets per axis with the least misplaced face
-    /// volume) rather than on the lattice of the report's scorer, so that the residual's
-    /// flat faces lie where the part has them for any scorer. Default false: the report's
-    /// IoU at 256^3 and the rest rule's voxel counts then stay as they were.
+    /// Shop preset: put the simulation grid's voxel planes through the part's flat faces
+    /// (the voxel within 2 % of the resolution's, offsets per axis with the least
+    /// misplaced face volume, no face on a row of voxel centres) rather than on the lattice
+    /// of the report's scorer, so that the residual's flat faces lie where the part has
+    /// them for any scorer. Default true; the paper preset ignores it (its grid is the
+    /// scorer's, as in the paper).
     pub face_grid: bool,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
@@ -305,7 +306,7 @@ impl Default for MillOptions {
             metric_samples: 8000,
             seed: 0,
             stock_margin: 0.02,
-            face_grid: false,
+            face_grid: true,
             paper_scale_mm: 100.0,
             paper_space_scale: 1.0,
             stock: Stock::Preset,

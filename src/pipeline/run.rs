@@ -576,7 +576,7 @@ impl MillRun {
         let residual = residual_plan.transformed(&to_input.inverse_similarity());
         let mut mopts =
             MetricOptions { samples: opts.metric_samples, seed: opts.seed, ..MetricOptions::default() };
-        if opts.face_grid {
+        if grid::face_grid(opts) {
             let to_unit = self.unit.as_similarity() * to_input.inverse_similarity();
             grid::scorer_on_grid(&mut mopts, simulated.residual().spec(), &to_unit);
         }

@@ -80,10 +80,16 @@ pub struct Args {
     /// oblique ones. The shipped policy was trained with the paper's test.
     #[arg(long)]
     front_facing: bool,
-    /// Put the simulation grid's voxel planes through the part's flat faces (the voxel
-    /// within 2 % of --resolution's): the residual's flat faces then lie where the part
-    /// has them for any scorer (MillOptions::face_grid).
-    #[arg(long)]
+    /// Shop preset: keep the simulation grid on the report's scorer's lattice instead of
+    /// putting its voxel planes through the part's flat faces (the default: the voxel
+    /// within 2 % of --res's, so that the residual's flat faces lie where the part has them
+    /// for any scorer; MillOptions::face_grid). The paper preset's grid is the paper's
+    /// either way.
+    #[arg(long, overrides_with = "face_grid")]
+    no_face_grid: bool,
+    /// The default (kept so that older command lines run); the later of it and
+    /// --no-face-grid wins.
+    #[arg(long, hide = true, overrides_with = "no_face_grid")]
     face_grid: bool,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
@@ -523,7 +529,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
-        face_grid: args.face_grid,
+        face_grid: args.face_grid || !args.no_face_grid,
         max_estimated_hours: args.max_hours,
         arc_tolerance: arc_tolerance(args.arc_tolerance, preset),
         stock: parse_stock(args)?,

@@ -31,7 +31,7 @@ pub(super) fn simulation_grid(
     {
         return Ok(cubic);
     }
-    let chosen = if opts.face_grid { face_lattice(part, h0) } else { None };
+    let chosen = if face_grid(opts) { face_lattice(part, h0) } else { None };
     let (h, planes) = chosen.unwrap_or((h0, [None; 3]));
     let c = part_box.center();
     let (mut origin, mut dims) = (stock.min, [0; 3]);
@@ -43,6 +43,19 @@ pub(super) fn simulation_grid(
     Ok(GridSpec { origin, voxel: Vector3::repeat(h), dims })
 }
 
+/// Whether the simulation grid's planes go through the part's flat faces:
+/// [`MillOptions::face_grid`], in the shop preset (the paper preset's grid is the paper's).
+pub(super) fn face_grid(opts: &MillOptions) -> bool {
+    opts.face_grid && opts.preset == Preset::Shop
+}
+
+/// The least distance, in voxels, that [`face_lattice`] leaves between a flat face and the
+/// plane of a row of voxel centres where it can: a face through the centres leaves each
+/// of their voxels to rounding (the part's inside test, a floor's tool exactly at the
+/// centre), and 1/64 of a voxel decides them all one way for the cost of moving the faces
+/// on planes as little.
+const CENTRE_CLEARANCE: f64 = 1.0 / 64.0;
+
 /// Voxel sizes [`face_lattice`] tries besides those that fit an axis's two largest faces:
 /// `h0` times `1 + j / 400` for `j` in -8..=8.
 const SIZE_STEPS: i32 = 8;
@@ -53,7 +66,8 @@ const SIZE_STEPS: i32 = 8;
 /// area times its distance from the nearest plane, summed over the three axes. The sizes
 /// tried are [`SIZE_STEPS`]' and, per axis, the two nearest `h0` that divide the distance
 /// between its two largest faces; of sizes as good the nearest `h0` (the finer of two as
-/// near), of offsets as good the one through the largest face. An axis
+/// near), of offsets as good the one through the largest face; then moved by
+/// [`off_centres`] off any face that lies on a row of voxel centres. An axis
 /// with no such face has none; `None` when the part has no such face or `h0` is not
 /// positive.
 pub(super) fn face_lattice(part: &Mesh, h0: f64) -> Option<(f64, [Option<f64>; 3])> {
@@ -85,7 +99,40 @@ pub(super) fn face_lattice(part: &Mesh, h0: f64) -> Option<(f64, [Option<f64>; 3
             best = Some((h, cost, per_axis.map(|o| o.map(|(t, _)| t))));
         }
     }
-    best.map(|(h, _, t)| (h, t))
+    best.map(|(h, _, t)| {
+        let mut t = t;
+        for (t, p) in t.iter_mut().zip(&planes) {
+            *t = t.map(|t| off_centres(p, t, h));
+        }
+        (h, t)
+    })
+}
+
+/// The lattice coordinate `t` (spacing `h`) where no plane of `planes` (coordinate, area)
+/// lies within [`CENTRE_CLEARANCE`] of a voxel centre's plane (`t + (k + 1/2) h`), or else
+/// moved by one or two clearances, up first, to whichever leaves the nearest face farthest
+/// from them.
+fn off_centres(planes: &[(f64, f64)], t: f64, h: f64) -> f64 {
+    let gap = |s: f64| {
+        planes
+            .iter()
+            .map(|&(c, _)| {
+                let r = (c - t) / h - s;
+                (r - r.floor() - 0.5).abs()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    if gap(0.0) >= CENTRE_CLEARANCE {
+        return t;
+    }
+    let mut best = (0.0, gap(0.0));
+    for k in [1.0, -1.0, 2.0, -2.0] {
+        let g = gap(k * CENTRE_CLEARANCE);
+        if g > best.1 + 1e-12 {
+            best = (k * CENTRE_CLEARANCE, g);
+        }
+    }
+    t + best.0 * h
 }
 
 /// The planes across `axis` that hold flat faces of the part (facets whose normal is the
@@ -222,6 +269,79 @@ mod tests {
         for t in [-30.0, -10.0] {
             assert!(chosen <= misplaced(8.0 / 17.0, [t, t, 0.0]) + 1e-9, "{chosen}");
         }
+    }
+
+    /// The closed cuboids `boxes` as one mesh (they may touch: [`face_lattice`] reads
+    /// facets only).
+    fn blocks(boxes: &[([f64; 3], [f64; 3])]) -> Mesh {
+        let (mut v, mut t) = (Vec::new(), Vec::new());
+        for &(lo, hi) in boxes {
+            let b = block(lo, hi);
+            let n = v.len() as u32;
+            v.extend_from_slice(b.vertices());
+            t.extend(b.triangles().iter().map(|&[a, b, c]| [a + n, b + n, c + n]));
+        }
+        Mesh::new(v, t).unwrap()
+    }
+
+    #[test]
+    fn no_flat_face_lies_on_a_row_of_voxel_centres() {
+        // An L-bracket (l_bracket's faces): a 100 x 60 x 10 plate, an upright 12 thick to z
+        // 70, and an 11 x 11 counterbore floor at z 5. Along Z 10 / 13 mm puts the plate's
+        // faces and the top on planes (100 / 128 = 0.78 mm asked) and the floor at 6.5
+        // voxels, on the centres of a row; it is moved off them, the other faces kept on
+        // their planes.
+        let part = blocks(&[
+            ([-50.0, -30.0, 0.0], [50.0, 30.0, 10.0]),
+            ([-50.0, -30.0, 10.0], [-38.0, 30.0, 70.0]),
+            ([0.0, -20.5, 5.0], [11.0, -9.5, 10.0]),
+        ]);
+        let h0 = 100.0 / 128.0;
+        let (h, t) = face_lattice(&part, h0).unwrap();
+        assert!((h - 10.0 / 13.0).abs() < 1e-12, "{h}");
+        let z = t[2].unwrap();
+        assert!((off(5.0, 0.0, h) - 0.5 * h).abs() < 1e-12);
+        // Distance from the nearest plane of voxel centres.
+        let centre = |c: f64, t: f64| 0.5 * h - off(c, t, h);
+        for a in 0..3 {
+            for &(c, _) in &flat_planes(&part, a) {
+                let t = t[a].unwrap();
+                assert!(centre(c, t) >= CENTRE_CLEARANCE * h * (1.0 - 1e-9), "{c} along {a}: {t} {h}");
+            }
+        }
+        for c in [0.0, 10.0, 70.0] {
+            assert!(off(c, z, h) <= 2.0 * CENTRE_CLEARANCE * h + 1e-12, "{c}: {z}");
+        }
+        // A lattice already off the centres stays where it is; one face on them moves by at
+        // most two clearances.
+        let planes = [(0.0, 10.0), (1.0, 1.0)];
+        assert_eq!(off_centres(&planes, 0.0, 0.3), 0.0);
+        let moved = off_centres(&planes, 0.0, 2.0);
+        assert!(moved != 0.0 && moved.abs() <= 2.0 * CENTRE_CLEARANCE * 2.0 + 1e-12, "{moved}");
+        assert!(centre(1.0, moved) > 0.0);
+    }
+
+    #[test]
+    fn the_paper_preset_s_grid_is_the_same_with_or_without_the_face_grid() {
+        // A plate whose faces fall off the scorer's lattice, in a box stock (not the paper's
+        // cube): the paper preset keeps the centred lattice; the shop preset moves it.
+        let part = block([0.0, 0.0, 0.2], [50.0, 50.0, 10.5]);
+        let part_box = part.bbox().unwrap();
+        let stock = part_box.inflated(1.0);
+        let grid = |preset: Preset, face_grid: bool| {
+            let opts = MillOptions {
+                preset,
+                stock: Stock::BoxSize([52.0, 52.0, 12.3]),
+                resolution: 128,
+                face_grid,
+                ..MillOptions::default()
+            };
+            simulation_grid(&stock, &part, &part_box, &opts).unwrap()
+        };
+        assert_eq!(grid(Preset::Paper, true), grid(Preset::Paper, false));
+        assert_ne!(grid(Preset::Shop, true), grid(Preset::Shop, false));
+        assert_eq!(grid(Preset::Shop, false), grid(Preset::Paper, false));
+        assert!(MillOptions::default().face_grid);
     }
 
     #[test]
