@@ -919,8 +919,8 @@ fn the_simulation_s_voxel_planes_go_through_the_part_s_flat_faces() {
         let z = over(x0, x1);
         assert!((z - f).abs() < 0.01 * h, "the flange's top at {z} over x {x0}..{x1}, the part's at {f}");
     }
-    // The boss's top, half a voxel off any lattice through the flange's faces, is within a
-    // voxel.
+    // The boss's top, half a voxel off any lattice through the flange's faces (on its
+    // voxel centres, which the lattice leaves by 1/256 of a voxel), is within a voxel.
     let z = over(12.0, 18.0);
     assert!((z - top).abs() <= h, "the boss's top at {z}, the part's at {top}");
 }

@@ -52,9 +52,9 @@ pub(super) fn face_grid(opts: &MillOptions) -> bool {
 /// The least distance, in voxels, that [`face_lattice`] leaves between a flat face and the
 /// plane of a row of voxel centres where it can: a face through the centres leaves each
 /// of their voxels to rounding (the part's inside test, a floor's tool exactly at the
-/// centre), and 1/64 of a voxel decides them all one way for the cost of moving the faces
-/// on planes as little.
-const CENTRE_CLEARANCE: f64 = 1.0 / 64.0;
+/// centre), and 1/256 of a voxel decides them all one way (rounding is some 1e-12 of it)
+/// for the cost of moving the faces on planes as little.
+const CENTRE_CLEARANCE: f64 = 1.0 / 256.0;
 
 /// Voxel sizes [`face_lattice`] tries besides those that fit an axis's two largest faces:
 /// `h0` times `1 + j / 400` for `j` in -8..=8.
