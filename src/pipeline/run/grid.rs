@@ -7,7 +7,7 @@ use nalgebra::Similarity3;
 /// The simulation grid. The paper's cube of stock keeps the grid over it (the scorer's
 /// grid, `resolution` voxels along the stock's side). Any other stock gets cubic voxels
 /// of about `1/resolution` of the part's longest side, covering the stock, with the voxel
-/// planes, where [`MillOptions::face_grid`] asks, where [`face_lattice`] puts them: through the part's flat faces across the axes
+/// planes, where [`face_grid`] says (the shop preset's default), where [`face_lattice`] puts them: through the part's flat faces across the axes
 /// (the voxel within 2 % of that size), so that the residual's marching cubes put those
 /// faces where the part has them and every scorer, whatever its grid, finds them there (a
 /// plane two thirds of a voxel from a flange's underside moved the residual's face 0.16 mm
@@ -183,7 +183,7 @@ fn best_offset(planes: &[(f64, f64)], h: f64) -> Option<(f64, f64)> {
 }
 
 /// The report's scorer on the simulation grid's lattice (with
-/// [`MillOptions::face_grid`]): cells of the grid's voxel, or of a whole fraction of it
+/// [`face_grid`]): cells of the grid's voxel, or of a whole fraction of it
 /// near the scorer's `1/resolution` of the unit cube, aligned with its voxels, over a cube
 /// that covers the unit cube. So the scorer's voxel-centre rule agrees with the
 /// simulation's on every cell, as the lattice of the unit cube did with the grid on it.
