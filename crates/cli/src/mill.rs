@@ -473,6 +473,12 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 }
 
 /// The library's options from the command line.
+/// Whether the shop preset's grid goes through the part's flat faces: unless
+/// `--no-face-grid` (the later of it and `--face-grid` stands).
+fn face_grid(args: &Args) -> bool {
+    args.face_grid || !args.no_face_grid
+}
+
 fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
     let preset = match args.preset.as_str() {
         "paper" => Preset::Paper,
@@ -529,7 +535,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         orient_points: args.points,
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
-        face_grid: args.face_grid || !args.no_face_grid,
+        face_grid: face_grid(args),
         max_estimated_hours: args.max_hours,
         arc_tolerance: arc_tolerance(args.arc_tolerance, preset),
         stock: parse_stock(args)?,
@@ -863,7 +869,26 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
 
 #[cfg(test)]
 mod tests {
-    use super::resolution_for_voxel;
+    use super::{Args, face_grid, resolution_for_voxel};
+    use clap::Parser;
+
+    #[test]
+    fn the_face_grid_is_on_unless_no_face_grid_comes_last() {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: Args,
+        }
+        let on = |extra: &[&str]| {
+            let argv = ["s2g", "part.stl"].into_iter().chain(extra.iter().copied());
+            face_grid(&Cli::try_parse_from(argv).expect("arguments s2g mill takes").args)
+        };
+        assert!(on(&[]));
+        assert!(on(&["--face-grid"]));
+        assert!(!on(&["--no-face-grid"]));
+        assert!(on(&["--no-face-grid", "--face-grid"]));
+        assert!(!on(&["--face-grid", "--no-face-grid"]));
+    }
 
     #[test]
     fn voxel_size_sets_the_resolution_within_the_bounds() {
