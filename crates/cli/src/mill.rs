@@ -472,13 +472,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     Ok(if milled.is_safe() { ExitCode::SUCCESS } else { ExitCode::from(2) })
 }
 
-/// The library's options from the command line.
 /// Whether the shop preset's grid goes through the part's flat faces: unless
 /// `--no-face-grid` (the later of it and `--face-grid` stands).
 fn face_grid(args: &Args) -> bool {
     args.face_grid || !args.no_face_grid
 }
 
+/// The library's options from the command line.
 fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
     let preset = match args.preset.as_str() {
         "paper" => Preset::Paper,
