@@ -134,8 +134,12 @@ impl MillRun {
         // A shop's tools reach only so deep below the stock's top: setups are chosen for
         // what their tools reach (with finishing, maybe the ball's: `choose_setups`).
         let tooling = Tooling::new(opts, stock.extent().norm(), feeds(None).0)?;
-        let reaches =
-            Reaches::new(&part, stock, tooling.reach(false), tooling.reach(true), opts.finish.is_some());
+        let reaches = Reaches::new(
+            &part,
+            tooling.reach(stock, false),
+            tooling.reach(stock, true),
+            opts.finish.is_some(),
+        );
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.

@@ -33,20 +33,22 @@ pub(super) struct Reaches {
 }
 
 impl Reaches {
-    /// `rough` and `ball` are the tools' depths ([`Tooling::reach`](super::tooling::Tooling::reach)).
+    /// `rough` and `ball` are the tools' reaches ([`Tooling::reach`](super::tooling::Tooling::reach)).
     pub(super) fn new(
         part: &Mesh,
-        stock: crate::geom::Aabb,
-        rough: Option<f64>,
-        ball: Option<f64>,
+        rough: Option<ToolReach>,
+        ball: Option<ToolReach>,
         finishing: bool,
     ) -> Self {
-        let at = |depth: Option<f64>| depth.map(|depth| ToolReach { stock, depth });
         let ball = match (rough, ball) {
-            (Some(r), Some(b)) if finishing && b < r && prismatic_share(part) < PRISMATIC_PART => at(Some(b)),
+            (Some(r), Some(b))
+                if finishing && b.depth < r.depth && prismatic_share(part) < PRISMATIC_PART =>
+            {
+                Some(b)
+            }
             _ => None,
         };
-        Self { rough: at(rough), ball }
+        Self { rough, ball }
     }
 }
 
@@ -146,7 +148,8 @@ mod tests {
         let stock = crate::geom::Aabb::new(Point3::origin(), Point3::new(10.0, 10.0, 10.0));
         // A cube is wholly prismatic: the roughing's set only.
         let cube = Mesh::cuboid(&stock).unwrap();
-        assert!(Reaches::new(&cube, stock, Some(30.0), Some(20.0), true).ball.is_none());
+        let at = |depth: f64| Some(ToolReach::new(stock, depth));
+        assert!(Reaches::new(&cube, at(30.0), at(20.0), true).ball.is_none());
         // An octahedron (no face along or square to an axis) is sculpted.
         let v = [
             [1.0, 0.0, 0.0],
@@ -162,11 +165,11 @@ mod tests {
             t.to_vec(),
         )
         .unwrap();
-        let r = Reaches::new(&octa, stock, Some(30.0), Some(20.0), true);
+        let r = Reaches::new(&octa, at(30.0), at(20.0), true);
         assert_eq!(r.ball.map(|b| b.depth), Some(20.0));
         assert_eq!(r.rough.map(|b| b.depth), Some(30.0));
-        assert!(Reaches::new(&octa, stock, Some(30.0), Some(20.0), false).ball.is_none());
-        assert!(Reaches::new(&octa, stock, Some(30.0), Some(30.0), true).ball.is_none());
-        assert!(Reaches::new(&octa, stock, None, None, true).ball.is_none());
+        assert!(Reaches::new(&octa, at(30.0), at(20.0), false).ball.is_none());
+        assert!(Reaches::new(&octa, at(30.0), at(30.0), true).ball.is_none());
+        assert!(Reaches::new(&octa, None, None, true).ball.is_none());
     }
 }

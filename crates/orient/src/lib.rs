@@ -39,4 +39,4 @@ pub use crate::select::{
     select_orientations_in_stock,
 };
 pub use crate::stock::{StockRemovalOptions, StockRemovalReport, stock_grid_points};
-pub use crate::visibility::{ToolReach, VisibilityContext, VisibilityMatrix, VisibilityOptions};
+pub use crate::visibility::{ReachTool, ToolReach, VisibilityContext, VisibilityMatrix, VisibilityOptions};

@@ -98,7 +98,7 @@ mod tests {
         let points = stock_grid_points(&stock, 4096, |_| true);
         let opts = OrientOptions { points: 6000, ..OrientOptions::default() };
         let top = [UnitVector3::new_normalize(s2g_geom::Vector3::z())];
-        let reach = |depth| Some(ToolReach { stock, depth });
+        let reach = |depth| Some(ToolReach::new(stock, depth));
         let score = |surface, material| {
             unreached(&part, &points, &[&top[..], &[]], &opts, surface, material).unwrap()
         };

@@ -57,19 +57,107 @@ pub struct VisibilityOptions {
 /// than that is not reached from that axis, however visible. Oblique axes on a box stock
 /// start at a corner, so the same depth reaches less of the part from them than from a
 /// face's normal.
+///
+/// With its tools ([`ToolReach::of_tools`]) the reach is tool-aware: a narrow feature is
+/// reached only as deep as a tool that fits it cuts. A surface sample's *gap* is the
+/// free distance in front of it (the ray from the sample along its outward normal to the
+/// part's surface: a hole's diameter on its wall, a slot's width on its sides, unbounded
+/// on a floor open above); of the tools narrower than the gap the deepest sets how deep
+/// below the stock's top the sample is reached ([`ToolReach::depth_within`]). A 6 mm bolt
+/// hole beside a tall boss is thus reached from above only as deep as the 5 mm end mill's
+/// holder allows, however deep the 12 mm end mill reaches beside it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToolReach {
     /// The stock's box, in the part's frame.
     pub stock: Aabb,
     /// The deepest a tool cuts below the stock's top (part units).
     pub depth: Real,
+    /// The tools by width, by ascending radius and depth (the first `len`); none: every
+    /// sample is reached to `depth`.
+    tools: [ReachTool; REACH_TOOLS],
+    len: usize,
+}
+
+/// Most tools a [`ToolReach`] tells apart.
+pub const REACH_TOOLS: usize = 16;
+
+/// One tool of a tool-aware [`ToolReach`]: its cutting radius and how deep below the
+/// stock's top it cuts with its holder clear (`Tool::envelope`'s length in the toolpath
+/// crate), part units.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ReachTool {
+    /// Cutting radius.
+    pub radius: Real,
+    /// Depth below the stock's top.
+    pub depth: Real,
 }
 
 impl ToolReach {
+    /// A reach of `depth` for every sample, whatever the width of the feature it lies in.
+    pub fn new(stock: Aabb, depth: Real) -> Self {
+        Self { stock, depth, tools: [ReachTool::default(); REACH_TOOLS], len: 0 }
+    }
+
+    /// The tool-aware reach of `tools` (see the type's docs): the tools that matter are
+    /// kept, those reaching deeper than every narrower one (a tool no wider that reaches
+    /// as deep fits wherever a wider one does); past [`REACH_TOOLS`] of them the
+    /// narrowest `REACH_TOOLS - 1` and the deepest are kept (the dropped ones' widths get
+    /// a narrower tool's depth: less reach, never more). `depth` is the deepest tool's.
+    /// Tools without a positive, finite radius and depth are left out; `None` where none
+    /// is left.
+    pub fn of_tools(stock: Aabb, tools: &[ReachTool]) -> Option<Self> {
+        let mut sorted: Vec<ReachTool> = tools
+            .iter()
+            .copied()
+            .filter(|t| t.radius > 0.0 && t.depth > 0.0 && (t.radius + t.depth).is_finite())
+            .collect();
+        sorted.sort_by(|a, b| a.radius.total_cmp(&b.radius).then(b.depth.total_cmp(&a.depth)));
+        let mut front: Vec<ReachTool> = Vec::new();
+        for t in sorted {
+            if front.last().is_none_or(|l| t.depth > l.depth) {
+                front.push(t);
+            }
+        }
+        if front.len() > REACH_TOOLS {
+            let last = front[front.len() - 1];
+            front.truncate(REACH_TOOLS - 1);
+            front.push(last);
+        }
+        let deepest = front.last()?.depth;
+        let mut reach = Self::new(stock, deepest);
+        reach.tools[..front.len()].copy_from_slice(&front);
+        reach.len = front.len();
+        Some(reach)
+    }
+
+    /// The tools that matter, by ascending radius and depth (empty for [`ToolReach::new`]).
+    pub fn tools(&self) -> &[ReachTool] {
+        &self.tools[..self.len]
+    }
+
+    /// How deep below the stock's top a sample whose gap is `width` wide is reached: the
+    /// depth of the deepest tool whose diameter is less than `width`, `-inf` where none
+    /// is (nothing fits); [`depth`](Self::depth) without tools.
+    pub fn depth_within(&self, width: Real) -> Real {
+        if self.len == 0 {
+            return self.depth;
+        }
+        self.tools()
+            .iter()
+            .take_while(|t| 2.0 * t.radius < width)
+            .last()
+            .map_or(Real::NEG_INFINITY, |t| t.depth)
+    }
+
+    /// The stock's top along unit axis `v` (`v . x` of its highest corner).
+    pub fn top(&self, v: &Vector3) -> Real {
+        self.stock.corners().iter().map(|c| v.dot(&c.coords)).fold(Real::NEG_INFINITY, Real::max)
+    }
+
     /// The lowest height along unit axis `v` (`v . x`) the tools reach: the stock's top
-    /// along `v` less the depth.
+    /// along `v` less the depth (the deepest tool's, whatever the width).
     pub fn floor(&self, v: &Vector3) -> Real {
-        self.stock.corners().iter().map(|c| v.dot(&c.coords)).fold(Real::NEG_INFINITY, Real::max) - self.depth
+        self.top(v) - self.depth
     }
 }
 
@@ -123,6 +211,25 @@ pub fn supporting_triangles(mesh: &Mesh, tol: Real) -> Vec<bool> {
         .collect()
 }
 
+/// The free distance in front of each sample: along the ray from `p + eps n` along the
+/// outward normal `n` to the part's surface (plus `eps`), `inf` where the ray leaves within
+/// `2 diag` (past the part's bounding box) without meeting it. In parallel over samples.
+pub fn sample_gaps(
+    index: &MeshIndex,
+    points: &[Point3],
+    normals: &[Vector3],
+    eps: Real,
+    diag: Real,
+) -> Vec<Real> {
+    points
+        .par_iter()
+        .zip(normals.par_iter())
+        .map(|(p, n)| {
+            index.cast_ray(&(p + n * eps), n, 2.0 * diag).map_or(Real::INFINITY, |hit| hit.distance + eps)
+        })
+        .collect()
+}
+
 /// Number of `u64` words for a bitset over `n` items.
 #[inline]
 pub fn words_for(n: usize) -> usize {
@@ -148,6 +255,9 @@ pub struct VisibilityContext<'a> {
     supported: Option<Vec<u64>>,
     /// The mesh's vertices, for the support height of a direction.
     vertices: Vec<Point3>,
+    /// With a tool-aware reach, how deep below the stock's top each sample is reached
+    /// ([`ToolReach::depth_within`] its gap).
+    depths: Option<Vec<Real>>,
 }
 
 /// What the rays of one direction share.
@@ -164,6 +274,9 @@ struct Probe<'a> {
     /// The lowest height `v . x` the tools reach ([`ToolReach::floor`]); `-inf` without
     /// a reach.
     floor: Real,
+    /// The stock's top along the direction ([`ToolReach::top`]), from which a tool-aware
+    /// reach's per-sample depths count.
+    stock_top: Real,
 }
 
 impl std::fmt::Debug for VisibilityContext<'_> {
@@ -236,6 +349,12 @@ impl<'a> VisibilityContext<'a> {
                 }
                 bits
             });
+        let depths = opts.reach.filter(|r| !r.tools().is_empty()).map(|r| {
+            sample_gaps(index, &samples.points, &samples.normals, eps, diag)
+                .into_iter()
+                .map(|w| r.depth_within(w))
+                .collect()
+        });
         Ok(Self {
             index,
             points: &samples.points,
@@ -245,7 +364,14 @@ impl<'a> VisibilityContext<'a> {
             opts: *opts,
             supported,
             vertices: mesh.vertices().to_vec(),
+            depths,
         })
+    }
+
+    /// With a tool-aware reach, how deep below the stock's top sample `i` is reached
+    /// ([`ToolReach::depth_within`] the free distance in front of it); `None` otherwise.
+    pub fn sample_depth(&self, i: usize) -> Option<Real> {
+        self.depths.as_ref().and_then(|d| d.get(i).copied())
     }
 
     /// Number of samples.
@@ -291,7 +417,18 @@ impl<'a> VisibilityContext<'a> {
         // a row (the front-facing ones) cast one.
         let worth = 2 * self.index.num_triangles() <= samples;
         let rays = worth.then(|| self.index.parallel_rays(v)).flatten();
-        Probe { rays, basis: orthonormal_basis(v), top: top + grow, floor: self.floor(v) }
+        Probe {
+            rays,
+            basis: orthonormal_basis(v),
+            top: top + grow,
+            floor: self.floor(v),
+            stock_top: self.stock_top(v),
+        }
+    }
+
+    /// The stock's top along `v`, `inf` without a reach.
+    fn stock_top(&self, v: &Vector3) -> Real {
+        self.opts.reach.map_or(Real::INFINITY, |r| r.top(v))
     }
 
     /// The lowest height along `v` the tools reach, `-inf` without a reach.
@@ -321,7 +458,14 @@ impl<'a> VisibilityContext<'a> {
             return false;
         }
         let p = &self.points[i];
-        if v.dot(&p.coords) < probe.floor {
+        let h = v.dot(&p.coords);
+        if h < probe.floor {
+            return false;
+        }
+        // A narrow feature: only as deep as a tool that fits it reaches.
+        if let Some(d) = &self.depths
+            && h < probe.stock_top - d[i]
+        {
             return false;
         }
         match self.opts.tool_radius {
@@ -350,8 +494,13 @@ impl<'a> VisibilityContext<'a> {
     /// support plane (a pass over every vertex): its rays run to the box's exit, which
     /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        let probe =
-            Probe { rays: None, basis: orthonormal_basis(v), top: Real::INFINITY, floor: self.floor(v) };
+        let probe = Probe {
+            rays: None,
+            basis: orthonormal_basis(v),
+            top: Real::INFINITY,
+            floor: self.floor(v),
+            stock_top: self.stock_top(v),
+        };
         i < self.points.len() && self.visible_with(i, v, &probe, &mut OccluderCache::default())
     }
 
