@@ -149,6 +149,12 @@ impl ToolReach {
             .map_or(Real::NEG_INFINITY, |t| t.depth)
     }
 
+    /// The narrowest tool that reaches `depth` below the stock's top: its radius, `None`
+    /// where none does or there are no tools.
+    pub fn narrowest_reaching(&self, depth: Real) -> Option<Real> {
+        self.tools().iter().find(|t| t.depth >= depth).map(|t| t.radius)
+    }
+
     /// The stock's top along unit axis `v` (`v . x` of its highest corner).
     pub fn top(&self, v: &Vector3) -> Real {
         self.stock.corners().iter().map(|c| v.dot(&c.coords)).fold(Real::NEG_INFINITY, Real::max)
@@ -230,6 +236,33 @@ pub fn sample_gaps(
         .collect()
 }
 
+/// The radius of the largest ball tangent to the surface at `p` (outward normal `n`, the
+/// ball on the free side) that holds no part, at most `cap`: the shrinking ball (the ball
+/// through `p` and the part's point nearest to its centre, tangent at `p`, until that
+/// point is no nearer than the radius, within `eps`); 0 where it shrinks below `eps`. With
+/// it, the unit direction from the last point that shrank the ball to `p` (zero where none
+/// did).
+pub fn ball_clearance(index: &MeshIndex, p: &Point3, n: &Vector3, cap: Real, eps: Real) -> (Real, Vector3) {
+    let mut rho = cap;
+    let mut away = Vector3::zeros();
+    for _ in 0..16 {
+        if !(rho > eps) {
+            return (0.0, away);
+        }
+        let q = index.closest_point(&(p + n * rho));
+        if q.distance >= rho - eps {
+            return (rho, away);
+        }
+        let d = q.point - p;
+        away = (-d).try_normalize(1e-12).unwrap_or(away);
+        let along = 2.0 * n.dot(&d);
+        let next = if along > 0.0 { d.norm_squared() / along } else { 0.0 };
+        // The ball through `p` and `q` tangent at `p` is smaller; guard against no progress.
+        rho = if next < rho { next } else { q.distance.min(rho) * 0.5 };
+    }
+    (rho, away)
+}
+
 /// Number of `u64` words for a bitset over `n` items.
 #[inline]
 pub fn words_for(n: usize) -> usize {
@@ -255,9 +288,22 @@ pub struct VisibilityContext<'a> {
     supported: Option<Vec<u64>>,
     /// The mesh's vertices, for the support height of a direction.
     vertices: Vec<Point3>,
-    /// With a tool-aware reach, how deep below the stock's top each sample is reached
-    /// ([`ToolReach::depth_within`] its gap).
-    depths: Option<Vec<Real>>,
+    /// With a tool-aware reach, what each sample leaves room for ([`SampleRoom`]).
+    room: Option<SampleRoom>,
+}
+
+/// What a tool-aware reach knows of each sample's surroundings, direction aside.
+struct SampleRoom {
+    /// How deep below the stock's top the sample is reached: [`ToolReach::depth_within`]
+    /// its gap (a tool no narrower than the gap does not fit).
+    depths: Vec<Real>,
+    /// The radius of the largest ball tangent to the surface at the sample that holds no
+    /// part ([`ball_clearance`]), at most the widest tool's: a tool no wider fits there
+    /// without more rays.
+    clearance: Vec<Real>,
+    /// The unit direction from the part's point that bounds that ball to the sample (zero
+    /// where the ball reached the cap): away from the wall beside a floor.
+    away: Vec<Vector3>,
 }
 
 /// What the rays of one direction share.
@@ -349,11 +395,14 @@ impl<'a> VisibilityContext<'a> {
                 }
                 bits
             });
-        let depths = opts.reach.filter(|r| !r.tools().is_empty()).map(|r| {
-            sample_gaps(index, &samples.points, &samples.normals, eps, diag)
-                .into_iter()
-                .map(|w| r.depth_within(w))
-                .collect()
+        let room = opts.reach.filter(|r| !r.tools().is_empty()).map(|r| {
+            let gaps = sample_gaps(index, &samples.points, &samples.normals, eps, diag);
+            let widest = r.tools().last().map_or(0.0, |t| t.radius);
+            let (clearance, away) = (&samples.points, &samples.normals, &gaps)
+                .into_par_iter()
+                .map(|(p, n, &gap)| ball_clearance(index, p, n, (0.5 * gap).min(widest), eps))
+                .unzip();
+            SampleRoom { depths: gaps.iter().map(|&w| r.depth_within(w)).collect(), clearance, away }
         });
         Ok(Self {
             index,
@@ -364,14 +413,14 @@ impl<'a> VisibilityContext<'a> {
             opts: *opts,
             supported,
             vertices: mesh.vertices().to_vec(),
-            depths,
+            room,
         })
     }
 
     /// With a tool-aware reach, how deep below the stock's top sample `i` is reached
     /// ([`ToolReach::depth_within`] the free distance in front of it); `None` otherwise.
     pub fn sample_depth(&self, i: usize) -> Option<Real> {
-        self.depths.as_ref().and_then(|d| d.get(i).copied())
+        self.room.as_ref().and_then(|r| r.depths.get(i).copied())
     }
 
     /// Number of samples.
@@ -462,32 +511,84 @@ impl<'a> VisibilityContext<'a> {
         if h < probe.floor {
             return false;
         }
-        // A narrow feature: only as deep as a tool that fits it reaches.
-        if let Some(d) = &self.depths
-            && h < probe.stock_top - d[i]
-        {
-            return false;
+        // Tool-aware reach: only as deep as a tool that fits reaches; where the sample's
+        // room is less than the narrowest tool reaching its depth, that tool must fit
+        // there (below).
+        let mut tight = None;
+        if let (Some(room), Some(reach)) = (&self.room, &self.opts.reach) {
+            let depth = probe.stock_top - h;
+            if depth > room.depths[i] {
+                return false;
+            }
+            tight =
+                reach.narrowest_reaching(depth).filter(|&r| r > room.clearance[i]).zip(Some(room.away[i]));
         }
+        let fits = |r: Real, away: Vector3, cache: &mut OccluderCache| {
+            self.ball_free(p, n, r, v, probe, cache) || self.flat_free(p, n, &away, r, v, probe, cache)
+        };
         match self.opts.tool_radius {
             None => {
-                if self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1) {
-                    return true;
-                }
-                self.free(&(p + n * self.eps), v, probe, cache)
+                let seen = self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1)
+                    || self.free(&(p + n * self.eps), v, probe, cache);
+                seen && tight.is_none_or(|(r, away)| fits(r, away, cache))
             }
-            Some(r) => {
-                let c = p + n * (r + self.eps);
-                if !self.free(&c, v, probe, cache) {
-                    return false;
-                }
-                let k = self.opts.tool_rays;
-                (0..k).all(|j| {
-                    let t = std::f64::consts::TAU * j as Real / k as Real;
-                    let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
-                    self.free(&(c + off), v, probe, cache)
-                })
-            }
+            Some(r) => match tight {
+                Some((t, away)) if t > r => fits(t, away, cache),
+                _ => self.ball_free(p, n, r, v, probe, cache),
+            },
         }
+    }
+
+    /// Whether a flat end mill of radius `r` along `v` whose bottom's rim passes through
+    /// sample point `p`, its centre `r` from `p` along `away` (projected across `v`), and
+    /// the cylinder above it are free: a floor beside a wall, which the tool's bottom cuts
+    /// with its side against the wall. False where `away` has no part across `v`.
+    #[allow(clippy::too_many_arguments)]
+    fn flat_free(
+        &self,
+        p: &Point3,
+        n: &Vector3,
+        away: &Vector3,
+        r: Real,
+        v: &Vector3,
+        probe: &Probe<'_>,
+        cache: &mut OccluderCache,
+    ) -> bool {
+        let Some(w) = (away - v * v.dot(away)).try_normalize(1e-9) else { return false };
+        let c = p + n * self.eps + w * r;
+        if !self.free(&c, v, probe, cache) {
+            return false;
+        }
+        let k = self.opts.tool_rays;
+        (0..k).all(|j| {
+            let t = std::f64::consts::TAU * j as Real / k as Real;
+            let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
+            self.free(&(c + off), v, probe, cache)
+        })
+    }
+
+    /// Whether a ball of radius `r` touching sample point `p` (normal `n`) and the
+    /// cylinder above it along `v` are free: the ray from the ball's centre and
+    /// `tool_rays` rays from its equator.
+    fn ball_free(
+        &self,
+        p: &Point3,
+        n: &Vector3,
+        r: Real,
+        v: &Vector3,
+        probe: &Probe<'_>,
+        cache: &mut OccluderCache,
+    ) -> bool {
+        let c = p + n * (r + self.eps);
+        if !self.free(&c, v, probe, cache) {
+            return false;
+        }
+        let k = self.opts.tool_rays;
+        (0..k).all(|j| {
+            let t = std::f64::consts::TAU * j as Real / k as Real;
+            let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
+            self.free(&(c + off), v, probe, cache)
+        })
     }
 
     /// Whether sample `i` is visible from tool axis `v`. One sample does not pay for the
