@@ -72,6 +72,10 @@ pub struct ToolReach {
     pub stock: Aabb,
     /// The deepest a tool cuts below the stock's top (part units).
     pub depth: Real,
+    /// With tools: how near a tool must come to a sample to reach it (part units; say the
+    /// simulation's half voxel), so that the thin skin a round tool leaves in a concave
+    /// corner or a bowl narrower than it counts as reached. Default 0.
+    pub slack: Real,
     /// The tools by width, by ascending radius and depth (the first `len`); none: every
     /// sample is reached to `depth`.
     tools: [ReachTool; REACH_TOOLS],
@@ -95,7 +99,7 @@ pub struct ReachTool {
 impl ToolReach {
     /// A reach of `depth` for every sample, whatever the width of the feature it lies in.
     pub fn new(stock: Aabb, depth: Real) -> Self {
-        Self { stock, depth, tools: [ReachTool::default(); REACH_TOOLS], len: 0 }
+        Self { stock, depth, slack: 0.0, tools: [ReachTool::default(); REACH_TOOLS], len: 0 }
     }
 
     /// The tool-aware reach of `tools` (see the type's docs): the tools that matter are
@@ -520,11 +524,15 @@ impl<'a> VisibilityContext<'a> {
             if depth > room.depths[i] {
                 return false;
             }
-            tight =
-                reach.narrowest_reaching(depth).filter(|&r| r > room.clearance[i]).zip(Some(room.away[i]));
+            tight = reach
+                .narrowest_reaching(depth)
+                .filter(|&r| r > room.clearance[i] + reach.slack)
+                .zip(Some(room.away[i]));
         }
+        let slack = self.opts.reach.map_or(0.0, |r| r.slack);
         let fits = |r: Real, away: Vector3, cache: &mut OccluderCache| {
-            self.ball_free(p, n, r, v, probe, cache) || self.flat_free(p, n, &away, r, v, probe, cache)
+            self.ball_free(p, n, r, slack, v, probe, cache)
+                || self.flat_free(p, n, &away, r, slack, v, probe, cache)
         };
         match self.opts.tool_radius {
             None => {
@@ -534,13 +542,14 @@ impl<'a> VisibilityContext<'a> {
             }
             Some(r) => match tight {
                 Some((t, away)) if t > r => fits(t, away, cache),
-                _ => self.ball_free(p, n, r, v, probe, cache),
+                _ => self.ball_free(p, n, r, 0.0, v, probe, cache),
             },
         }
     }
 
     /// Whether a flat end mill of radius `r` along `v` whose bottom's rim passes through
-    /// sample point `p`, its centre `r` from `p` along `away` (projected across `v`), and
+    /// sample point `p` (or `standoff` off it), its centre `r` from `p` along `away`
+    /// (projected across `v`), and
     /// the cylinder above it are free: a floor beside a wall, which the tool's bottom cuts
     /// with its side against the wall. False where `away` has no part across `v`.
     #[allow(clippy::too_many_arguments)]
@@ -550,12 +559,13 @@ impl<'a> VisibilityContext<'a> {
         n: &Vector3,
         away: &Vector3,
         r: Real,
+        standoff: Real,
         v: &Vector3,
         probe: &Probe<'_>,
         cache: &mut OccluderCache,
     ) -> bool {
         let Some(w) = (away - v * v.dot(away)).try_normalize(1e-9) else { return false };
-        let c = p + n * self.eps + w * r;
+        let c = p + n * (self.eps + standoff) + w * r;
         if !self.free(&c, v, probe, cache) {
             return false;
         }
@@ -567,19 +577,21 @@ impl<'a> VisibilityContext<'a> {
         })
     }
 
-    /// Whether a ball of radius `r` touching sample point `p` (normal `n`) and the
+    /// Whether a ball of radius `r` `standoff` off sample point `p` (normal `n`) and the
     /// cylinder above it along `v` are free: the ray from the ball's centre and
     /// `tool_rays` rays from its equator.
+    #[allow(clippy::too_many_arguments)]
     fn ball_free(
         &self,
         p: &Point3,
         n: &Vector3,
         r: Real,
+        standoff: Real,
         v: &Vector3,
         probe: &Probe<'_>,
         cache: &mut OccluderCache,
     ) -> bool {
-        let c = p + n * (r + self.eps);
+        let c = p + n * (r + standoff + self.eps);
         if !self.free(&c, v, probe, cache) {
             return false;
         }
