@@ -20,7 +20,7 @@ use crate::geom::{
     VoxelGrid, compare, marching_cubes_voxels, sample_surface, taubin_smooth, unit_cube_normalization,
     voxelize,
 };
-use crate::orient::{OrientOptions, OrientationResult, ToolReach};
+use crate::orient::{OrientOptions, OrientationResult};
 use crate::policy::{Action, ActionSpace, FinishChoice, Policy, SetupContext, SetupFeatures};
 use crate::toolpath::Tool;
 use crate::toolpath::library::Cutting;
@@ -139,14 +139,8 @@ impl MillRun {
         // search, whose serial steps leave a core idle.
         let spec = grid::simulation_grid(&stock, &part, &part_box, opts)?;
         // A tool that comes within half a voxel of a surface reaches it, as the grid shows.
-        let slack = 0.5 * spec.voxel.max();
-        let reach = |finishing| {
-            tooling.reach(stock, finishing).map(|mut r: ToolReach| {
-                r.slack = slack;
-                r
-            })
-        };
-        let reaches = Reaches::new(&part, reach(false), reach(true), opts.finish.is_some());
+        let reaches =
+            Reaches::of_tooling(&part, &tooling, stock, 0.5 * spec.voxel.max(), opts.finish.is_some());
         let (orientation, (target, index, samples, beside)) = rayon::join(
             || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),
             || {

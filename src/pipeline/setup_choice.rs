@@ -5,7 +5,8 @@
 
 use super::finish_scope::prismatic_share;
 use super::stock::StockBody;
-use crate::geom::{Mesh, Point3};
+use super::tooling::Tooling;
+use crate::geom::{Aabb, Mesh, Point3};
 use crate::orient::{
     OrientError, OrientOptions, OrientationResult, ToolReach, Unreached, select_orientations,
     select_orientations_in_stock, unreached,
@@ -33,6 +34,19 @@ pub(super) struct Reaches {
 }
 
 impl Reaches {
+    /// The reaches of a run's `tooling` over `stock` ([`Tooling::reach`]), a tool reaching
+    /// a surface it comes within `slack` of ([`ToolReach::slack`]).
+    pub(super) fn of_tooling(
+        part: &Mesh,
+        tooling: &Tooling,
+        stock: Aabb,
+        slack: f64,
+        finishing: bool,
+    ) -> Self {
+        let reach = |f: bool| tooling.reach(stock, f).map(|r| r.with_slack(slack));
+        Self::new(part, reach(false), reach(true), finishing)
+    }
+
     /// `rough` and `ball` are the tools' reaches ([`Tooling::reach`](super::tooling::Tooling::reach)).
     pub(super) fn new(
         part: &Mesh,

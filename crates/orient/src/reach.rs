@@ -9,7 +9,8 @@ use s2g_geom::{Mesh, MeshIndex, Point3, Real, UnitVector3, sample_surface};
 use crate::error::{OrientError, Result};
 use crate::select::OrientOptions;
 use crate::stock::StockSamples;
-use crate::visibility::{ToolReach, VisibilityContext, popcount};
+use crate::tool_reach::ToolReach;
+use crate::visibility::{VisibilityContext, popcount};
 
 /// What [`unreached`] counts for one set of setups.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

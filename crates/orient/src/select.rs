@@ -11,7 +11,8 @@ use crate::cover::{SearchOptions, greedy, greedy_order, multi_start_search};
 use crate::directions::{candidate_directions, cone_directions, random_direction};
 use crate::error::{OrientError, Result};
 use crate::stock::{StockRemovalOptions, StockRemovalReport, StockSamples, improve_for_stock, left};
-use crate::visibility::{ToolReach, VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
+use crate::tool_reach::ToolReach;
+use crate::visibility::{VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
 
 /// How the directions are chosen from the candidates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
