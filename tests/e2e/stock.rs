@@ -324,19 +324,25 @@ fn rest_run_opts(
     finish: Option<FinishChoice>,
     tools: Option<shape2gcode::toolpath::library::ToolLibrary>,
 ) -> Milled {
-    let opts = MillOptions {
-        tools,
+    let opts = MillOptions { tools, rest_roughing: rest, rest_continue: more, finish, ..rest_options() };
+    fixed_run(part, &opts)
+}
+
+/// The options of [`rest_run`]: the shop preset at 64^3, few samples.
+fn rest_options() -> MillOptions {
+    MillOptions {
         preset: Preset::Shop,
         resolution: 64,
         orient_points: 2048,
         metric_samples: 2000,
-        rest_roughing: rest,
-        rest_continue: more,
-        finish,
         surface_spacing: 0.5,
         ..MillOptions::default()
-    };
-    let mut run = MillRun::new(part, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+    }
+}
+
+/// `part` milled with `opts`, every setup roughed with an 8 mm end mill at 2 mm layers.
+fn fixed_run(part: &Mesh, opts: &MillOptions) -> Milled {
+    let mut run = MillRun::new(part, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
     let action = shape2gcode::Action {
         tool_radius: 4.0,
         layer_height: 2.0,
@@ -965,12 +971,15 @@ fn cells(n: [usize; 3], cell: f64, filled: impl Fn(usize, usize, usize) -> bool)
 
 /// Orientation selection knows which tool fits where (issue 35's tool-aware reach; the
 /// stress bushings' bolt holes): a 40 x 40 x 6 mm plate with a 12 x 12 mm post 30 mm tall
-/// in its middle and four 4 mm square holes through the plate 2 mm beside the post. Only
-/// the 3 mm end mill (and narrower) fits the holes, and its 35 mm holder at 21 mm stick-out
-/// keeps it 21 mm below the stock's top, 15 mm above the plate, as the post stands in the
-/// way; from below the holes are 6 mm deep. Judged by the longest end mill's reach (66 mm)
-/// the holes were reached from +Z, no setup from below was chosen, and the holes stayed
-/// full; now a setup from below is chosen and its rest passes cut them through.
+/// in its middle, a 4 mm square hole across the post along X, and four 4 mm square holes
+/// through the plate 2 mm beside the post, from a stock the part's own box. Only the 3 mm
+/// end mill (and narrower) fits the plate's holes, and its 35 mm holder at 21 mm
+/// stick-out keeps it 21 mm below the stock's top, 15 mm above the plate, as the post
+/// stands in the way; from below the holes are 6 mm deep. Judged by the longest end
+/// mill's reach (66 mm) the holes counted as reached from +Z, and +Z with +X (the cross
+/// hole, the bottom's flank) covered everything: no setup from below, the holes stayed
+/// full (on main this test fails there). Now a setup from below is chosen and its rest
+/// passes cut them through.
 #[test]
 fn holes_beside_a_tall_post_are_cut_from_below_where_the_tool_that_fits_them_reaches() {
     // 2 mm cells: plate k < 3, post 14..26 mm to 36 mm, holes 2 x 2 cells.
@@ -978,9 +987,12 @@ fn holes_beside_a_tall_post_are_cut_from_below_where_the_tool_that_fits_them_rea
     let in_hole = |i: usize, j: usize| {
         holes.iter().any(|h| (h[0]..h[0] + 2).contains(&i) && (h[1]..h[1] + 2).contains(&j))
     };
-    let post = |i: usize, j: usize| (7..13).contains(&i) && (7..13).contains(&j);
-    let part = cells([20, 20, 18], 2.0, |i, j, k| if k < 3 { !in_hole(i, j) } else { post(i, j) });
-    let m = rest_run_with(&part, 3, MillOptions::default().rest_continue, None);
+    let post = |i: usize, j: usize, k: usize| {
+        (7..13).contains(&i) && (7..13).contains(&j) && !((9..11).contains(&j) && (9..11).contains(&k))
+    };
+    let part = cells([20, 20, 18], 2.0, |i, j, k| if k < 3 { !in_hole(i, j) } else { post(i, j, k) });
+    let opts = MillOptions { stock: Stock::BoxSize([40.0, 40.0, 36.0]), ..rest_options() };
+    let m = fixed_run(&part, &opts);
     assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
     assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
     let axes: Vec<_> = m.setups.iter().map(|s| (s.setup.tool_axis().into_inner(), s.tool.number)).collect();
