@@ -294,7 +294,7 @@ fn reach_sweep(mesh: &Mesh, scale: f64) -> Result<(), Box<dyn std::error::Error>
     for depth in [46.0, 56.0, 66.0, 76.0, 86.0, 96.0, f64::INFINITY] {
         let opts = OrientOptions {
             min_cos: -0.5 / 256.0,
-            reach: depth.is_finite().then_some(ToolReach { stock, depth }),
+            reach: depth.is_finite().then_some(ToolReach::new(stock, depth)),
             ..OrientOptions::default()
         };
         let r = select_orientations_in_stock(&part, &samples, &opts)?;

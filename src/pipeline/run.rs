@@ -134,12 +134,13 @@ impl MillRun {
         // A shop's tools reach only so deep below the stock's top: setups are chosen for
         // what their tools reach (with finishing, maybe the ball's: `choose_setups`).
         let tooling = Tooling::new(opts, stock.extent().norm(), feeds(None).0)?;
-        let reaches =
-            Reaches::new(&part, stock, tooling.reach(false), tooling.reach(true), opts.finish.is_some());
         // What does not depend on the setups (the part's voxels on the simulation grid, its
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
         let spec = grid::simulation_grid(&stock, &part, &part_box, opts)?;
+        // A tool that comes within half a voxel of a surface reaches it, as the grid shows.
+        let reaches =
+            Reaches::of_tooling(&part, &tooling, stock, 0.5 * spec.voxel.max(), opts.finish.is_some());
         let (orientation, (target, index, samples, beside)) = rayon::join(
             || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),
             || {

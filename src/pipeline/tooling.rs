@@ -7,7 +7,8 @@ use std::sync::OnceLock;
 
 use super::api::{MillError, MillOptions, Preset};
 use crate::gcode::MachineProfile;
-use crate::geom::CutterShape;
+use crate::geom::{Aabb, CutterShape};
+use crate::orient::{ReachTool, ToolReach};
 use crate::toolpath::Tool;
 use crate::toolpath::library::{Cutting, LibraryTool, Material, ToolLibrary};
 use crate::voxsim::{Cutter, ToolTable};
@@ -124,23 +125,33 @@ impl Tooling {
         Ok(tools)
     }
 
-    /// How deep below the stock's top a setup's tools cut, for orientation selection
-    /// ([`ToolReach`](crate::orient::ToolReach)): the reach of the library's longest flat
-    /// end mill, which roughs, and, when `finishing`, no deeper than its longest ball or
-    /// bull-nose end mill, which finishes ([`Tool::envelope`]). `None` for the paper's
-    /// tools, whose flutes are as long as the stock's diagonal.
-    pub(super) fn reach(&self, finishing: bool) -> Option<f64> {
+    /// What a setup's tools reach below the stock's top, for orientation selection
+    /// ([`ToolReach`]), tool-aware: each of the library's flat end mills (long-reach ones
+    /// included) by its radius and its reach with its holder clear of the stock
+    /// ([`Tool::envelope`]), which roughs, so that a narrow feature counts as reached only
+    /// as deep as a tool that fits it cuts ([`ToolReach::of_tools`]); when `finishing`,
+    /// its ball and bull-nose end mills, which finish, each no deeper than the deepest
+    /// flat end mill. `None` for the paper's tools, whose flutes are as long as the
+    /// stock's diagonal, or where the library has no such tool.
+    pub(super) fn reach(&self, stock: Aabb, finishing: bool) -> Option<ToolReach> {
         let Self::Library(shop) = self else { return None };
-        let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
-        let rough = shop.flats.iter().map(reach).fold(0.0, f64::max);
-        let finish = shop
+        let reach = |t: &LibraryTool| ReachTool {
+            radius: t.cutter.radius,
+            depth: Tool::new(t.cutter).envelope().length,
+        };
+        let flats: Vec<ReachTool> =
+            shop.all.iter().filter(|t| matches!(t.cutter.shape, CutterShape::Flat(_))).map(reach).collect();
+        let rough = ToolReach::of_tools(stock, &flats)?;
+        if !finishing {
+            return Some(rough);
+        }
+        let rounded: Vec<ReachTool> = shop
             .all
             .iter()
             .filter(|t| !matches!(t.cutter.shape, CutterShape::Flat(_) | CutterShape::TSlot(_)))
-            .map(reach)
-            .fold(0.0, f64::max);
-        let depth = if finishing && finish > 0.0 { rough.min(finish) } else { rough };
-        (depth.is_finite() && depth > 0.0).then_some(depth)
+            .map(|t| ReachTool { depth: reach(t).depth.min(rough.depth), ..reach(t) })
+            .collect();
+        ToolReach::of_tools(stock, &rounded).or(Some(rough))
     }
 
     /// Whether the library has a T-slot cutter ([`t_slot_tools`](Self::t_slot_tools)).

@@ -325,19 +325,25 @@ fn rest_run_opts(
     tools: Option<shape2gcode::toolpath::library::ToolLibrary>,
     resolution: usize,
 ) -> Milled {
-    let opts = MillOptions {
-        tools,
+    let opts = MillOptions { tools, rest_roughing: rest, rest_continue: more, finish, ..rest_options() };
+    fixed_run(part, &opts)
+}
+
+/// The options of [`rest_run`]: the shop preset at 64^3, few samples.
+fn rest_options() -> MillOptions {
+    MillOptions {
         preset: Preset::Shop,
         resolution,
         orient_points: 2048,
         metric_samples: 2000,
-        rest_roughing: rest,
-        rest_continue: more,
-        finish,
         surface_spacing: 0.5,
         ..MillOptions::default()
-    };
-    let mut run = MillRun::new(part, &opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+    }
+}
+
+/// `part` milled with `opts`, every setup roughed with an 8 mm end mill at 2 mm layers.
+fn fixed_run(part: &Mesh, opts: &MillOptions) -> Milled {
+    let mut run = MillRun::new(part, opts, &mut |_| {}).unwrap_or_else(|e| panic!("{e:#}"));
     let action = shape2gcode::Action {
         tool_radius: 4.0,
         layer_height: 2.0,
@@ -923,4 +929,84 @@ fn the_simulation_s_voxel_planes_go_through_the_part_s_flat_faces() {
     // voxel centres, which the lattice leaves by 1/256 of a voxel), is within a voxel.
     let z = over(12.0, 18.0);
     assert!((z - top).abs() <= h, "the boss's top at {z}, the part's at {top}");
+}
+
+/// A closed mesh of the cells `filled(i, j, k)` holds on a grid of `n` cells of `cell` mm:
+/// one outward quad per face between a filled cell and an empty one (no two filled cells
+/// may meet along an edge alone).
+fn cells(n: [usize; 3], cell: f64, filled: impl Fn(usize, usize, usize) -> bool) -> Mesh {
+    let at = |i: usize, j: usize, k: usize| i < n[0] && j < n[1] && k < n[2] && filled(i, j, k);
+    let mut soup: Vec<[Point3; 3]> = Vec::new();
+    for (i, j, k) in (0..n[0]).flat_map(|i| (0..n[1]).flat_map(move |j| (0..n[2]).map(move |k| (i, j, k)))) {
+        if !at(i, j, k) {
+            continue;
+        }
+        for axis in 0..3 {
+            for side in [0usize, 1] {
+                let mut c = [i, j, k];
+                if side == 1 {
+                    c[axis] += 1;
+                } else if c[axis] == 0 {
+                    c[axis] = usize::MAX;
+                } else {
+                    c[axis] -= 1;
+                }
+                if c[axis] != usize::MAX && at(c[0], c[1], c[2]) {
+                    continue;
+                }
+                // The face's corners, counter-clockwise seen from outside.
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let corner = |du: usize, dv: usize| {
+                    let mut q = [i as f64, j as f64, k as f64];
+                    q[axis] += side as f64;
+                    q[u] += du as f64;
+                    q[v] += dv as f64;
+                    Point3::new(q[0] * cell, q[1] * cell, q[2] * cell)
+                };
+                let (a, b, c, d) = (corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1));
+                if side == 1 {
+                    soup.extend([[a, b, c], [a, c, d]]);
+                } else {
+                    soup.extend([[a, c, b], [a, d, c]]);
+                }
+            }
+        }
+    }
+    Mesh::from_soup(&soup).expect("a closed union of cells")
+}
+
+/// Orientation selection knows which tool fits where (issue 35's tool-aware reach; the
+/// stress bushings' bolt holes): a 40 x 40 x 6 mm plate with a 12 x 12 mm post 30 mm tall
+/// in its middle, a 4 mm square hole across the post along X, and four 4 mm square holes
+/// through the plate 2 mm beside the post, from a stock the part's own box. Only the 3 mm
+/// end mill (and narrower) fits the plate's holes, and its 35 mm holder at 21 mm
+/// stick-out keeps it 21 mm below the stock's top, 15 mm above the plate, as the post
+/// stands in the way; from below the holes are 6 mm deep. Judged by the longest end
+/// mill's reach (66 mm) the holes counted as reached from +Z, and +Z with +X (the cross
+/// hole, the bottom's flank) covered everything: no setup from below, the holes stayed
+/// full (on main this test fails there). Now a setup from below is chosen and its rest
+/// passes cut them through.
+#[test]
+fn holes_beside_a_tall_post_are_cut_from_below_where_the_tool_that_fits_them_reaches() {
+    // 2 mm cells: plate k < 3, post 14..26 mm to 36 mm, holes 2 x 2 cells.
+    let holes = [[4usize, 9], [14, 9], [9, 4], [9, 14]];
+    let in_hole = |i: usize, j: usize| {
+        holes.iter().any(|h| (h[0]..h[0] + 2).contains(&i) && (h[1]..h[1] + 2).contains(&j))
+    };
+    let post = |i: usize, j: usize, k: usize| {
+        (7..13).contains(&i) && (7..13).contains(&j) && !((9..11).contains(&j) && (9..11).contains(&k))
+    };
+    let part = cells([20, 20, 18], 2.0, |i, j, k| if k < 3 { !in_hole(i, j) } else { post(i, j, k) });
+    let opts = MillOptions { stock: Stock::BoxSize([40.0, 40.0, 36.0]), ..rest_options() };
+    let m = fixed_run(&part, &opts);
+    assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
+    assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);
+    let axes: Vec<_> = m.setups.iter().map(|s| (s.setup.tool_axis().into_inner(), s.tool.number)).collect();
+    assert!(m.setups.iter().any(|s| s.setup.tool_axis().z < -0.9), "no setup from below: {axes:?}");
+    // The holes' middles, half way through the plate, are cut.
+    let residual = shape2gcode::geom::MeshIndex::new(&m.residual).expect("a residual");
+    for h in holes {
+        let centre = Point3::new(2.0 * h[0] as f64 + 2.0, 2.0 * h[1] as f64 + 2.0, 3.0);
+        assert!(!residual.contains(&centre), "the hole at {centre:?} is left: {axes:?}");
+    }
 }

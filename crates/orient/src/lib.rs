@@ -21,6 +21,7 @@ mod error;
 mod reach;
 mod select;
 mod stock;
+mod tool_reach;
 pub mod visibility;
 
 pub use crate::closure::{
@@ -39,4 +40,5 @@ pub use crate::select::{
     select_orientations_in_stock,
 };
 pub use crate::stock::{StockRemovalOptions, StockRemovalReport, stock_grid_points};
-pub use crate::visibility::{ToolReach, VisibilityContext, VisibilityMatrix, VisibilityOptions};
+pub use crate::tool_reach::{REACH_TOOLS, ReachTool, ToolReach, ball_clearance, sample_gaps};
+pub use crate::visibility::{VisibilityContext, VisibilityMatrix, VisibilityOptions};

@@ -9,7 +9,8 @@ use s2g_geom::{Mesh, MeshIndex, Point3, Real, UnitVector3, sample_surface};
 use crate::error::{OrientError, Result};
 use crate::select::OrientOptions;
 use crate::stock::StockSamples;
-use crate::visibility::{ToolReach, VisibilityContext, popcount};
+use crate::tool_reach::ToolReach;
+use crate::visibility::{VisibilityContext, popcount};
 
 /// What [`unreached`] counts for one set of setups.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -98,7 +99,7 @@ mod tests {
         let points = stock_grid_points(&stock, 4096, |_| true);
         let opts = OrientOptions { points: 6000, ..OrientOptions::default() };
         let top = [UnitVector3::new_normalize(s2g_geom::Vector3::z())];
-        let reach = |depth| Some(ToolReach { stock, depth });
+        let reach = |depth| Some(ToolReach::new(stock, depth));
         let score = |surface, material| {
             unreached(&part, &points, &[&top[..], &[]], &opts, surface, material).unwrap()
         };

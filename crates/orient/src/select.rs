@@ -11,7 +11,8 @@ use crate::cover::{SearchOptions, greedy, greedy_order, multi_start_search};
 use crate::directions::{candidate_directions, cone_directions, random_direction};
 use crate::error::{OrientError, Result};
 use crate::stock::{StockRemovalOptions, StockRemovalReport, StockSamples, improve_for_stock, left};
-use crate::visibility::{ToolReach, VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
+use crate::tool_reach::ToolReach;
+use crate::visibility::{VisibilityContext, VisibilityMatrix, VisibilityOptions, popcount};
 
 /// How the directions are chosen from the candidates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -270,7 +271,8 @@ pub fn select_orientations_in_stock(
     let t = Instant::now();
     let all: Vec<usize> = (0..m.len()).collect();
     let axes: Vec<usize> = (0..6).collect();
-    let plain = greedy(&m, &all, opts.max_setups, opts.coverage_target);
+    let target = coverage_target(opts, &m);
+    let plain = greedy(&m, &all, opts.max_setups, target);
     let (_, plain_curve) = greedy_order(&m, &plain);
     let plain_cov = m.coverage(&plain);
     let mut chosen = plain.clone();
@@ -279,9 +281,9 @@ pub fn select_orientations_in_stock(
         let mut k = plain.len();
         chosen = multi_start_search(&m, &all, &axes, &plain, k, &search).0;
         // The target was met: try with fewer setups while it still is.
-        while k > 1 && m.coverage(&chosen) >= opts.coverage_target {
+        while k > 1 && m.coverage(&chosen) >= target {
             let fewer = multi_start_search(&m, &all, &axes, &plain, k - 1, &search).0;
-            if m.coverage(&fewer) < opts.coverage_target {
+            if m.coverage(&fewer) < target {
                 break;
             }
             chosen = fewer;
@@ -303,7 +305,7 @@ pub fn select_orientations_in_stock(
     } else {
         let diag = mesh.bbox().map_or(1.0, |b| b.extent().norm());
         let samples = StockSamples::new(&index, mesh.vertices(), stock, diag, opts.reach);
-        Some(stock_term(&samples, &m, &mut chosen, opts)?)
+        Some(stock_term(&samples, &m, &mut chosen, opts, target)?)
     };
     times.search += t.elapsed().as_secs_f64();
 
@@ -339,6 +341,18 @@ pub fn select_orientations_in_stock(
     })
 }
 
+/// The share of the samples the setups are chosen to cover: the options' target, of the
+/// samples some candidate reaches where the reach is tool-aware ([`ToolReach::of_tools`]):
+/// a sample no tool that fits reaches from any direction (a square inner corner, a hole
+/// narrower than every tool) adds no setup, where under the paper's rule every sample
+/// counts (and its outputs stay as they were).
+fn coverage_target(opts: &OrientOptions, m: &VisibilityMatrix) -> Real {
+    match opts.reach {
+        Some(r) if !r.tools().is_empty() => opts.coverage_target * m.upper_bound(),
+        _ => opts.coverage_target,
+    }
+}
+
 /// The stock-removal term: measures what `chosen` leaves of the stock's material and,
 /// when that is too much, changes the setups ([`improve_for_stock`]).
 fn stock_term(
@@ -346,6 +360,7 @@ fn stock_term(
     m: &VisibilityMatrix,
     chosen: &mut Vec<usize>,
     opts: &OrientOptions,
+    target: Real,
 ) -> Result<StockRemovalReport> {
     let material = samples.material();
     let allowed = (opts.stock_removal.max_left * samples.part() as Real).floor() as usize;
@@ -361,7 +376,7 @@ fn stock_term(
     let r = samples.matrix(m.directions())?;
     report.unreachable = left(&r, &(0..r.len()).collect::<Vec<_>>());
     let covered = m.covered(chosen);
-    let target = (opts.coverage_target * m.points() as Real).ceil() as usize;
+    let target = (target * m.points() as Real).ceil() as usize;
     let better = improve_for_stock(m, &r, chosen, opts.max_setups, covered.min(target), allowed);
     report.left = left(&r, &better);
     report.changed = better != *chosen;

@@ -17,7 +17,8 @@ use rayon::prelude::*;
 use s2g_geom::{Aabb, MeshIndex, Point3, Real, UnitVector3};
 
 use crate::error::Result;
-use crate::visibility::{ToolReach, VisibilityMatrix, words_for};
+use crate::tool_reach::ToolReach;
+use crate::visibility::{VisibilityMatrix, words_for};
 
 /// Options of the stock-removal term ([`OrientOptions::stock_removal`](crate::OrientOptions::stock_removal)).
 #[derive(Debug, Clone, Copy, PartialEq)]

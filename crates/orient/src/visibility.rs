@@ -19,6 +19,7 @@ use s2g_geom::{
 
 use crate::directions::orthonormal_basis;
 use crate::error::{OrientError, Result};
+use crate::tool_reach::{ToolReach, ball_clearance, sample_gaps};
 
 /// How visibility is decided.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,28 +50,6 @@ pub struct VisibilityOptions {
     /// lies at most [`ToolReach::depth`] below the stock's top along `v`. `None` (default):
     /// tools of unlimited length, as in the paper.
     pub reach: Option<ToolReach>,
-}
-
-/// The reach of a setup's tools ([`VisibilityOptions::reach`]): a tool fitted in its holder
-/// cuts at most `depth` below the top of the stock along its axis (the stock's highest
-/// corner along the axis, as a setup's first layer starts there), so a surface deeper
-/// than that is not reached from that axis, however visible. Oblique axes on a box stock
-/// start at a corner, so the same depth reaches less of the part from them than from a
-/// face's normal.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ToolReach {
-    /// The stock's box, in the part's frame.
-    pub stock: Aabb,
-    /// The deepest a tool cuts below the stock's top (part units).
-    pub depth: Real,
-}
-
-impl ToolReach {
-    /// The lowest height along unit axis `v` (`v . x`) the tools reach: the stock's top
-    /// along `v` less the depth.
-    pub fn floor(&self, v: &Vector3) -> Real {
-        self.stock.corners().iter().map(|c| v.dot(&c.coords)).fold(Real::NEG_INFINITY, Real::max) - self.depth
-    }
 }
 
 impl Default for VisibilityOptions {
@@ -148,6 +127,22 @@ pub struct VisibilityContext<'a> {
     supported: Option<Vec<u64>>,
     /// The mesh's vertices, for the support height of a direction.
     vertices: Vec<Point3>,
+    /// With a tool-aware reach, what each sample leaves room for ([`SampleRoom`]).
+    room: Option<SampleRoom>,
+}
+
+/// What a tool-aware reach knows of each sample's surroundings, direction aside.
+struct SampleRoom {
+    /// How deep below the stock's top the sample is reached: [`ToolReach::depth_within`]
+    /// its gap (a tool no narrower than the gap does not fit).
+    depths: Vec<Real>,
+    /// The radius of the largest ball tangent to the surface at the sample that holds no
+    /// part ([`ball_clearance`]), at most the widest tool's: a tool no wider fits there
+    /// without more rays.
+    clearance: Vec<Real>,
+    /// The unit direction from the part's point that bounds that ball to the sample (zero
+    /// where the ball reached the cap): away from the wall beside a floor.
+    away: Vec<Vector3>,
 }
 
 /// What the rays of one direction share.
@@ -164,6 +159,9 @@ struct Probe<'a> {
     /// The lowest height `v . x` the tools reach ([`ToolReach::floor`]); `-inf` without
     /// a reach.
     floor: Real,
+    /// The stock's top along the direction ([`ToolReach::top`]), from which a tool-aware
+    /// reach's per-sample depths count.
+    stock_top: Real,
 }
 
 impl std::fmt::Debug for VisibilityContext<'_> {
@@ -236,6 +234,15 @@ impl<'a> VisibilityContext<'a> {
                 }
                 bits
             });
+        let room = opts.reach.filter(|r| !r.tools().is_empty()).map(|r| {
+            let gaps = sample_gaps(index, &samples.points, &samples.normals, eps, diag);
+            let widest = r.tools().last().map_or(0.0, |t| t.radius);
+            let (clearance, away) = (&samples.points, &samples.normals, &gaps)
+                .into_par_iter()
+                .map(|(p, n, &gap)| ball_clearance(index, p, n, (0.5 * gap).min(widest), eps))
+                .unzip();
+            SampleRoom { depths: gaps.iter().map(|&w| r.depth_within(w)).collect(), clearance, away }
+        });
         Ok(Self {
             index,
             points: &samples.points,
@@ -245,7 +252,14 @@ impl<'a> VisibilityContext<'a> {
             opts: *opts,
             supported,
             vertices: mesh.vertices().to_vec(),
+            room,
         })
+    }
+
+    /// With a tool-aware reach, how deep below the stock's top sample `i` is reached
+    /// ([`ToolReach::depth_within`] the free distance in front of it); `None` otherwise.
+    pub fn sample_depth(&self, i: usize) -> Option<Real> {
+        self.room.as_ref().and_then(|r| r.depths.get(i).copied())
     }
 
     /// Number of samples.
@@ -291,7 +305,18 @@ impl<'a> VisibilityContext<'a> {
         // a row (the front-facing ones) cast one.
         let worth = 2 * self.index.num_triangles() <= samples;
         let rays = worth.then(|| self.index.parallel_rays(v)).flatten();
-        Probe { rays, basis: orthonormal_basis(v), top: top + grow, floor: self.floor(v) }
+        Probe {
+            rays,
+            basis: orthonormal_basis(v),
+            top: top + grow,
+            floor: self.floor(v),
+            stock_top: self.stock_top(v),
+        }
+    }
+
+    /// The stock's top along `v`, `inf` without a reach.
+    fn stock_top(&self, v: &Vector3) -> Real {
+        self.opts.reach.map_or(Real::INFINITY, |r| r.top(v))
     }
 
     /// The lowest height along `v` the tools reach, `-inf` without a reach.
@@ -321,37 +346,109 @@ impl<'a> VisibilityContext<'a> {
             return false;
         }
         let p = &self.points[i];
-        if v.dot(&p.coords) < probe.floor {
+        let h = v.dot(&p.coords);
+        if h < probe.floor {
             return false;
         }
+        // Tool-aware reach: only as deep as a tool that fits reaches; where the sample's
+        // room is less than the narrowest tool reaching its depth, that tool must fit
+        // there (below).
+        let mut tight = None;
+        if let (Some(room), Some(reach)) = (&self.room, &self.opts.reach) {
+            let depth = probe.stock_top - h;
+            if depth > room.depths[i] {
+                return false;
+            }
+            tight = reach
+                .narrowest_reaching(depth)
+                .filter(|&r| r > room.clearance[i] + reach.slack)
+                .zip(Some(room.away[i]));
+        }
+        let slack = self.opts.reach.map_or(0.0, |r| r.slack);
+        let fits = |r: Real, away: Vector3, cache: &mut OccluderCache| {
+            self.ball_free(p, n, r, slack, v, probe, cache)
+                || self.flat_free(p, n, &away, r, slack, v, probe, cache)
+        };
         match self.opts.tool_radius {
             None => {
-                if self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1) {
-                    return true;
-                }
-                self.free(&(p + n * self.eps), v, probe, cache)
+                let seen = self.supported.as_ref().is_some_and(|s| s[i / 64] >> (i % 64) & 1 == 1)
+                    || self.free(&(p + n * self.eps), v, probe, cache);
+                seen && tight.is_none_or(|(r, away)| fits(r, away, cache))
             }
-            Some(r) => {
-                let c = p + n * (r + self.eps);
-                if !self.free(&c, v, probe, cache) {
-                    return false;
-                }
-                let k = self.opts.tool_rays;
-                (0..k).all(|j| {
-                    let t = std::f64::consts::TAU * j as Real / k as Real;
-                    let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
-                    self.free(&(c + off), v, probe, cache)
-                })
-            }
+            Some(r) => match tight {
+                Some((t, away)) if t > r => fits(t, away, cache),
+                _ => self.ball_free(p, n, r, 0.0, v, probe, cache),
+            },
         }
+    }
+
+    /// Whether a flat end mill of radius `r` along `v` whose bottom's rim passes through
+    /// sample point `p` (or `standoff` off it), its centre `r` from `p` along `away`
+    /// (projected across `v`), and
+    /// the cylinder above it are free: a floor beside a wall, which the tool's bottom cuts
+    /// with its side against the wall. False where `away` has no part across `v`.
+    #[allow(clippy::too_many_arguments)]
+    fn flat_free(
+        &self,
+        p: &Point3,
+        n: &Vector3,
+        away: &Vector3,
+        r: Real,
+        standoff: Real,
+        v: &Vector3,
+        probe: &Probe<'_>,
+        cache: &mut OccluderCache,
+    ) -> bool {
+        let Some(w) = (away - v * v.dot(away)).try_normalize(1e-9) else { return false };
+        let c = p + n * (self.eps + standoff) + w * r;
+        if !self.free(&c, v, probe, cache) {
+            return false;
+        }
+        let k = self.opts.tool_rays;
+        (0..k).all(|j| {
+            let t = std::f64::consts::TAU * j as Real / k as Real;
+            let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
+            self.free(&(c + off), v, probe, cache)
+        })
+    }
+
+    /// Whether a ball of radius `r` `standoff` off sample point `p` (normal `n`) and the
+    /// cylinder above it along `v` are free: the ray from the ball's centre and
+    /// `tool_rays` rays from its equator.
+    #[allow(clippy::too_many_arguments)]
+    fn ball_free(
+        &self,
+        p: &Point3,
+        n: &Vector3,
+        r: Real,
+        standoff: Real,
+        v: &Vector3,
+        probe: &Probe<'_>,
+        cache: &mut OccluderCache,
+    ) -> bool {
+        let c = p + n * (r + standoff + self.eps);
+        if !self.free(&c, v, probe, cache) {
+            return false;
+        }
+        let k = self.opts.tool_rays;
+        (0..k).all(|j| {
+            let t = std::f64::consts::TAU * j as Real / k as Real;
+            let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
+            self.free(&(c + off), v, probe, cache)
+        })
     }
 
     /// Whether sample `i` is visible from tool axis `v`. One sample does not pay for the
     /// support plane (a pass over every vertex): its rays run to the box's exit, which
     /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        let probe =
-            Probe { rays: None, basis: orthonormal_basis(v), top: Real::INFINITY, floor: self.floor(v) };
+        let probe = Probe {
+            rays: None,
+            basis: orthonormal_basis(v),
+            top: Real::INFINITY,
+            floor: self.floor(v),
+            stock_top: self.stock_top(v),
+        };
         i < self.points.len() && self.visible_with(i, v, &probe, &mut OccluderCache::default())
     }
 

@@ -491,7 +491,7 @@ fn a_tool_reach_hides_what_lies_deeper_than_it() {
     let samples = sample_surface(&mesh, 4000, 3).unwrap();
     let v = UnitVector3::new_normalize(Vector3::new(1.0, 0.0, 1.0));
     let depth = 20.0;
-    let reach = ToolReach { stock: bar, depth };
+    let reach = ToolReach::new(bar, depth);
     let plain = VisibilityContext::new(&mesh, &index, &samples, &VisibilityOptions::default()).unwrap();
     let limited = VisibilityContext::new(
         &mesh,
@@ -519,8 +519,7 @@ fn a_tool_reach_hides_what_lies_deeper_than_it() {
     assert!(row(&limited) < row(&plain), "{} vs {}", row(&limited), row(&plain));
     // A negative or infinite depth is refused.
     for bad in [-1.0, f64::INFINITY] {
-        let opts =
-            VisibilityOptions { reach: Some(ToolReach { stock: bar, depth: bad }), ..Default::default() };
+        let opts = VisibilityOptions { reach: Some(ToolReach::new(bar, bad)), ..Default::default() };
         assert!(VisibilityContext::new(&mesh, &index, &samples, &opts).is_err(), "depth {bad}");
     }
 }
