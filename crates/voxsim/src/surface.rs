@@ -326,6 +326,15 @@ impl HeightField {
                 for j in r0..=r1 {
                     let off = (j - tj * TILE) * nx;
                     let row = &mut rows[off..off + nx];
+                    // The block's row, passed over as the block would be on its own box
+                    // gap: no column of it is marked or lowered.
+                    if box_test {
+                        let gap = box_gap([lo[0], y(j)], [hi[0], y(j)], path_box);
+                        let top = row[c0..=c1].iter().fold(f64::NEG_INFINITY, |m, &t| m.max(t));
+                        if gap > w && top <= zmin + floor(gap) {
+                            continue;
+                        }
+                    }
                     for (i, t) in row.iter_mut().enumerate().take(c1 + 1).skip(c0) {
                         // A column at most `zmin` is left as it is (`floor` is never
                         // negative), and without marks nothing else is done to it.
