@@ -2,7 +2,9 @@
 //! deviation) against its baseline in the same run: `reference` visits every column of
 //! each move's box, `tiled` (the default) passes over 8 x 8 blocks of columns that the
 //! move cannot lower and decides most columns' mark and floor tests on their squared
-//! distance (`ColumnTests`), `tiled_roots` (its baseline) by square roots. Both leave the same field bit for bit (`crates/voxsim/tests/
+//! distance (`ColumnTests`), `tiled_roots` (its baseline) by square roots; `tiled` passes
+//! most far blocks over on the gap between the block's box and the path's before their
+//! distance, `tiled_distances` (its baseline) computes every block's distance. All leave the same field bit for bit (`crates/voxsim/tests/
 //! surface_sweep.rs`). The program is a bunny-like finish: a 10 mm ball end mill on a
 //! crossed raster of 0.6 mm stepover over a wavy 24 x 24 mm surface mesh, its tip
 //! dropped onto the mesh every 0.2 mm (drop-cutter), columns 0.1 mm apart, passes marked
@@ -89,6 +91,7 @@ fn program() -> Vec<Motion<'static>> {
 enum Sweep {
     Reference,
     TiledRoots,
+    TiledDistances,
     Tiled,
 }
 
@@ -99,6 +102,7 @@ fn sweep(ms: &[Motion<'_>], how: Sweep) -> HeightField {
     match how {
         Sweep::Reference => f.use_reference_sweep(),
         Sweep::TiledRoots => f.use_exact_column_tests(),
+        Sweep::TiledDistances => f.use_every_block_distance(),
         Sweep::Tiled => {}
     }
     for m in ms {
@@ -110,7 +114,7 @@ fn sweep(ms: &[Motion<'_>], how: Sweep) -> HeightField {
 fn bench(c: &mut Criterion) {
     let ms = program();
     let reference = sweep(&ms, Sweep::Reference);
-    for how in [Sweep::TiledRoots, Sweep::Tiled] {
+    for how in [Sweep::TiledRoots, Sweep::TiledDistances, Sweep::Tiled] {
         assert_eq!(
             sweep(&ms, how).columns(),
             reference.columns(),
@@ -121,6 +125,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("reference", |b| b.iter(|| sweep(&ms, Sweep::Reference)));
     g.bench_function("tiled_roots", |b| b.iter(|| sweep(&ms, Sweep::TiledRoots)));
+    g.bench_function("tiled_distances", |b| b.iter(|| sweep(&ms, Sweep::TiledDistances)));
     g.bench_function("tiled", |b| b.iter(|| sweep(&ms, Sweep::Tiled)));
     g.finish();
 }

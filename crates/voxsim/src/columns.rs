@@ -17,6 +17,8 @@ pub(crate) struct ColumnTests {
     w: f64,
     /// `w^2` less and more the margin.
     w2: [f64; 2],
+    /// `radius^2` and more the margin: beyond it, a ball's floor is `rc` bit for bit.
+    rim2: f64,
     /// A ball end (`radius - rc == 0`): the floor is `rc - sqrt(rc^2 - rho^2)`, decided
     /// on `rho2` alone.
     ball: bool,
@@ -28,7 +30,8 @@ impl ColumnTests {
 
     pub(crate) fn new((radius, rc): (f64, f64), zmin: f64, w: f64, fast: bool) -> Self {
         let w2 = [w * w * (1.0 - Self::MARGIN), w * w * (1.0 + Self::MARGIN)];
-        Self { radius, rc, zmin, w, w2, ball: radius - rc == 0.0, fast }
+        let rim2 = radius * radius * (1.0 + Self::MARGIN);
+        Self { radius, rc, zmin, w, w2, rim2, ball: radius - rc == 0.0, fast }
     }
 
     /// How high above the tip the cutter's profile lies at `rho` from its axis.
@@ -87,10 +90,16 @@ impl ColumnTests {
 
     /// [`ColumnTests::above`] for a ball end where the margin decides it: with
     /// `q = zmin + rc - t`, the test is `sqrt(rc^2 - rho^2) <= q` (the root's argument at
-    /// least 0), compared squared.
+    /// least 0), compared squared. Beyond the radius (by the margin: the root of `rho2` is
+    /// then above it) the floor is `rc - sqrt(0)`, `rc` itself: the test is `t <= zmin +
+    /// rc` as the exact expressions compute it, also where `q` is near 0 (the rim of an
+    /// earlier move of the pass at the same height).
     #[inline]
     fn ball_above(&self, t: f64, rho2: f64) -> Option<bool> {
         let rc = self.rc;
+        if rho2 >= self.rim2 {
+            return Some(t <= self.zmin + rc);
+        }
         let q = self.zmin + rc - t;
         let m = Self::MARGIN * (1.0 + self.zmin.abs() + rc + t.abs());
         if q < -m {
@@ -149,6 +158,17 @@ pub(crate) fn rect_segment_distance_roots(lo: [f64; 2], hi: [f64; 2], p: [f64; 2
     apart_squared(lo, hi, p, q).into_iter().map(f64::sqrt).fold(f64::INFINITY, f64::min)
 }
 
+/// The distance between the rectangle `[lo, hi]` and the box `[x0, x1] x [y0, y1]` (0 where
+/// they meet), less `2e-9` (at least 0): a lower bound of the rectangle's distance from any
+/// segment in the box less the `1e-9` margin of the tiled sweep's `near`, by a
+/// margin far wider than the rounding of either.
+#[inline]
+pub(crate) fn box_gap(lo: [f64; 2], hi: [f64; 2], [x0, x1, y0, y1]: [f64; 4]) -> f64 {
+    let gx = (lo[0] - x1).max(x0 - hi[0]).max(0.0);
+    let gy = (lo[1] - y1).max(y0 - hi[1]).max(0.0);
+    ((gx * gx + gy * gy).sqrt() - 2e-9).max(0.0)
+}
+
 /// Where the segment `p q` and the rectangle `[lo, hi]` are apart, the nearest pair has an
 /// end of the segment or a corner of the rectangle: the squared distances from the four
 /// corners to the segment and from its two ends to the rectangle.
@@ -171,7 +191,7 @@ fn apart_squared(lo: [f64; 2], hi: [f64; 2], p: [f64; 2], q: [f64; 2]) -> [f64; 
 
 #[cfg(test)]
 mod tests {
-    use super::{ColumnTests, rect_segment_distance, rect_segment_distance_roots};
+    use super::{ColumnTests, box_gap, rect_segment_distance, rect_segment_distance_roots};
     use s2g_geom::SplitMix64;
 
     /// `x` moved by `k` units in the last place.
@@ -202,9 +222,11 @@ mod tests {
                 ColumnTests::new((radius, rc), zmin, w, true),
                 ColumnTests::new((radius, rc), zmin, w, false),
             );
-            let rho = match g.below(3) {
+            let rho = match g.below(4) {
                 0 => w.abs(),
                 1 => radius,
+                // About the rim beyond which a ball's floor is taken as `rc`.
+                2 => radius * (1.0 + 0.5 * ColumnTests::MARGIN),
                 _ => g.uniform(0.0, 1.2 * radius),
             };
             for k in -3..=3 {
@@ -256,5 +278,38 @@ mod tests {
             apart += usize::from(d > 0.0);
         }
         assert!(apart > 10_000 && apart < 49_000, "{apart}");
+    }
+
+    /// The box gap is at most the block's distance from the path less its margin (what
+    /// the tiled sweep's `near` is), for segments inside their box, far from and touching
+    /// the rectangle, short and long, with blocks near the coordinates of a 100 mm part;
+    /// and close to it where the segment is short (the gap decides those blocks).
+    #[test]
+    fn the_box_gap_is_at_most_the_blocks_distance() {
+        let mut g = SplitMix64::new(13, 36);
+        let (mut close, mut apart) = (0, 0);
+        for k in 0..100_000 {
+            let lo = [g.uniform(-120.0, 120.0), g.uniform(-120.0, 120.0)];
+            let hi = [lo[0] + g.uniform(0.0, 1.0), lo[1] + g.uniform(0.0, 1.0)];
+            let len = if k % 2 == 0 { g.uniform(0.0, 0.5) } else { g.uniform(0.0, 30.0) };
+            let p = [lo[0] + g.uniform(-8.0, 8.0), lo[1] + g.uniform(-8.0, 8.0)];
+            let q = match k % 5 {
+                0 => p,
+                1 => [p[0], p[1] + len],
+                2 => [p[0] - len, p[1]],
+                _ => {
+                    let a = g.uniform(0.0, std::f64::consts::TAU);
+                    [p[0] + len * a.cos(), p[1] + len * a.sin()]
+                }
+            };
+            let path = [p[0].min(q[0]), p[0].max(q[0]), p[1].min(q[1]), p[1].max(q[1])];
+            let (gap, d) = (box_gap(lo, hi, path), rect_segment_distance(lo, hi, p, q));
+            let near = (d - 1e-9).max(0.0);
+            assert!(gap <= near, "{lo:?} {hi:?} {p:?} {q:?}: {gap} > {near}");
+            apart += usize::from(near > 0.0);
+            close += usize::from(len < 0.5 && near > 0.0 && gap > near - 0.5);
+        }
+        assert!(apart > 50_000, "{apart}");
+        assert!(close > 20_000, "{close}");
     }
 }

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use s2g_gcode::{ArcSpec, Motion, MotionSink};
 use s2g_geom::{Cutter, DropCutter, Isometry3, MeshIndex, Point3, Solids, Vector3};
 
-use crate::columns::{ColumnTests, rect_segment_distance, rect_segment_distance_roots};
+use crate::columns::{ColumnTests, box_gap, rect_segment_distance, rect_segment_distance_roots};
 use crate::engine::ToolPrims;
 use crate::error::{Result, SimError};
 use crate::sweep::{Prim, Seg};
@@ -86,6 +86,10 @@ pub struct HeightField {
     /// distance by six (the tiled sweep's baseline before [`ColumnTests`] and
     /// [`rect_segment_distance`]).
     exact_tests: bool,
+    /// Compute every block's distance from the path, without first passing over the
+    /// blocks that the gap between the block's box and the path's decides (the tiled
+    /// sweep's baseline before [`HeightField::sweep`]'s box test).
+    every_distance: bool,
     /// A move whose box holds more columns than this is swept on rayon's threads
     /// ([`HeightField::set_parallel_columns`]).
     parallel_columns: usize,
@@ -149,6 +153,7 @@ impl HeightField {
             tile_max: vec![f64::INFINITY; nx.div_ceil(TILE) * ny.div_ceil(TILE)],
             reference: false,
             exact_tests: false,
+            every_distance: false,
             parallel_columns: PARALLEL_COLUMNS,
         })
     }
@@ -223,6 +228,14 @@ impl HeightField {
         self.exact_tests = true;
     }
 
+    /// Makes the tiled sweep compute every block's distance from the path, as it did
+    /// before the box test passed most far blocks over first: the baseline its bench and
+    /// test compare against (the field is the same bit for bit).
+    #[doc(hidden)]
+    pub fn use_every_block_distance(&mut self) {
+        self.every_distance = true;
+    }
+
     /// Sweeps a move whose box holds more than `columns` columns on rayon's threads (in
     /// rows of blocks), any other on the calling thread; default 4096. `usize::MAX`: every
     /// move on the calling thread, for a field fed on a thread of its own beside other
@@ -259,7 +272,11 @@ impl HeightField {
     /// possible reach over the block (the tip profile at the block's nearest distance from
     /// the path) and no mark can fall in it. A column it skips the reference skips too, and
     /// every other column is computed by the same expressions, so the field is the same
-    /// bit for bit.
+    /// bit for bit. Most blocks it passes over are decided first on the gap between the
+    /// block's box and the path's, a lower bound of that distance (one square root instead
+    /// of the distance's six squared distances, and divisions): `floor` is monotone, so a
+    /// block the bound passes over the distance passes over too, and only the others have
+    /// their distance computed.
     fn sweep(&mut self, a: Point3, b: Point3, feed: bool) {
         if self.reference {
             return self.sweep_reference(a, b, feed);
@@ -271,6 +288,8 @@ impl HeightField {
         let (s, nx, ny, min) = (self.spacing, self.nx, self.ny, self.min);
         let w = width.unwrap_or(-1.0);
         let (zmin, ab) = (a.z.min(b.z), (b - a).xy());
+        let path_box = [a.x.min(b.x), a.x.max(b.x), a.y.min(b.y), a.y.max(b.y)];
+        let box_test = !self.every_distance;
         let tests = ColumnTests::new(self.profile, zmin, w, !self.exact_tests);
         let rect_distance =
             if self.exact_tests { rect_segment_distance_roots } else { rect_segment_distance };
@@ -285,14 +304,18 @@ impl HeightField {
             let y = |j: usize| min[1] + j as f64 * s;
             for (ti, high) in tmax.iter_mut().enumerate().take(i1 / TILE + 1).skip(i0 / TILE) {
                 let (c0, c1) = ((ti * TILE).max(i0), (ti * TILE + TILE - 1).min(i1));
+                let (lo, hi) = ([min[0] + c0 as f64 * s, y(r0)], [min[0] + c1 as f64 * s, y(r1)]);
+                // The gap between the block's and the path's boxes, less twice the margin
+                // below: at most `near`, so where it passes the block over, so would `near`.
+                if box_test {
+                    let gap = box_gap(lo, hi, path_box);
+                    if gap > w && *high <= zmin + floor(gap) {
+                        continue;
+                    }
+                }
                 // The block's nearest distance from the path, less a margin far above the
                 // rounding of either distance, so its bound is at most every column's.
-                let near = rect_distance(
-                    [min[0] + c0 as f64 * s, y(r0)],
-                    [min[0] + c1 as f64 * s, y(r1)],
-                    [a.x, a.y],
-                    [b.x, b.y],
-                );
+                let near = rect_distance(lo, hi, [a.x, a.y], [b.x, b.y]);
                 let near = (near - 1e-9).max(0.0);
                 if near > w && *high <= zmin + floor(near) {
                     continue;
@@ -303,6 +326,15 @@ impl HeightField {
                 for j in r0..=r1 {
                     let off = (j - tj * TILE) * nx;
                     let row = &mut rows[off..off + nx];
+                    // The block's row, passed over as the block would be on its own box
+                    // gap: no column of it is marked or lowered.
+                    if box_test {
+                        let gap = box_gap([lo[0], y(j)], [hi[0], y(j)], path_box);
+                        let top = row[c0..=c1].iter().fold(f64::NEG_INFINITY, |m, &t| m.max(t));
+                        if gap > w && top <= zmin + floor(gap) {
+                            continue;
+                        }
+                    }
                     for (i, t) in row.iter_mut().enumerate().take(c1 + 1).skip(c0) {
                         // A column at most `zmin` is left as it is (`floor` is never
                         // negative), and without marks nothing else is done to it.

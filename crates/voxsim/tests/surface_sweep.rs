@@ -2,7 +2,8 @@
 //! visited, `use_reference_sweep`): random cutters, column spacings, pass widths and
 //! programs of short surface-following feeds, long moves, plunges, rapids and arcs give the
 //! same cut heights and pass marks, bit for bit, with or without the square roots the
-//! column and block tests leave out (`use_exact_column_tests`).
+//! column and block tests leave out (`use_exact_column_tests`), with or without the box
+//! test that passes most far blocks over before their distance (`use_every_block_distance`).
 
 use proptest::prelude::*;
 use s2g_gcode::{ArcDirection, Motion, MotionSink, Plane};
@@ -110,6 +111,12 @@ proptest! {
         let ((t1, p1), (t2, p2)) = (fast.columns(), slow.columns());
         prop_assert_eq!(bits(roots.columns().0), bits(t2));
         prop_assert_eq!(bits(roots.columns().1), bits(p2));
+        // And its baseline before the box test (every block's distance computed).
+        let mut every = HeightField::new_opt([-1.0, -1.0], [21.0, 21.0], ToolTable::single(cutter), &o).unwrap();
+        every.use_every_block_distance();
+        ms.iter().for_each(|m| every.motion(m).unwrap());
+        prop_assert_eq!(bits(every.columns().0), bits(t2));
+        prop_assert_eq!(bits(every.columns().1), bits(p2));
         // The program cuts: a field left at +inf everywhere would agree trivially.
         prop_assert!(t2.iter().filter(|t| t.is_finite()).count() > t2.len() / 10);
         prop_assert_eq!(bits(t1), bits(t2));
