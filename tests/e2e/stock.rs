@@ -611,7 +611,12 @@ fn a_narrow_groove_the_finisher_does_not_enter_gets_its_rest_pass() {
         "no rest tool narrower than the groove: {:?}",
         tools(&default)
     );
-    rest_took(&default, &none, groove, 1.0 / 3.0);
+    // What the 2 mm flat rest tool can take: the groove's walls 2.2 mm apart from z 12 to
+    // z 11, and the V down to z 11 - 0.2 / 2.2 (where its flanks are 2 mm apart, the floor
+    // level `PlanOptions::floor_levels` adds), (2.2 + 0.5 (2.2 + 2.0) 0.2 / 2.2) 20 = 47.8
+    // mm^3, 0.72 of the groove; the rest pass measures 0.63 at 256^3 (without the floor
+    // level, at its two regular levels 11.88 and 11.27 only, 0.43).
+    rest_took(&default, &none, groove, 0.6);
 }
 
 /// A `x` by `y` by `z` mm block with a square-cornered pocket over `[px0, px1] x [py0,

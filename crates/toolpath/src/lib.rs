@@ -116,6 +116,7 @@ mod clear;
 mod error;
 pub mod features;
 pub mod finish;
+mod floors;
 mod layer;
 pub mod library;
 mod link;

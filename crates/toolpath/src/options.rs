@@ -147,6 +147,11 @@ pub struct PlanOptions {
     /// the levels' own offsets differ from nesting by far less than a voxel, and the nested
     /// keep-outs accumulate vertices over many fine levels. On in the shop preset.
     pub nest_levels: bool,
+    /// Add a floor level (`floors.rs`) in each region a level leaves the tool that the
+    /// next level down does not enter: at the lowest height the tool's envelope reaches
+    /// there (a V groove as wide as the tool), one per region (issue 35). Off by default;
+    /// on for the shop preset's rest passes.
+    pub floor_levels: bool,
 }
 
 impl Default for PlanOptions {
@@ -182,6 +187,7 @@ impl Default for PlanOptions {
             arc_tolerance: None,
             fit_arcs: true,
             nest_levels: false,
+            floor_levels: false,
         }
     }
 }

@@ -10,6 +10,7 @@ use s2g_gcode::MotionSink;
 use s2g_geom::{Aabb, Mesh, Point3, Setup};
 
 use crate::error::ToolpathError;
+use crate::floors::{floor_levels, with_floors};
 use crate::layer::LayerPlan;
 use crate::link::{Emitter, LinkParams};
 use crate::options::PlanOptions;
@@ -142,8 +143,14 @@ fn slice_levels<E>(
     } else {
         Vec::new()
     };
-    let levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
+    let mut levels = layer_levels(top, bottom, opts.layer_height, &flats, opts.level_tolerance);
     let grow = envelope.radius + opts.wall_allowance();
+    if opts.floor_levels {
+        let merge = 0.1 * opts.layer_height;
+        let (lift, tol) = (opts.axial_allowance, opts.level_tolerance);
+        let floors = floor_levels(&tris, top, &levels, grow, lift, tol, merge);
+        levels = with_floors(&levels, &floors, merge);
+    }
     let min_hole_area = std::f64::consts::PI * grow * grow;
     let sliver_width = opts.sliver_width.unwrap_or(1e-6 * stock.extent().x.max(stock.extent().y));
     let slabs = slab_regions(

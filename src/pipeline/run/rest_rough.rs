@@ -539,6 +539,9 @@ impl MillRun {
         let own_popts = &self.jobs[own].popts;
         (job.popts.finishing_allowance, job.popts.axial_allowance) =
             (own_popts.finishing_allowance, own_popts.axial_allowance);
+        // A last level at the floor the rest tool reaches in each region its regular
+        // levels stop above (a V groove's flanks as far apart as the tool is wide).
+        job.popts.floor_levels = true;
         job.finish = finish;
         self.jobs.push(job);
         let at = self.jobs.len() - 1;
