@@ -325,7 +325,8 @@ fn rest_run_opts(
     tools: Option<shape2gcode::toolpath::library::ToolLibrary>,
     resolution: usize,
 ) -> Milled {
-    let opts = MillOptions { tools, rest_roughing: rest, rest_continue: more, finish, ..rest_options() };
+    let opts =
+        MillOptions { tools, rest_roughing: rest, rest_continue: more, finish, resolution, ..rest_options() };
     fixed_run(part, &opts)
 }
 
@@ -333,7 +334,7 @@ fn rest_run_opts(
 fn rest_options() -> MillOptions {
     MillOptions {
         preset: Preset::Shop,
-        resolution,
+        resolution: 64,
         orient_points: 2048,
         metric_samples: 2000,
         surface_spacing: 0.5,
