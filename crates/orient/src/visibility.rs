@@ -131,6 +131,15 @@ pub struct VisibilityContext<'a> {
     room: Option<SampleRoom>,
 }
 
+/// How near, as a share of its radius, the narrowest tool reaching a sample's depth must
+/// come to a sample whose ball clearance is less than that radius (a concave fold of the
+/// surface narrower than the tool) for the sample to count as reached (issue 36): the
+/// bundled bunny's folds are 1 to 3 mm across and the tools reaching them 4 to 6 mm in
+/// radius, which leave a skin there that the simulation's half voxel does not cover, yet
+/// no setup more cuts it better. A blind hole narrower than the tool stops it more than
+/// half its radius above the floor wherever the hole is deeper than 1.5 times the radius.
+const FOLD_SKIN: Real = 0.5;
+
 /// What a tool-aware reach knows of each sample's surroundings, direction aside.
 struct SampleRoom {
     /// How deep below the stock's top the sample is reached: [`ToolReach::depth_within`]
@@ -365,8 +374,11 @@ impl<'a> VisibilityContext<'a> {
                 .zip(Some(room.away[i]));
         }
         let slack = self.opts.reach.map_or(0.0, |r| r.slack);
+        // A round tool wider than a fold of the surface leaves a skin in it: counted
+        // reached where the tool comes within `FOLD_SKIN` of its radius (a crease of the
+        // bunny), not where it stops further off (a hole's floor below a tool too wide).
         let fits = |r: Real, away: Vector3, cache: &mut OccluderCache| {
-            self.ball_free(p, n, r, slack, v, probe, cache)
+            self.ball_free(p, n, r, (FOLD_SKIN * r).max(slack), v, probe, cache)
                 || self.flat_free(p, n, &away, r, slack, v, probe, cache)
         };
         match self.opts.tool_radius {

@@ -147,3 +147,73 @@ fn a_narrow_hole_is_reached_only_as_deep_as_a_tool_that_fits_it() {
     let ball = VisibilityContext::new(&pocket, &pocket_index, &floor, &ball_only).unwrap();
     assert!(!ball.visible(0, &up), "a 2.5 mm ball does not touch the floor 0.5 mm from the wall");
 }
+
+/// A plate 20 mm thick whose top has a fold along y: a V 70 degrees across (its walls 35
+/// degrees off the vertical, its apex at z = 8 below x = 20) with a 2 mm fillet at its
+/// bottom, over a body below it. Returns it and the fillet's bottom.
+fn folded_plate() -> (Mesh, Point3) {
+    let (alpha, fillet, apex, top): (f64, f64, f64, f64) = (35f64.to_radians(), 2.0, 8.0, 20.0);
+    let centre = (20.0, apex + fillet / alpha.sin());
+    let edge = (top - apex) * alpha.tan();
+    let mut profile = vec![(0.0, top), (20.0 - edge, top)];
+    // An odd number of facets: a flat one at the bottom, whose middle is the sample.
+    let step = (std::f64::consts::PI - 2.0 * alpha) / 15.0;
+    for k in 0..=15 {
+        let phi = -std::f64::consts::PI + alpha + step * k as f64;
+        profile.push((centre.0 + fillet * phi.cos(), centre.1 + fillet * phi.sin()));
+    }
+    profile.extend([(20.0 + edge, top), (40.0, top)]);
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    for (x, z) in &profile {
+        vertices.push(Point3::new(*x, 0.0, *z));
+        vertices.push(Point3::new(*x, 40.0, *z));
+    }
+    for i in 0..profile.len() as u32 - 1 {
+        let (a, b, c, d) = (2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1);
+        triangles.push([a, b, c]);
+        triangles.push([a, c, d]);
+    }
+    let mut mesh = Mesh::new(vertices, triangles).unwrap();
+    let bottom = centre.1 - fillet * (0.5 * step).cos();
+    mesh.append(&boxes(&[([0.0, 0.0, 0.0], [40.0, 40.0, bottom - 1.0])]));
+    (mesh, Point3::new(20.0, 20.0, bottom))
+}
+
+/// A round tool wider than an open concave fold leaves a skin in it: the fold counts
+/// as reached from above by the tool reaching its depth (issue 36, the bunny's creases);
+/// a blind hole narrower than that tool, deeper than 1.5 times its radius, still does not.
+#[test]
+fn an_open_fold_narrower_than_the_tool_is_reached_and_a_narrow_blind_hole_is_not() {
+    let stock = Aabb::new(Point3::origin(), Point3::new(40.0, 40.0, 40.0));
+    // A 2 mm tool reaching 10 mm below the stock's top, a 12 mm one reaching 66.
+    let aware = ToolReach::of_tools(stock, &[tool(1.0, 10.0), tool(6.0, 66.0)]).unwrap().with_slack(0.1);
+    let opts = VisibilityOptions { min_cos: -0.01, reach: Some(aware), ..Default::default() };
+    let up = UnitVector3::new_normalize(Vector3::z());
+
+    let (fold, bottom) = folded_plate();
+    let fold_index = MeshIndex::new(&fold).unwrap();
+    let (room, _) = ball_clearance(&fold_index, &bottom, &Vector3::z(), 6.0, 1e-6);
+    assert!((room - 2.0).abs() < 0.1, "the fold leaves the fillet's room, less than the 12 mm tool: {room}");
+    let fold_samples = samples(&[(bottom.into(), [0.0, 0.0, 1.0]), ([5.0, 20.0, 20.0], [0.0, 0.0, 1.0])]);
+    let ctx = VisibilityContext::new(&fold, &fold_index, &fold_samples, &opts).unwrap();
+    assert!(
+        ctx.visible(0, &up),
+        "the fold's bottom, 30.5 mm deep: the 12 mm tool, resting on its walls, stops 3.0 mm above it, within half its radius"
+    );
+    assert!(ctx.visible(1, &up));
+
+    // A 4 mm square blind hole 10 mm deep in a plate 12 mm thick.
+    let hole = boxes(&[
+        ([0.0, 0.0, 0.0], [40.0, 40.0, 2.0]),
+        ([0.0, 0.0, 2.0], [18.0, 40.0, 12.0]),
+        ([22.0, 0.0, 2.0], [40.0, 40.0, 12.0]),
+        ([18.0, 0.0, 2.0], [22.0, 18.0, 12.0]),
+        ([18.0, 22.0, 2.0], [22.0, 40.0, 12.0]),
+    ]);
+    let hole_index = MeshIndex::new(&hole).unwrap();
+    let floor = samples(&[([20.0, 20.0, 2.0], [0.0, 0.0, 1.0]), ([30.0, 20.0, 12.0], [0.0, 0.0, 1.0])]);
+    let ctx = VisibilityContext::new(&hole, &hole_index, &floor, &opts).unwrap();
+    assert!(!ctx.visible(0, &up), "the hole's floor: the 12 mm tool stops 9.7 mm above it");
+    assert!(ctx.visible(1, &up), "the plate's top, in the open");
+}
