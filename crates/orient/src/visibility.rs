@@ -413,15 +413,7 @@ impl<'a> VisibilityContext<'a> {
     ) -> bool {
         let Some(w) = (away - v * v.dot(away)).try_normalize(1e-9) else { return false };
         let c = p + n * (self.eps + standoff) + w * r;
-        if !self.free(&c, v, probe, cache) {
-            return false;
-        }
-        let k = self.opts.tool_rays;
-        (0..k).all(|j| {
-            let t = std::f64::consts::TAU * j as Real / k as Real;
-            let off = (probe.basis.0 * t.cos() + probe.basis.1 * t.sin()) * r;
-            self.free(&(c + off), v, probe, cache)
-        })
+        self.disc_free(&c, r, v, probe, cache)
     }
 
     /// Whether a ball of radius `r` `standoff` off sample point `p` (normal `n`) and the
@@ -439,7 +431,20 @@ impl<'a> VisibilityContext<'a> {
         cache: &mut OccluderCache,
     ) -> bool {
         let c = p + n * (r + standoff + self.eps);
-        if !self.free(&c, v, probe, cache) {
+        self.disc_free(&c, r, v, probe, cache)
+    }
+
+    /// Whether the disc of radius `r` centred on `c` across `v` and the cylinder above it
+    /// are free: the ray from `c` along `v` and `tool_rays` rays from the disc's rim.
+    fn disc_free(
+        &self,
+        c: &Point3,
+        r: Real,
+        v: &Vector3,
+        probe: &Probe<'_>,
+        cache: &mut OccluderCache,
+    ) -> bool {
+        if !self.free(c, v, probe, cache) {
             return false;
         }
         let k = self.opts.tool_rays;
