@@ -123,6 +123,13 @@ pub struct MillOptions {
     /// them for any scorer. Default true; the paper preset ignores it (its grid is the
     /// scorer's, as in the paper).
     pub face_grid: bool,
+    /// Shop preset: orientation selection counts a surface reached only as deep as a
+    /// library tool that fits there reaches with its holder clear of the stock's top
+    /// (`s2g_orient::ToolReach::of_tools`), rather than as deep as the longest flat end
+    /// mill reaches wherever the surface is. It gives the stress bushings and example002
+    /// the -Z setups their deep holes need, but costs gearwheel_40t its -Z setup (its
+    /// tooth gaps count as reached from neither side), so it is off by default.
+    pub tool_aware_reach: bool,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
     /// Paper preset: the action space's radii and layer heights multiplied by this
@@ -307,6 +314,7 @@ impl Default for MillOptions {
             seed: 0,
             stock_margin: 0.02,
             face_grid: true,
+            tool_aware_reach: false,
             paper_scale_mm: 100.0,
             paper_space_scale: 1.0,
             stock: Stock::Preset,

@@ -133,8 +133,24 @@ impl Tooling {
     /// its ball and bull-nose end mills, which finish, each no deeper than the deepest
     /// flat end mill. `None` for the paper's tools, whose flutes are as long as the
     /// stock's diagonal, or where the library has no such tool.
-    pub(super) fn reach(&self, stock: Aabb, finishing: bool) -> Option<ToolReach> {
+    ///
+    /// Without `tool_aware` ([`MillOptions::tool_aware_reach`], the default) one depth for
+    /// every sample: the reach of the library's longest flat end mill (long-reach ones
+    /// aside), and, when `finishing`, no deeper than its longest ball or bull-nose end mill.
+    pub(super) fn reach(&self, stock: Aabb, finishing: bool, tool_aware: bool) -> Option<ToolReach> {
         let Self::Library(shop) = self else { return None };
+        if !tool_aware {
+            let reach = |t: &LibraryTool| Tool::new(t.cutter).envelope().length;
+            let rough = shop.flats.iter().map(reach).fold(0.0, f64::max);
+            let finish = shop
+                .all
+                .iter()
+                .filter(|t| !matches!(t.cutter.shape, CutterShape::Flat(_) | CutterShape::TSlot(_)))
+                .map(reach)
+                .fold(0.0, f64::max);
+            let depth = if finishing && finish > 0.0 { rough.min(finish) } else { rough };
+            return (depth.is_finite() && depth > 0.0).then(|| ToolReach::new(stock, depth));
+        }
         let reach = |t: &LibraryTool| ReachTool {
             radius: t.cutter.radius,
             depth: Tool::new(t.cutter).envelope().length,

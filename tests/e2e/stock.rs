@@ -990,8 +990,8 @@ fn cells(n: [usize; 3], cell: f64, filled: impl Fn(usize, usize, usize) -> bool)
 /// stands in the way; from below the holes are 6 mm deep. Judged by the longest end
 /// mill's reach (66 mm) the holes counted as reached from +Z, and +Z with +X (the cross
 /// hole, the bottom's flank) covered everything: no setup from below, the holes stayed
-/// full (on main this test fails there). Now a setup from below is chosen and its rest
-/// passes cut them through.
+/// full (without [`MillOptions::tool_aware_reach`] this test fails there). With it a setup
+/// from below is chosen and its rest passes cut them through.
 #[test]
 fn holes_beside_a_tall_post_are_cut_from_below_where_the_tool_that_fits_them_reaches() {
     // 2 mm cells: plate k < 3, post 14..26 mm to 36 mm, holes 2 x 2 cells.
@@ -1003,7 +1003,8 @@ fn holes_beside_a_tall_post_are_cut_from_below_where_the_tool_that_fits_them_rea
         (7..13).contains(&i) && (7..13).contains(&j) && !((9..11).contains(&j) && (9..11).contains(&k))
     };
     let part = cells([20, 20, 18], 2.0, |i, j, k| if k < 3 { !in_hole(i, j) } else { post(i, j, k) });
-    let opts = MillOptions { stock: Stock::BoxSize([40.0, 40.0, 36.0]), ..rest_options() };
+    let opts =
+        MillOptions { stock: Stock::BoxSize([40.0, 40.0, 36.0]), tool_aware_reach: true, ..rest_options() };
     let m = fixed_run(&part, &opts);
     assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
     assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);

@@ -91,6 +91,12 @@ pub struct Args {
     /// --no-face-grid wins.
     #[arg(long, hide = true, overrides_with = "no_face_grid")]
     face_grid: bool,
+    /// Shop preset: choose setups by what a tool that fits each surface reaches, its
+    /// holder clear of the stock (MillOptions::tool_aware_reach; off by default: it cuts
+    /// deep holes beside tall features from the other side, but misjudges a gear's tooth
+    /// gaps).
+    #[arg(long)]
+    tool_aware_reach: bool,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -536,6 +542,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
         face_grid: face_grid(args),
+        tool_aware_reach: args.tool_aware_reach,
         max_estimated_hours: args.max_hours,
         arc_tolerance: arc_tolerance(args.arc_tolerance, preset),
         stock: parse_stock(args)?,
