@@ -139,14 +139,7 @@ impl MillRun {
         // search, whose serial steps leave a core idle.
         let spec = grid::simulation_grid(&stock, &part, &part_box, opts)?;
         // A tool that comes within half a voxel of a surface reaches it, as the grid shows.
-        let reaches = Reaches::of_tooling(
-            &part,
-            &tooling,
-            stock,
-            0.5 * spec.voxel.max(),
-            opts.finish.is_some(),
-            opts.tool_aware_reach,
-        );
+        let reaches = Reaches::of_tooling(&part, &tooling, stock, 0.5 * spec.voxel.max(), opts);
         let (orientation, (target, index, samples, beside)) = rayon::join(
             || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),
             || {

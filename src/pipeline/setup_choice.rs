@@ -3,6 +3,7 @@
 //! reach or for the shorter finishing ball's, the choice between the two sets by what
 //! each leaves unreached ([`choose_setups`]).
 
+use super::api::MillOptions;
 use super::finish_scope::prismatic_share;
 use super::stock::StockBody;
 use super::tooling::Tooling;
@@ -35,16 +36,16 @@ pub(super) struct Reaches {
 
 impl Reaches {
     /// The reaches of a run's `tooling` over `stock` ([`Tooling::reach`], tool-aware where
-    /// `tool_aware` says), a tool reaching a surface it comes within `slack` of
-    /// ([`ToolReach::slack`]).
+    /// [`MillOptions::tool_aware_reach`] says, the ball's where it finishes), a tool
+    /// reaching a surface it comes within `slack` of ([`ToolReach::slack`]).
     pub(super) fn of_tooling(
         part: &Mesh,
         tooling: &Tooling,
         stock: Aabb,
         slack: f64,
-        finishing: bool,
-        tool_aware: bool,
+        opts: &MillOptions,
     ) -> Self {
+        let (finishing, tool_aware) = (opts.finish.is_some(), opts.tool_aware_reach);
         let reach = |f: bool| tooling.reach(stock, f, tool_aware).map(|r| r.with_slack(slack));
         Self::new(part, reach(false), reach(true), finishing)
     }
