@@ -126,9 +126,12 @@ pub struct MillOptions {
     /// Shop preset: orientation selection counts a surface reached only as deep as a
     /// library tool that fits there reaches with its holder clear of the stock's top
     /// (`s2g_orient::ToolReach::of_tools`), rather than as deep as the longest flat end
-    /// mill reaches wherever the surface is. It gives the stress bushings and example002
-    /// the -Z setups their deep holes need, but costs gearwheel_40t its -Z setup (its
-    /// tooth gaps count as reached from neither side), so it is off by default.
+    /// mill reaches wherever the surface is; a tilted setup then gives way to a principal
+    /// axis that meets the coverage target, a flip first. It gives the stress bushings and
+    /// example002 the -Z setups their deep holes need. Default false: at 256^3 the gear's
+    /// tooth roots, within half a voxel of the narrowest tool, count as unreached from +Z
+    /// and -Z and side setups replace the -Z rest chain (IoU 0.993 -> 0.940). The paper
+    /// preset ignores it (its tools reach through the stock).
     pub tool_aware_reach: bool,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,

@@ -136,7 +136,8 @@ pub(super) fn choose_setups(
 /// leaves more stock even within the roughing's reach); on example006 and example002 the
 /// two sets leave the same. With the tool-aware reach ([`MillOptions::tool_aware_reach`])
 /// Advanced_offset's roughing set leaves 865 of 16,384 surface samples that no ball
-/// fitting there reaches, the ball's none, and example004's roughing set 1.30 + 0.376.
+/// fitting there reaches, the ball's none, and example004's roughing set 1.40 + 0.376
+/// (2,280 stock samples for 1,632 part samples at 128^3) against the ball's 1.58 + 0.376.
 pub(super) fn ball_set_better(ball: &Unreached, rough: &Unreached) -> bool {
     ball.stock_fraction() + ball.surface_fraction() < rough.stock_fraction() + rough.surface_fraction()
 }

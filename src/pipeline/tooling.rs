@@ -134,7 +134,7 @@ impl Tooling {
     /// flat end mill. `None` for the paper's tools, whose flutes are as long as the
     /// stock's diagonal, or where the library has no such tool.
     ///
-    /// Without `tool_aware` ([`MillOptions::tool_aware_reach`], the default) one depth for
+    /// Without `tool_aware` ([`MillOptions::tool_aware_reach`] false) one depth for
     /// every sample: the reach of the library's longest flat end mill (long-reach ones
     /// aside), and, when `finishing`, no deeper than its longest ball or bull-nose end mill.
     pub(super) fn reach(&self, stock: Aabb, finishing: bool, tool_aware: bool) -> Option<ToolReach> {

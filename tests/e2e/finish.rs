@@ -171,12 +171,13 @@ fn a_mostly_prismatic_setup_is_roughed_as_without_finishing() {
 /// The setups of a finishing run on a part less prismatic than `PRISMATIC_PART` (0.75):
 /// orientation selection plans them for the roughing's reach and for the shorter ball's,
 /// and the run takes the set that leaves less unreached, ties to the roughing's. On
-/// example004 (a cube less a sphere) the ball's set leaves less stock and is taken; on
-/// example006 the two leave the same, and the finished run machines the roughing-only
-/// run's setups.
+/// example004 (a cube less a sphere) judged by the longest end mill's reach
+/// (`tool_aware_reach: false`) the ball's set leaves less stock and is taken; with the
+/// tool-aware reach (`true`) the roughing's set leaves less and is; on example006 the
+/// two leave the same, and the finished run machines the roughing-only run's setups.
 #[test]
 fn a_finishing_run_takes_the_setups_that_leave_less_unreached() {
-    let run = |name: &str, finish: Option<FinishChoice>| {
+    let run = |name: &str, tool_aware_reach: bool, finish: Option<FinishChoice>| {
         let mesh = load_mesh(data(&format!("meshes/openscad/{name}.stl"))).unwrap();
         let longest = mesh.bbox().unwrap().extent().max();
         // As `s2g mill MESH --preset shop --size 100 --res 128 --finish`.
@@ -185,14 +186,19 @@ fn a_finishing_run_takes_the_setups_that_leave_less_unreached() {
             resolution: 128,
             input_scale: 100.0 / longest,
             finish,
+            tool_aware_reach,
             ..MillOptions::default()
         };
         MillRun::new(&mesh, &opts, &mut |_| {}).unwrap()
     };
     let same_set = |a: &[_], b: &[_]| a.len() == b.len() && a.iter().all(|d| b.contains(d));
-    for (name, ball) in [("openscad_Old_example004", true), ("openscad_Old_example006", false)] {
-        let rough = run(name, None);
-        let fine = run(name, Some(FinishChoice::default()));
+    for (name, tool_aware_reach, ball) in [
+        ("openscad_Old_example004", false, true),
+        ("openscad_Old_example004", true, false),
+        ("openscad_Old_example006", true, false),
+    ] {
+        let rough = run(name, tool_aware_reach, None);
+        let fine = run(name, tool_aware_reach, Some(FinishChoice::default()));
         assert_eq!(rough.setup_choice(), None, "{name}: a roughing-only run plans one set");
         let choice = fine.setup_choice().unwrap_or_else(|| panic!("{name}: two sets planned"));
         let left = |u: &shape2gcode::orient::Unreached| u.stock_fraction() + u.surface_fraction();

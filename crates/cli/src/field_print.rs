@@ -1,4 +1,4 @@
-//! `s2g field print (MESH | --part arm|arch|bracket)
+//! `s2g field print (MESH | --part arm|arch|overhang-arch|bracket)
 //! --objective support-free|planar|aligned[:DIRECTIONS]|coopt[:DIRECTIONS] -o PROGRAM [--rotary ac|bc]
 //! [--mount table|head] [--layers L.ply] [--paths P.ply] [--json]`: multi-axis printing end to end
 //! (seed 002's layers and toolpaths, closed with seed 004's reconstruction). Progress and
@@ -11,7 +11,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use s2g_field::{
     AlignDirection, PrintMeshOptions, PrintObjective, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh,
-    print_mesh,
+    overhang_arch_mesh, print_mesh,
 };
 use shape2gcode::gcode::{RotaryAxes, RotaryMount};
 use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
@@ -22,8 +22,9 @@ pub struct PrintArgs {
     /// The part (STL, OBJ, glTF/GLB, PLY, 3MF), closed, standing on its lowest point.
     #[arg(required_unless_present = "part", conflicts_with = "part")]
     mesh: Option<PathBuf>,
-    /// A built-in part instead of a mesh: the bent arm, the arch or the bracket with a tip.
-    #[arg(long, value_parser = ["arm", "arch", "bracket"])]
+    /// A built-in part instead of a mesh: the bent arm, the arch on two feet, the
+    /// overhanging arch on one foot or the bracket with a tip.
+    #[arg(long, value_parser = ["arm", "arch", "overhang-arch", "bracket"])]
     part: Option<String>,
     /// Which layers: `support-free` (Eq. 37), `planar`, `aligned[:DIRECTIONS]` (layers
     /// along a direction field, Eq. 38) or `coopt[:DIRECTIONS]` (layers and toolpaths
@@ -71,6 +72,7 @@ fn built_in(name: &str) -> anyhow::Result<Mesh> {
     Ok(match name {
         "arm" => bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12)?,
         "arch" => arch_mesh(14.0, 6.0, 10.0, 10.0, 48)?,
+        "overhang-arch" => overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32)?,
         _ => bracket_mesh(6.0, 12.0, 10.0, 20.0, 2.0, 10.0, 24)?,
     })
 }

@@ -91,12 +91,15 @@ pub struct Args {
     /// --no-face-grid wins.
     #[arg(long, hide = true, overrides_with = "no_face_grid")]
     face_grid: bool,
-    /// Shop preset: choose setups by what a tool that fits each surface reaches, its
-    /// holder clear of the stock (MillOptions::tool_aware_reach; off by default: it cuts
-    /// deep holes beside tall features from the other side, but misjudges a gear's tooth
-    /// gaps).
-    #[arg(long)]
+    /// Shop preset: choose setups by what a tool that fits each surface reaches with its
+    /// holder clear of the stock, instead of by the reach of the longest flat end mill
+    /// wherever a surface is (MillOptions::tool_aware_reach). Deep holes beside tall
+    /// features get setups from the other side; a gear's tooth roots at 256^3 do not.
+    #[arg(long, overrides_with = "no_tool_aware_reach")]
     tool_aware_reach: bool,
+    /// The default; the later of it and --tool-aware-reach wins.
+    #[arg(long, hide = true, overrides_with = "tool_aware_reach")]
+    no_tool_aware_reach: bool,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -484,6 +487,12 @@ fn face_grid(args: &Args) -> bool {
     args.face_grid || !args.no_face_grid
 }
 
+/// Whether the shop preset's setups are chosen for a tool-aware reach: unless
+/// `--no-tool-aware-reach` (the later of it and `--tool-aware-reach` stands).
+fn tool_aware_reach(args: &Args) -> bool {
+    args.tool_aware_reach && !args.no_tool_aware_reach
+}
+
 /// The library's options from the command line.
 fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
     let preset = match args.preset.as_str() {
@@ -542,7 +551,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         roughing_depth_diameters: args.roughing_depth,
         flank_walls: !args.front_facing,
         face_grid: face_grid(args),
-        tool_aware_reach: args.tool_aware_reach,
+        tool_aware_reach: tool_aware_reach(args),
         max_estimated_hours: args.max_hours,
         arc_tolerance: arc_tolerance(args.arc_tolerance, preset),
         stock: parse_stock(args)?,
@@ -876,25 +885,38 @@ fn print_summary(milled: &Milled, mesh_path: &Path, paths: &[PathBuf], layout: P
 
 #[cfg(test)]
 mod tests {
-    use super::{Args, face_grid, resolution_for_voxel};
+    use super::{Args, face_grid, resolution_for_voxel, tool_aware_reach};
     use clap::Parser;
 
-    #[test]
-    fn the_face_grid_is_on_unless_no_face_grid_comes_last() {
+    /// `s2g mill part.stl EXTRA...` parsed.
+    fn parsed(extra: &[&str]) -> Args {
         #[derive(clap::Parser)]
         struct Cli {
             #[command(flatten)]
             args: Args,
         }
-        let on = |extra: &[&str]| {
-            let argv = ["s2g", "part.stl"].into_iter().chain(extra.iter().copied());
-            face_grid(&Cli::try_parse_from(argv).expect("arguments s2g mill takes").args)
-        };
+        let argv = ["s2g", "part.stl"].into_iter().chain(extra.iter().copied());
+        Cli::try_parse_from(argv).expect("arguments s2g mill takes").args
+    }
+
+    #[test]
+    fn the_face_grid_is_on_unless_no_face_grid_comes_last() {
+        let on = |extra: &[&str]| face_grid(&parsed(extra));
         assert!(on(&[]));
         assert!(on(&["--face-grid"]));
         assert!(!on(&["--no-face-grid"]));
         assert!(on(&["--no-face-grid", "--face-grid"]));
         assert!(!on(&["--face-grid", "--no-face-grid"]));
+    }
+
+    #[test]
+    fn the_tool_aware_reach_is_off_unless_tool_aware_reach_comes_last() {
+        let on = |extra: &[&str]| tool_aware_reach(&parsed(extra));
+        assert!(!on(&[]));
+        assert!(on(&["--tool-aware-reach"]));
+        assert!(!on(&["--no-tool-aware-reach"]));
+        assert!(on(&["--no-tool-aware-reach", "--tool-aware-reach"]));
+        assert!(!on(&["--tool-aware-reach", "--no-tool-aware-reach"]));
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! of the same part beside it. Prints a Markdown table and one JSON line per part.
 //!
 //! ```text
-//! cargo run --release -p s2g-field --example print_parts [-- --parts arm,arch,bracket,bunny
+//! cargo run --release -p s2g-field --example print_parts [-- --parts arm,overhang-arch,bracket,bunny,arch
 //!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --dump DIR --mount table|head]
 //! ```
 //!
@@ -14,14 +14,17 @@
 //! (`PART.gcode`, `PART_planar.gcode`).
 //!
 //! The parts, standing on `z = 0`: the bent arm of `support_free` (radius 6, column 12,
-//! bend 16 through 60°, arm 24), an arch (centreline radius 14, band 6 wide, pillars 10
-//! high, 10 deep), a bracket with a tip (post 6 wide and 12 high, bend 10, arm 20
-//! tapering to 2, 10 deep) and the bundled bunny (`assets/stanford_bunny.stl`, Y up
+//! bend 16 through 60°, arm 24), an overhanging arch on one foot (`overhang-arch`: a pillar
+//! 10 high turning over on an arc of centreline radius 14 through 120°, band 6 wide, 10
+//! deep, its free end hanging over the platform), the arch on two feet (`arch`: centreline
+//! radius 14, band 6 wide, pillars 10 high, 10 deep; the documented limit), a bracket
+//! with a tip (post 6 wide and 12 high, bend 10, arm 20 tapering to 2, 10 deep) and the
+//! bundled bunny (`assets/stanford_bunny.stl`, Y up
 //! turned Z up, scaled 5×: about 50 mm, the ears leaning out).
 
 use s2g_field::{
-    PrintMeshOptions, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh, overhang_misses, print_mesh,
-    read_beads,
+    PrintMeshOptions, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh, overhang_arch_mesh,
+    overhang_misses, print_mesh, read_beads,
 };
 use s2g_geom::{Mesh, Point3, load_mesh};
 
@@ -29,6 +32,7 @@ fn part(name: &str) -> Result<Mesh, Box<dyn std::error::Error>> {
     Ok(match name {
         "arm" => bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12)?,
         "arch" => arch_mesh(14.0, 6.0, 10.0, 10.0, 48)?,
+        "overhang-arch" => overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32)?,
         "bracket" => bracket_mesh(6.0, 12.0, 10.0, 20.0, 2.0, 10.0, 24)?,
         "bunny" => {
             let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/stanford_bunny.stl");
@@ -48,7 +52,7 @@ fn part(name: &str) -> Result<Mesh, Box<dyn std::error::Error>> {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut options = PrintMeshOptions::default();
-    let mut parts = "arm,arch,bracket,bunny".to_string();
+    let mut parts = "arm,overhang-arch,bracket,bunny,arch".to_string();
     let mut dump: Option<std::path::PathBuf> = None;
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {

@@ -116,8 +116,8 @@ pub use print::{
     AlignDirection, Bead, LayerField, NeuralLayers, PathKind, PlanarLayers, PlanarSupport, PrintLayer,
     PrintMeshOptions, PrintObjective, PrintPath, PrintPathOptions, PrintPlan, PrintProgram,
     PrintProgramOptions, PrintRun, PrintScore, PrintStage, ScoreOptions, SpacingStats, StageSeconds,
-    arch_mesh, bead_spacing, bracket_mesh, deposit, extract_print, overhang_fraction, overhang_misses,
-    planar_support, print_mesh, print_program, read_beads, score_print,
+    arch_mesh, bead_spacing, bracket_mesh, deposit, extract_print, overhang_arch_mesh, overhang_fraction,
+    overhang_misses, planar_support, print_mesh, print_program, read_beads, score_print,
 };
 pub use program::{
     ContourPaths, MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh,

@@ -3,8 +3,8 @@
 
 use s2g_field::{
     Bead, LayerField, MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions,
-    PrintProgramOptions, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print,
-    overhang_misses, planar_support, print_mesh, print_program, read_beads,
+    PrintProgramOptions, PrintRun, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print,
+    overhang_arch_mesh, overhang_misses, planar_support, print_mesh, print_program, read_beads,
 };
 use s2g_geom::{Aabb, Mesh, Point3, Vector3};
 
@@ -122,6 +122,41 @@ fn arch_and_bracket_are_closed_with_their_volume() {
         assert_eq!(report.boundary_edges, 0, "{name} is open");
         assert_eq!(report.non_manifold_edges, 0, "{name} is not manifold");
     }
+}
+
+/// The overhanging arch on one foot is closed, manifold, outward facing, with its profile's
+/// area (the pillar's rectangle and the arc's sector of the annulus) times its depth, and
+/// it turns over as asked: its free end hangs over the platform, its lowest point there
+/// the inner corner of the radial cut. Bad dimensions are refused.
+#[test]
+fn overhang_arch_is_closed_with_its_volume() {
+    for sweep in [90.0f64, 120.0, 180.0] {
+        let m = overhang_arch_mesh(14.0, 6.0, 10.0, sweep, 10.0, 96).unwrap();
+        let (ri, ro) = (11.0f64, 17.0f64);
+        let exact = (6.0 * 10.0 + 0.5 * sweep.to_radians() * (ro * ro - ri * ri)) * 10.0;
+        let v = m.signed_volume();
+        assert!((v - exact).abs() < 0.005 * exact, "sweep {sweep}: volume {v} against {exact}");
+        let report = s2g_geom::report(&m);
+        assert_eq!((report.boundary_edges, report.non_manifold_edges), (0, 0), "sweep {sweep}");
+        let end = (180.0 - sweep).to_radians();
+        let b = m.bbox().unwrap();
+        assert!((b.max.x - ro * end.cos()).abs() < 1e-9 && b.min.x == -ro && b.min.z == 0.0, "{b:?}");
+        // Beyond the foot's side of the span the part hangs over the platform, its lowest
+        // point the free end's inner corner.
+        let low = m.vertices().iter().filter(|p| p.x > 1e-6).map(|p| p.z).fold(f64::INFINITY, f64::min);
+        if sweep > 90.0 {
+            assert!((low - (10.0 + ri * end.sin())).abs() < 1e-9, "sweep {sweep}: lowest {low}");
+        }
+    }
+    for bad in [
+        (14.0, 28.0, 10.0, 120.0),
+        (14.0, 6.0, 10.0, 181.0),
+        (14.0, 6.0, 0.0, 120.0),
+        (14.0, 6.0, 10.0, f64::NAN),
+    ] {
+        assert!(overhang_arch_mesh(bad.0, bad.1, bad.2, bad.3, 10.0, 32).is_err(), "{bad:?} accepted");
+    }
+    assert!(overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 1).is_err());
 }
 
 /// Planar slicing of the bent arm through the whole loop: the program parses back into
@@ -316,21 +351,17 @@ fn planar_arch_and_bracket_are_spaced_and_filled() {
     }
 }
 
-/// Support-free layers on the bent arm, optimised briefly: the rebuilt print overhangs
-/// less than planar slicing's, keeps its IoU, no pose collides, and the same seed gives
-/// the same program.
-#[test]
-fn support_free_arm_overhangs_less_than_planar() {
-    let mesh = arm();
+/// Support-free layers on `mesh` with [`fast_options`], checked as every support-free
+/// part is: planar slicing's baseline and the curved program collide nowhere, the rebuilt
+/// print keeps an IoU above 0.85 and overhangs less than half as much as planar
+/// slicing's, and the same seed gives the same program. Returns the run.
+fn support_free_beats_planar(mesh: &Mesh) -> PrintRun {
     let options = fast_options();
-    let run = print_mesh(&mesh, &options, &mut |_| {}).unwrap();
+    let run = print_mesh(mesh, &options, &mut |_| {}).unwrap();
     let (planar_program, planar) = run.planar.as_ref().unwrap();
     assert_eq!(planar_program.collisions, 0);
-    assert_eq!(
-        run.program.collisions, 0,
-        "{} of {} poses collide",
-        run.program.collisions, run.program.poses_checked
-    );
+    let p = &run.program;
+    assert_eq!(p.collisions, 0, "{} of {} poses collide", p.collisions, p.poses_checked);
     assert!(run.score.iou > 0.85, "IoU {}", run.score.iou);
     assert!(
         run.score.overhang_fraction < 0.5 * planar.overhang_fraction,
@@ -338,13 +369,35 @@ fn support_free_arm_overhangs_less_than_planar() {
         run.score.overhang_fraction,
         planar.overhang_fraction
     );
+    let again =
+        print_mesh(mesh, &PrintMeshOptions { planar_baseline: false, ..options }, &mut |_| {}).unwrap();
+    assert!(again.program.text == p.text, "same seed, another program");
+    run
+}
+
+/// Support-free layers on the bent arm, optimised briefly: the rebuilt print overhangs
+/// less than planar slicing's, keeps its IoU, no pose collides, the same seed gives the
+/// same program, and the planar baseline is the planar objective's program.
+#[test]
+fn support_free_arm_overhangs_less_than_planar() {
+    let mesh = arm();
+    let run = support_free_beats_planar(&mesh);
+    let (planar_program, _) = run.planar.as_ref().unwrap();
     let planar_only =
         PrintMeshOptions { objective: PrintObjective::Planar, planar_baseline: false, ..fast_options() };
     let p = print_mesh(&mesh, &planar_only, &mut |_| {}).unwrap();
     assert!(p.program.text == planar_program.text, "planar baseline and planar objective differ");
-    let again =
-        print_mesh(&mesh, &PrintMeshOptions { planar_baseline: false, ..options }, &mut |_| {}).unwrap();
-    assert!(again.program.text == run.program.text, "same seed, another program");
+}
+
+/// Support-free layers on the overhanging arch (one foot, 120°), optimised briefly: the
+/// layers turn with the band so that the rebuilt print overhangs less than planar
+/// slicing's (whose ceiling is the arc's underside from its crown to the free end), no pose
+/// collides, no path is left out, and the same seed gives the same program.
+#[test]
+fn support_free_overhang_arch_overhangs_less_than_planar() {
+    let run = support_free_beats_planar(&overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32).unwrap());
+    let p = &run.program;
+    assert_eq!(p.unprintable_length, 0.0, "{} unclear points", p.unclear_points);
 }
 
 /// Aligned layers (Eq. 38) along the bent arm's axis, optimised briefly, print end to end

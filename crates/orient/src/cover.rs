@@ -8,6 +8,8 @@ use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
 
+use s2g_geom::Real;
+
 use crate::visibility::{VisibilityMatrix, popcount};
 
 /// `|a | b|` without allocating.
@@ -257,6 +259,39 @@ fn random_subset(rng: &mut StdRng, candidates: &[usize], k: usize) -> Vec<usize>
     pool
 }
 
+/// Each tilted direction of `chosen` gives way to a principal axis (`axes`, rows of `m`)
+/// that keeps the set's coverage at `target` or above: the opposite of an axis of the set
+/// where one does (a flip), else the one covering most (the lower index of equals). Sets
+/// short of the target stay as they are. Orientation selection does this with a
+/// tool-aware reach (issue 35): a box stock's faces are the shop's datums, and a tilted
+/// setup that wins a few narrow samples over an axis (gearwheel_40t's tooth-gap roots,
+/// which the reach's ray tests pass from an axis in their plane) does not cut more than
+/// the flip whose rest passes cut the gaps through.
+pub(crate) fn prefer_axes(m: &VisibilityMatrix, chosen: &mut [usize], axes: &[usize], target: Real) {
+    if m.coverage(chosen) < target {
+        return;
+    }
+    let dirs = m.directions();
+    for pos in 0..chosen.len() {
+        if axes.contains(&chosen[pos]) {
+            continue;
+        }
+        let mut best: Option<(usize, (bool, usize))> = None;
+        for &a in axes.iter().filter(|a| !chosen.contains(a)) {
+            let mut trial = chosen.to_vec();
+            trial[pos] = a;
+            let flip = chosen.iter().any(|&c| axes.contains(&c) && dirs[c].dot(&dirs[a]) < -0.999);
+            let key = (flip, m.covered(&trial));
+            if m.coverage(&trial) >= target && best.is_none_or(|(_, k)| key > k) {
+                best = Some((a, key));
+            }
+        }
+        if let Some((a, _)) = best {
+            chosen[pos] = a;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -314,5 +349,44 @@ mod tests {
         assert_eq!(m.covered(&best_subset(&m, &[0, 1, 2, 3, 4], 2)), 7);
         assert_eq!(m.covered(&best_subset(&m, &[0, 1, 2, 3, 4], 4)), 10);
         assert_eq!(best_subset(&m, &[1, 2], 5).len(), 2);
+    }
+
+    #[test]
+    fn a_tilted_setup_gives_way_to_a_flip_or_else_the_axis_covering_most_that_meets_the_target() {
+        let axes = crate::directions::principal_axes();
+        // Ten samples: +Z sees 0..6, the tilted direction (row 6) and +X the rest, -Z all
+        // of the rest but sample 9.
+        let sees = |list: &[usize]| {
+            let mut bits = vec![0u64; 1];
+            list.iter().for_each(|&i| bits[0] |= 1 << i);
+            bits
+        };
+        let mut rows: Vec<(UnitVector3, Vec<u64>)> = axes
+            .iter()
+            .enumerate()
+            .map(|(a, d)| match a {
+                0 => (*d, sees(&[0, 1, 2, 3, 4, 5])),
+                1 => (*d, sees(&[6, 7, 8])),
+                2 => (*d, sees(&[6, 7, 8, 9])),
+                _ => (*d, sees(&[])),
+            })
+            .collect();
+        rows.push((UnitVector3::new_normalize(Vector3::new(-0.8, 0.0, -0.6)), sees(&[6, 7, 8, 9])));
+        let m = VisibilityMatrix::from_rows(10, rows).unwrap();
+        let all: Vec<usize> = (0..6).collect();
+        let pick = |target: f64| {
+            let mut chosen = vec![0, 6];
+            prefer_axes(&m, &mut chosen, &all, target);
+            chosen
+        };
+        assert_eq!(pick(0.9), [0, 1], "the flip meets the target");
+        assert_eq!(pick(0.95), [0, 2], "the flip does not: the axis that does");
+        // Where no axis offered meets the target the tilt stays; a set short of it stays.
+        let mut short = vec![0, 6];
+        prefer_axes(&m, &mut short, &[0, 1], 0.95);
+        assert_eq!(short, [0, 6], "-Z alone is offered and misses sample 9");
+        let mut alone = vec![6];
+        prefer_axes(&m, &mut alone, &all, 0.5);
+        assert_eq!(alone, [6], "under the target");
     }
 }

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use s2g_geom::{Mesh, MeshIndex, Point3, Real, Setup, UnitVector3, sample_surface};
 
-use crate::cover::{SearchOptions, greedy, greedy_order, multi_start_search};
+use crate::cover::{SearchOptions, greedy, greedy_order, multi_start_search, prefer_axes};
 use crate::directions::{candidate_directions, cone_directions, random_direction};
 use crate::error::{OrientError, Result};
 use crate::stock::{StockRemovalOptions, StockRemovalReport, StockSamples, improve_for_stock, left};
@@ -296,6 +296,9 @@ pub fn select_orientations_in_stock(
     let t = Instant::now();
     if opts.strategy == Strategy::LocalSearch && opts.refine.enabled && !chosen.is_empty() {
         refine(&ctx, &mut m, &mut chosen, &opts.refine);
+    }
+    if opts.reach.is_some_and(|r| !r.tools().is_empty()) {
+        prefer_axes(&m, &mut chosen, &axes, target);
     }
     times.refine = t.elapsed().as_secs_f64();
 

@@ -154,6 +154,27 @@ struct SampleRoom {
     away: Vec<Vector3>,
 }
 
+/// Where a tool is tried beside a sample: its point and outward normal, the tool's
+/// radius, how far off the point the tool stands, and how far inside the tool's rim its
+/// rays start (the reach's slack): a tool that comes within the slack of the part
+/// elsewhere counts as clear of it, as a tool no wider than the sample's ball clearance
+/// plus the slack fits without rays (gearwheel_40t's tooth gaps, about the 1 mm end
+/// mill's width at their roots, count as reached from +Z and -Z).
+struct Place<'p> {
+    p: &'p Point3,
+    n: &'p Vector3,
+    r: Real,
+    standoff: Real,
+    give: Real,
+}
+
+/// The rays of one direction: its axis, what its rays share, the occluder of the last.
+struct Rays<'r, 'a> {
+    v: &'r Vector3,
+    probe: &'r Probe<'a>,
+    cache: &'r mut OccluderCache,
+}
+
 /// What the rays of one direction share.
 struct Probe<'a> {
     /// The triangles binned across the direction, when a row of rays pays for it
@@ -314,23 +335,18 @@ impl<'a> VisibilityContext<'a> {
         // a row (the front-facing ones) cast one.
         let worth = 2 * self.index.num_triangles() <= samples;
         let rays = worth.then(|| self.index.parallel_rays(v)).flatten();
-        Probe {
-            rays,
-            basis: orthonormal_basis(v),
-            top: top + grow,
-            floor: self.floor(v),
-            stock_top: self.stock_top(v),
-        }
+        let (floor, stock_top) = self.levels(v);
+        Probe { rays, basis: orthonormal_basis(v), top: top + grow, floor, stock_top }
     }
 
-    /// The stock's top along `v`, `inf` without a reach.
-    fn stock_top(&self, v: &Vector3) -> Real {
-        self.opts.reach.map_or(Real::INFINITY, |r| r.top(v))
-    }
-
-    /// The lowest height along `v` the tools reach, `-inf` without a reach.
-    fn floor(&self, v: &Vector3) -> Real {
-        self.opts.reach.map_or(Real::NEG_INFINITY, |r| r.floor(v))
+    /// The lowest height along `v` the tools reach ([`ToolReach::floor`]) and the stock's
+    /// top along it ([`ToolReach::top`]), the top computed once: `-inf` and `inf` without
+    /// a reach.
+    fn levels(&self, v: &Vector3) -> (Real, Real) {
+        self.opts.reach.map_or((Real::NEG_INFINITY, Real::INFINITY), |r| {
+            let top = r.top(v);
+            (top - r.depth, top)
+        })
     }
 
     /// Whether a ray from `o` along `v` leaves the box, or passes the support plane of
@@ -378,8 +394,9 @@ impl<'a> VisibilityContext<'a> {
         // reached where the tool comes within `FOLD_SKIN` of its radius (a crease of the
         // bunny), not where it stops further off (a hole's floor below a tool too wide).
         let fits = |r: Real, away: Vector3, cache: &mut OccluderCache| {
-            self.ball_free(p, n, r, (FOLD_SKIN * r).max(slack), v, probe, cache)
-                || self.flat_free(p, n, &away, r, slack, v, probe, cache)
+            let mut ray = Rays { v, probe, cache };
+            self.ball_free(&Place { p, n, r, standoff: (FOLD_SKIN * r).max(slack), give: slack }, &mut ray)
+                || self.flat_free(&Place { p, n, r, standoff: slack, give: slack }, &away, &mut ray)
         };
         match self.opts.tool_radius {
             None => {
@@ -389,61 +406,37 @@ impl<'a> VisibilityContext<'a> {
             }
             Some(r) => match tight {
                 Some((t, away)) if t > r => fits(t, away, cache),
-                _ => self.ball_free(p, n, r, 0.0, v, probe, cache),
+                _ => self
+                    .ball_free(&Place { p, n, r, standoff: 0.0, give: 0.0 }, &mut Rays { v, probe, cache }),
             },
         }
     }
 
-    /// Whether a flat end mill of radius `r` along `v` whose bottom's rim passes through
-    /// sample point `p` (or `standoff` off it), its centre `r` from `p` along `away`
-    /// (projected across `v`), and
-    /// the cylinder above it are free: a floor beside a wall, which the tool's bottom cuts
-    /// with its side against the wall. False where `away` has no part across `v`.
-    #[allow(clippy::too_many_arguments)]
-    fn flat_free(
-        &self,
-        p: &Point3,
-        n: &Vector3,
-        away: &Vector3,
-        r: Real,
-        standoff: Real,
-        v: &Vector3,
-        probe: &Probe<'_>,
-        cache: &mut OccluderCache,
-    ) -> bool {
+    /// Whether a flat end mill of radius `place.r` along the axis whose bottom's rim
+    /// passes through the sample point (or `standoff` off it), its centre `r` from it
+    /// along `away` (projected across the axis), and the cylinder above it are free: a
+    /// floor beside a wall, which the tool's bottom cuts with its side against the wall.
+    /// False where `away` has no part across the axis.
+    fn flat_free(&self, place: &Place<'_>, away: &Vector3, ray: &mut Rays<'_, '_>) -> bool {
+        let v = ray.v;
         let Some(w) = (away - v * v.dot(away)).try_normalize(1e-9) else { return false };
-        let c = p + n * (self.eps + standoff) + w * r;
-        self.disc_free(&c, r, v, probe, cache)
+        let c = place.p + place.n * (self.eps + place.standoff) + w * place.r;
+        self.disc_free(&c, place.r - place.give, ray)
     }
 
-    /// Whether a ball of radius `r` `standoff` off sample point `p` (normal `n`) and the
-    /// cylinder above it along `v` are free: the ray from the ball's centre and
-    /// `tool_rays` rays from its equator.
-    #[allow(clippy::too_many_arguments)]
-    fn ball_free(
-        &self,
-        p: &Point3,
-        n: &Vector3,
-        r: Real,
-        standoff: Real,
-        v: &Vector3,
-        probe: &Probe<'_>,
-        cache: &mut OccluderCache,
-    ) -> bool {
-        let c = p + n * (r + standoff + self.eps);
-        self.disc_free(&c, r, v, probe, cache)
+    /// Whether a ball of radius `place.r` `standoff` off the sample point (along its
+    /// normal) and the cylinder above it along the axis are free: the ray from the ball's
+    /// centre and `tool_rays` rays from its equator.
+    fn ball_free(&self, place: &Place<'_>, ray: &mut Rays<'_, '_>) -> bool {
+        let c = place.p + place.n * (place.r + place.standoff + self.eps);
+        self.disc_free(&c, place.r - place.give, ray)
     }
 
-    /// Whether the disc of radius `r` centred on `c` across `v` and the cylinder above it
-    /// are free: the ray from `c` along `v` and `tool_rays` rays from the disc's rim.
-    fn disc_free(
-        &self,
-        c: &Point3,
-        r: Real,
-        v: &Vector3,
-        probe: &Probe<'_>,
-        cache: &mut OccluderCache,
-    ) -> bool {
+    /// Whether the disc of radius `r` centred on `c` across the axis and the cylinder
+    /// above it are free: the ray from `c` along the axis and `tool_rays` rays from the
+    /// disc's rim.
+    fn disc_free(&self, c: &Point3, r: Real, ray: &mut Rays<'_, '_>) -> bool {
+        let Rays { v, probe, cache } = ray;
         if !self.free(c, v, probe, cache) {
             return false;
         }
@@ -459,13 +452,8 @@ impl<'a> VisibilityContext<'a> {
     /// support plane (a pass over every vertex): its rays run to the box's exit, which
     /// gives the same answer.
     pub fn visible(&self, i: usize, v: &UnitVector3) -> bool {
-        let probe = Probe {
-            rays: None,
-            basis: orthonormal_basis(v),
-            top: Real::INFINITY,
-            floor: self.floor(v),
-            stock_top: self.stock_top(v),
-        };
+        let (floor, stock_top) = self.levels(v);
+        let probe = Probe { rays: None, basis: orthonormal_basis(v), top: Real::INFINITY, floor, stock_top };
         i < self.points.len() && self.visible_with(i, v, &probe, &mut OccluderCache::default())
     }
 

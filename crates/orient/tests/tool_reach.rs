@@ -217,3 +217,28 @@ fn an_open_fold_narrower_than_the_tool_is_reached_and_a_narrow_blind_hole_is_not
     assert!(!ctx.visible(0, &up), "the hole's floor: the 12 mm tool stops 9.7 mm above it");
     assert!(ctx.visible(1, &up), "the plate's top, in the open");
 }
+
+/// A tool that comes within the reach's slack of the part counts as fitting: the floor of
+/// a pocket 1.9 mm wide and 4 mm deep, 0.05 mm from its wall, is reached from above by the
+/// 2 mm end mill (the only one reaching 4 mm) where the slack is 0.2 mm (its flat bottom
+/// against the wall, its rays cast from 0.2 mm inside its rim), not where it is 0.05 mm.
+#[test]
+fn a_pocket_narrower_than_the_tool_by_less_than_the_slack_is_reached() {
+    let mesh = boxes(&[
+        ([0.0, 0.0, 0.0], [10.0, 10.0, 5.0]),
+        ([0.0, 0.0, 5.0], [4.0, 10.0, 9.0]),
+        ([5.9, 0.0, 5.0], [10.0, 10.0, 9.0]),
+    ]);
+    let index = MeshIndex::new(&mesh).unwrap();
+    let stock = Aabb::new(Point3::origin(), Point3::new(10.0, 10.0, 9.0));
+    let floor = samples(&[([4.05, 5.0, 5.0], [0.0, 0.0, 1.0])]);
+    let up = UnitVector3::new_normalize(Vector3::z());
+    let visible = |slack: f64| {
+        let reach =
+            ToolReach::of_tools(stock, &[tool(1.0, 30.0), tool(6.0, 66.0)]).unwrap().with_slack(slack);
+        let opts = VisibilityOptions { min_cos: -0.01, reach: Some(reach), ..Default::default() };
+        VisibilityContext::new(&mesh, &index, &floor, &opts).unwrap().visible(0, &up)
+    };
+    assert!(visible(0.2), "1.9 mm is within 0.2 of the tool's 2 mm");
+    assert!(!visible(0.05), "not within 0.05");
+}

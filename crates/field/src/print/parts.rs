@@ -74,6 +74,41 @@ pub fn arch_mesh(radius: f64, width: f64, pillar: f64, depth: f64, segments: usi
     band_mesh(&inner, &outer, depth)
 }
 
+/// A one-footed overhanging arch standing on the platform `z = 0`: a pillar `pillar` high
+/// (its centreline at `x = -radius`) that turns towards `+X` on an arc of centreline radius
+/// `radius` about `(0, pillar)` through `sweep_deg` degrees (90: a quarter arch whose free
+/// end runs out level; 180: a half arch whose free end points down), cut off radially, so
+/// that the free end hangs over the platform; the band `width` wide and `depth` deep along
+/// Y (`segments` facets on the arc). Planar layers leave the arc's underside, from its
+/// crown to its end, a ceiling; layers that turn with the band print it without support.
+///
+/// Errors: [`FieldError::InvalidArgument`] unless every length is finite and `> 0`,
+/// `width < 2 radius`, `0 < sweep_deg <= 180` and `2 <= segments <= 100 000`.
+pub fn overhang_arch_mesh(
+    radius: f64,
+    width: f64,
+    pillar: f64,
+    sweep_deg: f64,
+    depth: f64,
+    segments: usize,
+) -> Result<Mesh> {
+    check(&[radius, width, pillar, sweep_deg, depth])?;
+    if width >= 2.0 * radius || sweep_deg > 180.0 || !(2..=100_000).contains(&segments) {
+        return Err(FieldError::InvalidArgument(
+            "overhanging arch: width must be below 2 radius, sweep in (0, 180], 2..=100000 segments".into(),
+        ));
+    }
+    let (ri, ro) = (radius - 0.5 * width, radius + 0.5 * width);
+    let (mut inner, mut outer) = (vec![(-ri, 0.0)], vec![(-ro, 0.0)]);
+    let sweep = sweep_deg.to_radians();
+    for k in 0..=segments {
+        let a = std::f64::consts::PI - sweep * k as f64 / segments as f64;
+        inner.push((ri * a.cos(), pillar + ri * a.sin()));
+        outer.push((ro * a.cos(), pillar + ro * a.sin()));
+    }
+    band_mesh(&inner, &outer, depth)
+}
+
 /// A bracket with a tip standing on the platform `z = 0`: a post `width` wide rising
 /// `post` high, turning towards `+X` on a quarter circle of centreline radius `bend`, and
 /// running out horizontally for `arm`, tapering to a tip `tip` wide; `depth` deep along Y
