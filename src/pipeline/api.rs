@@ -133,6 +133,11 @@ pub struct MillOptions {
     /// and -Z and side setups replace the -Z rest chain (IoU 0.993 -> 0.940). The paper
     /// preset ignores it (its tools reach through the stock).
     pub tool_aware_reach: bool,
+    /// With [`tool_aware_reach`](Self::tool_aware_reach): a tool that comes within this
+    /// of a surface (part units, mm in the shop preset) reaches it, as a tool no wider
+    /// than the surface's room plus this fits there ([`ToolReach::slack`](crate::orient::ToolReach::slack)).
+    /// `None` (the default): half the simulation's voxel, what its grid can show.
+    pub reach_slack: Option<f64>,
     /// Millimetres per normalised unit in the paper preset. Default 100.
     pub paper_scale_mm: f64,
     /// Paper preset: the action space's radii and layer heights multiplied by this
@@ -318,6 +323,7 @@ impl Default for MillOptions {
             stock_margin: 0.02,
             face_grid: true,
             tool_aware_reach: false,
+            reach_slack: None,
             paper_scale_mm: 100.0,
             paper_space_scale: 1.0,
             stock: Stock::Preset,

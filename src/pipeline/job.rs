@@ -11,6 +11,11 @@ use crate::toolpath::library::Cutting;
 use crate::toolpath::undercut::{Columns, UndercutOptions};
 use crate::toolpath::{PlanOptions, Tool, strategies};
 
+/// How far a finisher's shank and holder keep from the stock the roughing may have left
+/// (mm; [`RoughedStock::clearance`]): ten times the programs' arc tolerance, so that what
+/// the fitted and rounded programs cut differs from the plan by less than it.
+const SHANK_CLEARANCE: f64 = 0.1;
+
 /// What one setup is planned with.
 #[derive(Clone)]
 pub(super) struct Job {
@@ -108,6 +113,7 @@ impl Job {
                 tool_radius: f.roughed_radius,
                 top: self.popts.stock.map_or(f64::INFINITY, |s| s.max.z),
                 faces: self.stock_faces,
+                clearance: SHANK_CLEARANCE,
             }),
             ..FinishOptions::default()
         }

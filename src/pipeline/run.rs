@@ -138,8 +138,10 @@ impl MillRun {
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
         let spec = grid::simulation_grid(&stock, &part, &part_box, opts)?;
-        // A tool that comes within half a voxel of a surface reaches it, as the grid shows.
-        let reaches = Reaches::of_tooling(&part, &tooling, stock, 0.5 * spec.voxel.max(), opts);
+        // A tool that comes within half a voxel of a surface reaches it, as the grid shows
+        // (or within the slack asked for).
+        let slack = opts.reach_slack.unwrap_or(0.5 * spec.voxel.max());
+        let reaches = Reaches::of_tooling(&part, &tooling, stock, slack, opts);
         let (orientation, (target, index, samples, beside)) = rayon::join(
             || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),
             || {
@@ -626,6 +628,11 @@ fn check_options(mesh: &Mesh, opts: &MillOptions) -> Result<(), MillError> {
     }
     if mesh.is_empty() {
         return Err(crate::geom::GeomError::EmptyMesh.into());
+    }
+    if let Some(s) = opts.reach_slack
+        && !(s.is_finite() && s >= 0.0)
+    {
+        return Err(MillError::InvalidOption(format!("the reach's slack must be finite and >= 0, got {s}")));
     }
     let d = opts.roughing_depth_diameters;
     if !(d.is_finite() && d >= 0.0) {

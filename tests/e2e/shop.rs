@@ -118,6 +118,14 @@ fn what_the_library_cannot_do_is_refused_before_cutting() {
         Err(MillError::InvalidOption(m)) => assert!(m.contains("flat end mill"), "{m}"),
         other => panic!("{:?}", other.map(|m| m.metrics)),
     }
+    // A reach's slack that is no length.
+    for slack in [f64::NAN, -0.1, f64::INFINITY] {
+        let opts = MillOptions { tool_aware_reach: true, reach_slack: Some(slack), ..shop("aluminium-6061") };
+        match run(&opts) {
+            Err(MillError::InvalidOption(m)) => assert!(m.contains("slack"), "{m}"),
+            other => panic!("{slack}: {:?}", other.map(|m| m.metrics)),
+        }
+    }
 }
 
 /// What a program does before its first feed move, in order: tool changes, spindle starts

@@ -100,6 +100,10 @@ pub struct Args {
     /// The default; the later of it and --tool-aware-reach wins.
     #[arg(long, hide = true, overrides_with = "tool_aware_reach")]
     no_tool_aware_reach: bool,
+    /// With --tool-aware-reach: a tool that comes within MM of a surface reaches it
+    /// (MillOptions::reach_slack; default half a simulation voxel).
+    #[arg(long, value_name = "MM")]
+    reach_slack: Option<f64>,
     /// Simulation resolution (voxels along the stock's longest axis).
     #[arg(long, default_value_t = 256)]
     res: usize,
@@ -552,6 +556,7 @@ fn mill_options(args: &Args, mesh: &Mesh) -> anyhow::Result<MillOptions> {
         flank_walls: !args.front_facing,
         face_grid: face_grid(args),
         tool_aware_reach: tool_aware_reach(args),
+        reach_slack: args.reach_slack,
         max_estimated_hours: args.max_hours,
         arc_tolerance: arc_tolerance(args.arc_tolerance, preset),
         stock: parse_stock(args)?,

@@ -281,8 +281,11 @@ pub(crate) fn prefer_axes(m: &VisibilityMatrix, chosen: &mut [usize], axes: &[us
             let mut trial = chosen.to_vec();
             trial[pos] = a;
             let flip = chosen.iter().any(|&c| axes.contains(&c) && dirs[c].dot(&dirs[a]) < -0.999);
-            let key = (flip, m.covered(&trial));
-            if m.coverage(&trial) >= target && best.is_none_or(|(_, k)| key > k) {
+            // The union counted once: `covered` and, from it, `coverage(&trial)`.
+            let covered = m.covered(&trial);
+            let coverage = if m.points() == 0 { 0.0 } else { covered as Real / m.points() as Real };
+            let key = (flip, covered);
+            if coverage >= target && best.is_none_or(|(_, k)| key > k) {
                 best = Some((a, key));
             }
         }

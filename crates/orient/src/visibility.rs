@@ -421,7 +421,7 @@ impl<'a> VisibilityContext<'a> {
         let v = ray.v;
         let Some(w) = (away - v * v.dot(away)).try_normalize(1e-9) else { return false };
         let c = place.p + place.n * (self.eps + place.standoff) + w * place.r;
-        self.disc_free(&c, place.r - place.give, ray)
+        self.disc_free(&c, (place.r - place.give).max(0.0), ray)
     }
 
     /// Whether a ball of radius `place.r` `standoff` off the sample point (along its
@@ -429,7 +429,7 @@ impl<'a> VisibilityContext<'a> {
     /// centre and `tool_rays` rays from its equator.
     fn ball_free(&self, place: &Place<'_>, ray: &mut Rays<'_, '_>) -> bool {
         let c = place.p + place.n * (place.r + place.standoff + self.eps);
-        self.disc_free(&c, place.r - place.give, ray)
+        self.disc_free(&c, (place.r - place.give).max(0.0), ray)
     }
 
     /// Whether the disc of radius `r` centred on `c` across the axis and the cylinder

@@ -53,6 +53,7 @@ fn finishing_planned_ahead_on_its_own_pool_writes_the_motions_of_finishing_in_on
             tool_radius: 6.0,
             top: 51.0,
             faces: [[0.0, 0.0, 1.0, 51.0]; 3],
+            clearance: 0.0,
         }),
         ..FinishOptions::default()
     };

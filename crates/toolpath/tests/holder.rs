@@ -38,7 +38,14 @@ fn tool(number: u32, mut cutter: Cutter, stickout: f64) -> Tool {
 /// What the boss's roughing left: a 0.3 mm radial allowance, stock up to 2.3 mm above the
 /// part under a cleared position, a 12 mm end mill, the stock's top at 51.
 fn boss_roughed() -> RoughedStock {
-    RoughedStock { radial: 0.3, axial: 2.3, tool_radius: 6.0, top: 51.0, faces: [[0.0, 0.0, 1.0, 51.0]; 3] }
+    RoughedStock {
+        radial: 0.3,
+        axial: 2.3,
+        tool_radius: 6.0,
+        top: 51.0,
+        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
+        clearance: 0.0,
+    }
 }
 
 /// Roughs the part, then finishes it with `holder_stock`; the simulator's report, the

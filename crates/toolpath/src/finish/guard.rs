@@ -42,6 +42,13 @@ pub struct RoughedStock {
     /// unused one is `[0, 0, 1, inf]`). Over a guard's disc of radius `g` about `(x, y)`
     /// the stock is then no higher than `(d - nx x - ny y + g |(nx, ny)|) / nz` for each.
     pub faces: [[f64; 4]; 3],
+    /// How far the shank and holder keep from the stock modelled above, across the axis
+    /// and along it (0 lets them pass it touching). The model is exact only to the
+    /// programs' tolerances: the roughing's arcs and the finisher's own are fitted to the
+    /// arc tolerance on either side, and coordinates are rounded; a shank passing a wall
+    /// cut to size 0.007 mm off it (stress/bushing_32's 8 mm ball beside the tube, at
+    /// 256^3) met the stock those left.
+    pub clearance: f64,
 }
 
 impl RoughedStock {
@@ -96,7 +103,7 @@ impl<'a> Guard<'a> {
         let rt = stock.tool_radius;
         let mut add = |g: f64, bottom: f64| -> Result<(), ToolpathError<E>> {
             if g.is_finite() && g > 0.0 && bottom.is_finite() {
-                let r = if rt >= g { rt } else { g + rt } + stock.radial;
+                let r = if rt >= g { rt } else { g + rt } + stock.radial + stock.clearance;
                 let dc = DropCutter::new(part, &Cutter::flat(r, 1.0))
                     .map_err(|e| ToolpathError::InvalidTool(e.to_string()))?;
                 parts.push(Part { dc, bottom, radius: g });
@@ -118,20 +125,23 @@ impl<'a> Guard<'a> {
     /// Whether the shank and holder are clear of the stock with the tip at `p`.
     pub(super) fn clear(&self, p: &Point3) -> bool {
         let s = &self.stock;
+        let c = s.clearance;
         self.parts.iter().all(|g| {
             let bottom = p.z + g.bottom;
-            bottom >= s.top_over(p.x, p.y, g.radius) || !g.dc.interferes(p.x, p.y, bottom - s.axial)
+            bottom >= s.top_over(p.x, p.y, g.radius + c) + c
+                || !g.dc.interferes(p.x, p.y, bottom - s.axial - c)
         })
     }
 
     /// The lowest tip height over `(x, y)` at which the shank and holder are clear of the
     /// stock; `None` where no part lies under either guard.
     pub(super) fn lowest(&self, x: f64, y: f64) -> Option<f64> {
-        let s = &self.stock;
+        let (s, c) = (&self.stock, self.stock.clearance);
         self.parts
             .iter()
             .filter_map(|g| {
-                g.dc.height(x, y).map(|h| (h + s.axial).min(s.top_over(x, y, g.radius)) - g.bottom)
+                g.dc.height(x, y)
+                    .map(|h| (h + s.axial + c).min(s.top_over(x, y, g.radius + c) + c) - g.bottom)
             })
             .reduce(f64::max)
     }
@@ -211,6 +221,7 @@ mod tests {
         tool_radius: 6.0,
         top: 60.0,
         faces: [[0.0, 0.0, 1.0, f64::INFINITY]; 3],
+        clearance: 0.0,
     };
 
     fn wall() -> MeshIndex {
@@ -255,6 +266,30 @@ mod tests {
         };
         assert!((sloped.top_over(40.0, 0.0, 17.5) - (60.0 - 40.0 + 17.5)).abs() < 1e-9);
         assert!((sloped.top_over(-10.0, 0.0, 17.5) - 60.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_clearance_keeps_the_shank_and_holder_that_far_from_the_stock() {
+        let part = wall();
+        let spaced = RoughedStock { clearance: 0.1, ..STOCK };
+        let (g0, g) = (
+            Guard::new::<()>(&part, &ball10(), STOCK).unwrap().unwrap(),
+            Guard::new::<()>(&part, &ball10(), spaced).unwrap().unwrap(),
+        );
+        // Across the axis: the shank's disc was cut out to 6.3 from the wall; 0.1 more.
+        assert!(g0.clear(&Point3::new(6.35, 0.0, 0.0)));
+        assert!(!g.clear(&Point3::new(6.35, 0.0, 0.0)));
+        assert!(g.clear(&Point3::new(6.45, 0.0, 0.0)));
+        // Along it: over the wall's top (45 + 2.3 of stock) the shank's bottom keeps 0.1.
+        let (low0, low) = (g0.lowest(5.0, 0.0).unwrap(), g.lowest(5.0, 0.0).unwrap());
+        assert!((low - low0 - 0.1).abs() < 1e-9, "{low0} {low}");
+        assert!(g.clear(&Point3::new(5.0, 0.0, low + 1e-6)));
+        assert!(!g.clear(&Point3::new(5.0, 0.0, low - 1e-6)));
+        // Above the stock's top (46 here): the holder's bottom (56 above the tip) 0.1 over it.
+        let low_top = RoughedStock { top: 46.0, ..spaced };
+        let g = Guard::new::<()>(&part, &ball10(), low_top).unwrap().unwrap();
+        assert!(g.clear(&Point3::new(10.0, 0.0, -9.85)));
+        assert!(!g.clear(&Point3::new(10.0, 0.0, -9.95)));
     }
 
     #[test]
