@@ -12,8 +12,8 @@ use rayon::prelude::*;
 use s2g_gcode::MotionRecorder;
 use s2g_geom::{Aabb, Holder, Mesh, MeshIndex, Point3, Setup, Similarity3, Vector3};
 use s2g_toolpath::finish::{
-    Crossed, FinishError, FinishOptions, FinishingStrategy, KeepPoint, RoughedStock, finish_paths,
-    finish_setup_left_out, finish_setup_paths,
+    Crossed, FinishError, FinishOptions, FinishingStrategy, KeepPoint, finish_paths, finish_setup_left_out,
+    finish_setup_paths,
 };
 use s2g_toolpath::{Tool, ToolpathError};
 use s2g_voxsim::Cutter;
@@ -47,14 +47,7 @@ fn finishing_planned_ahead_on_its_own_pool_writes_the_motions_of_finishing_in_on
         approach: 6.0,
         stock_left: Some(3.0),
         arc_tolerance: Some(0.005),
-        holder_stock: Some(RoughedStock {
-            radial: 0.3,
-            axial: 2.3,
-            tool_radius: 6.0,
-            top: 51.0,
-            faces: [[0.0, 0.0, 1.0, 51.0]; 3],
-            clearance: 0.0,
-        }),
+        holder_stock: Some(common::boss_roughed()),
         ..FinishOptions::default()
     };
     let strategy = Crossed::default();

@@ -6,6 +6,9 @@
 //! finds no shank or holder contact, the points it left out are counted, and the finished
 //! surface's deviation reports the foot no pass went over apart from its max.
 
+mod common;
+
+use common::boss_roughed;
 use s2g_gcode::{Motion, MotionRecorder, MotionSink};
 use s2g_geom::{Aabb, GridSpec, Holder, Mesh, MeshIndex, Point3, Setup, VoxelGrid, voxelize};
 use s2g_toolpath::finish::stepover_for_scallop;
@@ -33,19 +36,6 @@ fn tool(number: u32, mut cutter: Cutter, stickout: f64) -> Tool {
     cutter.stickout = stickout;
     cutter.holder = Some(Holder { radius: 17.5, length: 40.0 });
     Tool { number, ..Tool::new(cutter) }
-}
-
-/// What the boss's roughing left: a 0.3 mm radial allowance, stock up to 2.3 mm above the
-/// part under a cleared position, a 12 mm end mill, the stock's top at 51.
-fn boss_roughed() -> RoughedStock {
-    RoughedStock {
-        radial: 0.3,
-        axial: 2.3,
-        tool_radius: 6.0,
-        top: 51.0,
-        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
-        clearance: 0.0,
-    }
 }
 
 /// Roughs the part, then finishes it with `holder_stock`; the simulator's report, the

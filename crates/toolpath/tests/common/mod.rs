@@ -3,6 +3,7 @@
 
 use s2g_gcode::{Marker, Motion, MotionRecorder, Plane};
 use s2g_geom::{Aabb, Mesh, MeshIndex, Point3, Setup, SignedDistance};
+use s2g_toolpath::finish::RoughedStock;
 use s2g_toolpath::{LayerPlan, Point2, Polyline2, RegionIndex, point_segment_distance};
 
 /// Signed distance to an indexed region's boundary (negative inside).
@@ -526,4 +527,17 @@ pub fn sphere(r: f64, nu: usize, nv: usize) -> Mesh {
         }
     }
     Mesh::new(v, t).expect("sphere")
+}
+
+/// What the boss's roughing left: a 0.3 mm radial allowance, stock up to 2.3 mm above the
+/// part under a cleared position, a 12 mm end mill, the stock's top at 51.
+pub fn boss_roughed() -> RoughedStock {
+    RoughedStock {
+        radial: 0.3,
+        axial: 2.3,
+        tool_radius: 6.0,
+        top: 51.0,
+        faces: [[0.0, 0.0, 1.0, 51.0]; 3],
+        clearance: 0.0,
+    }
 }
