@@ -138,9 +138,9 @@ impl MillRun {
         // index and the samples the features read) is computed beside the orientation
         // search, whose serial steps leave a core idle.
         let spec = grid::simulation_grid(&stock, &part, &part_box, opts)?;
-        // A tool that comes within half a voxel of a surface reaches it, as the grid shows
-        // (or within the slack asked for).
-        let slack = opts.reach_slack.unwrap_or(0.5 * spec.voxel.max());
+        // A tool that comes within the roughing's allowance of a surface reaches it, or
+        // within half a voxel where the grid shows no less (or within the slack asked for).
+        let slack = opts.reach_slack.unwrap_or(MillOptions::REACH_SLACK_MM.max(0.5 * spec.voxel.max()));
         let reaches = Reaches::of_tooling(&part, &tooling, stock, slack, opts);
         let (orientation, (target, index, samples, beside)) = rayon::join(
             || choose_setups(&part, &body, &oopts, reaches, opts.stock_removal),

@@ -101,7 +101,7 @@ pub struct Args {
     #[arg(long, hide = true, overrides_with = "tool_aware_reach")]
     no_tool_aware_reach: bool,
     /// With --tool-aware-reach: a tool that comes within MM of a surface reaches it
-    /// (MillOptions::reach_slack; default half a simulation voxel).
+    /// (MillOptions::reach_slack; default 0.3, or half a simulation voxel where more).
     #[arg(long, value_name = "MM")]
     reach_slack: Option<f64>,
     /// Simulation resolution (voxels along the stock's longest axis).
