@@ -129,10 +129,9 @@ pub struct MillOptions {
     /// mill reaches wherever the surface is; a tilted setup then gives way to a principal
     /// axis that meets the coverage target, a flip first. It gives the stress bushings and
     /// example002 the -Z setups their deep holes need (at 256^3: bushings 0.961-0.968 ->
-    /// 0.988, example002 0.986 -> 0.993, example004 0.959 -> 0.968). Default false: on
-    /// example004 it leaves one holder collision (an oblique setup's 12 mm roughing), and
-    /// the other parts are yet to be swept with it. The paper preset ignores it (its tools
-    /// reach through the stock).
+    /// 0.988, example002 0.986 -> 0.993, example004 0.959 -> 0.968). Default false until
+    /// the other parts are swept with it. The paper preset ignores it (its tools reach
+    /// through the stock).
     pub tool_aware_reach: bool,
     /// With [`tool_aware_reach`](Self::tool_aware_reach): a tool that comes within this
     /// of a surface (part units, mm in the shop preset) reaches it, as a tool no wider

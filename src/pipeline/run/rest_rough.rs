@@ -20,12 +20,48 @@ impl MillRun {
     /// the material left is updated. The first setup's toolpath is traced when asked. With
     /// `finish_if`, the job's finishing follows its roughing where `finish_if`, asked of
     /// the run once the roughing is simulated, says yes ([`machine_setup`]).
+    ///
+    /// A program with fitted arcs whose shank or holder met stock is wound back and written
+    /// again with straight moves (the same plan, [`PlanOptions::fit_arcs`] false): under an
+    /// overhang's shadow each level's contour is the same curve, each fitted on its own to
+    /// within the arc tolerance on the part's side, so a lower level's shank, following its
+    /// flutes' path, can stand up to the tolerance inside what a level above left
+    /// (example004's oblique 12 mm roughing at 256^3 with the tool-aware reach).
+    ///
+    /// [`PlanOptions::fit_arcs`]: crate::toolpath::PlanOptions::fit_arcs
     pub(super) fn machine_own(
         &mut self,
         i: usize,
-        finish_if: Option<&mut dyn FnMut(&Self) -> bool>,
+        mut finish_if: Option<&mut dyn FnMut(&Self) -> bool>,
         progress: &mut dyn FnMut(Stage),
     ) -> Result<(), MillError> {
+        let n = self.jobs.len() - 1;
+        let popts = &self.jobs[n].popts;
+        let cutter = &self.jobs[n].tool.cutter;
+        let guarded = cutter.stickout.is_finite() || cutter.holder.is_some();
+        let before = (popts.fit_arcs && popts.arc_tolerance.is_some() && guarded)
+            .then(|| (self.sim.borrow().clone(), self.trace.clone()));
+        let (program, remaining) = match self.machine_own_once(i, finish_if.as_deref_mut(), progress)? {
+            (program, _) if !program.holder_collision_lines.is_empty() && before.is_some() => {
+                let (sim, trace) = before.expect("checked above");
+                (*self.sim.get_mut(), self.trace) = (sim, trace);
+                self.jobs[n].popts.fit_arcs = false;
+                self.machine_own_once(i, finish_if, progress)?
+            }
+            done => done,
+        };
+        self.setups.push(program);
+        self.remaining = remaining;
+        Ok(())
+    }
+
+    /// [`Self::machine_own`]'s program and the material left after it, written once.
+    fn machine_own_once<'f>(
+        &mut self,
+        i: usize,
+        finish_if: Option<&mut (dyn FnMut(&Self) -> bool + 'f)>,
+        progress: &mut dyn FnMut(Stage),
+    ) -> Result<(SetupProgram, VoxelGrid), MillError> {
         let n = self.jobs.len() - 1;
         let mut trace = std::mem::take(&mut self.trace);
         if i == 0 {
@@ -44,10 +80,7 @@ impl MillRun {
             ask.as_mut().map(|a| a as &mut dyn FnMut() -> bool),
         );
         (self.trace, self.times) = (trace, times);
-        let (program, remaining) = result?;
-        self.setups.push(program);
-        self.remaining = remaining;
-        Ok(())
+        result
     }
 
     /// Machines setup `i`'s own job, the last, then its rest passes where the rest rule
