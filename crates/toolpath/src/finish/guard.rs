@@ -44,8 +44,8 @@ pub struct RoughedStock {
     pub faces: [[f64; 4]; 3],
     /// How far the shank and holder keep from the stock modelled above, across the axis
     /// and along it (0 lets them pass it touching). The model is exact only to the
-    /// programs' tolerances: the roughing's arcs and the finisher's own are fitted to the
-    /// arc tolerance on either side, and coordinates are rounded; a shank passing a wall
+    /// programs' tolerances: the roughing's arcs (on the part's side) and the finisher's
+    /// own are fitted within the arc tolerance, and coordinates are rounded; a shank passing a wall
     /// cut to size 0.007 mm off it (stress/bushing_32's 8 mm ball beside the tube, at
     /// 256^3) met the stock those left.
     pub clearance: f64,
