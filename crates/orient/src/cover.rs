@@ -283,9 +283,8 @@ pub(crate) fn prefer_axes(m: &VisibilityMatrix, chosen: &mut [usize], axes: &[us
             let flip = chosen.iter().any(|&c| axes.contains(&c) && dirs[c].dot(&dirs[a]) < -0.999);
             // The union counted once: `covered` and, from it, `coverage(&trial)`.
             let covered = m.covered(&trial);
-            let coverage = if m.points() == 0 { 0.0 } else { covered as Real / m.points() as Real };
             let key = (flip, covered);
-            if coverage >= target && best.is_none_or(|(_, k)| key > k) {
+            if m.fraction(covered) >= target && best.is_none_or(|(_, k)| key > k) {
                 best = Some((a, key));
             }
         }

@@ -657,7 +657,13 @@ impl VisibilityMatrix {
 
     /// Fraction of samples visible from at least one direction of `set` (0 without samples).
     pub fn coverage(&self, set: &[usize]) -> Real {
-        if self.points == 0 { 0.0 } else { self.covered(set) as Real / self.points as Real }
+        self.fraction(self.covered(set))
+    }
+
+    /// `covered` samples as a fraction of all (0 without samples): [`Self::coverage`] of a
+    /// set whose [`Self::covered`] count is known.
+    pub(crate) fn fraction(&self, covered: usize) -> Real {
+        if self.points == 0 { 0.0 } else { covered as Real / self.points as Real }
     }
 
     /// Fraction of samples visible from any direction: the upper bound on coverage.
