@@ -10,11 +10,10 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use s2g_field::{
-    AlignDirection, PrintMeshOptions, PrintObjective, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh,
-    overhang_arch_mesh, print_mesh,
+    AlignDirection, PRINT_PARTS, PrintMeshOptions, PrintObjective, PrintStage, print_mesh, print_part,
 };
 use shape2gcode::gcode::{RotaryAxes, RotaryMount};
-use shape2gcode::geom::{Mesh, load_mesh, save_mesh, write_bytes_atomic};
+use shape2gcode::geom::{load_mesh, save_mesh, write_bytes_atomic};
 
 /// Arguments of `s2g field print`.
 #[derive(Debug, clap::Args)]
@@ -24,7 +23,7 @@ pub struct PrintArgs {
     mesh: Option<PathBuf>,
     /// A built-in part instead of a mesh: the bent arm, the arch on two feet, the
     /// overhanging arch on one foot or the bracket with a tip.
-    #[arg(long, value_parser = ["arm", "arch", "overhang-arch", "bracket"])]
+    #[arg(long, value_parser = PRINT_PARTS)]
     part: Option<String>,
     /// Which layers: `support-free` (Eq. 37), `planar`, `aligned[:DIRECTIONS]` (layers
     /// along a direction field, Eq. 38) or `coopt[:DIRECTIONS]` (layers and toolpaths
@@ -68,15 +67,6 @@ pub struct PrintArgs {
     json: bool,
 }
 
-fn built_in(name: &str) -> anyhow::Result<Mesh> {
-    Ok(match name {
-        "arm" => bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12)?,
-        "arch" => arch_mesh(14.0, 6.0, 10.0, 10.0, 48)?,
-        "overhang-arch" => overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32)?,
-        _ => bracket_mesh(6.0, 12.0, 10.0, 20.0, 2.0, 10.0, 24)?,
-    })
-}
-
 /// The direction field of `aligned[:DIRECTIONS]`: `X,Y,Z`, or `arm` (the default for the
 /// built-in arm).
 fn direction(directions: Option<&str>, part: Option<&str>) -> anyhow::Result<AlignDirection> {
@@ -109,7 +99,7 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
             path.display().to_string(),
             load_mesh(path).with_context(|| format!("loading {}", path.display()))?,
         ),
-        (None, Some(p)) => (p.clone(), built_in(p).with_context(|| format!("building the {p}"))?),
+        (None, Some(p)) => (p.clone(), print_part(p).with_context(|| format!("building the {p}"))?),
         (None, None) => bail!("give a mesh or --part"),
     };
     let (kind, directions) = match args.objective.split_once(':') {

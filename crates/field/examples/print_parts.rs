@@ -22,18 +22,11 @@
 //! bundled bunny (`assets/stanford_bunny.stl`, Y up
 //! turned Z up, scaled 5×: about 50 mm, the ears leaning out).
 
-use s2g_field::{
-    PrintMeshOptions, PrintStage, arch_mesh, bent_arm_mesh, bracket_mesh, overhang_arch_mesh,
-    overhang_misses, print_mesh, read_beads,
-};
+use s2g_field::{PrintMeshOptions, PrintStage, overhang_misses, print_mesh, print_part, read_beads};
 use s2g_geom::{Mesh, Point3, load_mesh};
 
 fn part(name: &str) -> Result<Mesh, Box<dyn std::error::Error>> {
     Ok(match name {
-        "arm" => bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12)?,
-        "arch" => arch_mesh(14.0, 6.0, 10.0, 10.0, 48)?,
-        "overhang-arch" => overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32)?,
-        "bracket" => bracket_mesh(6.0, 12.0, 10.0, 20.0, 2.0, 10.0, 24)?,
         "bunny" => {
             let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/stanford_bunny.stl");
             let m = load_mesh(path)?;
@@ -46,7 +39,7 @@ fn part(name: &str) -> Result<Mesh, Box<dyn std::error::Error>> {
                 m.triangles().to_vec(),
             )?
         }
-        _ => return Err(format!("unknown part {name}").into()),
+        _ => print_part(name)?,
     })
 }
 

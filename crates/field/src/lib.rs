@@ -113,11 +113,11 @@ pub use path::{
     path_spacing, path_spacing_loss, path_stats, path_tangent, projected_path_gradient,
 };
 pub use print::{
-    AlignDirection, Bead, LayerField, NeuralLayers, PathKind, PlanarLayers, PlanarSupport, PrintLayer,
-    PrintMeshOptions, PrintObjective, PrintPath, PrintPathOptions, PrintPlan, PrintProgram,
+    AlignDirection, Bead, LayerField, NeuralLayers, PRINT_PARTS, PathKind, PlanarLayers, PlanarSupport,
+    PrintLayer, PrintMeshOptions, PrintObjective, PrintPath, PrintPathOptions, PrintPlan, PrintProgram,
     PrintProgramOptions, PrintRun, PrintScore, PrintStage, ScoreOptions, SpacingStats, StageSeconds,
     arch_mesh, bead_spacing, bracket_mesh, deposit, extract_print, overhang_arch_mesh, overhang_fraction,
-    overhang_misses, planar_support, print_mesh, print_program, read_beads, score_print,
+    overhang_misses, planar_support, print_mesh, print_part, print_program, read_beads, score_print,
 };
 pub use program::{
     ContourPaths, MillOptions, MillProgram, MillReport, ProgramOptions, ProgramSimulation, layer_mesh,

@@ -28,7 +28,7 @@ use crate::siren::SirenF64;
 
 pub use emit::{PrintProgram, PrintProgramOptions};
 pub use extract::{PathKind, PrintLayer, PrintPath, PrintPathOptions};
-pub use parts::{arch_mesh, bracket_mesh, overhang_arch_mesh};
+pub use parts::{PRINT_PARTS, arch_mesh, bracket_mesh, overhang_arch_mesh, print_part};
 pub use rebuild::{
     Bead, PrintScore, ScoreOptions, deposit, overhang_fraction, overhang_misses, read_beads, score_print,
 };

@@ -4,7 +4,7 @@
 use s2g_field::{
     Bead, LayerField, MeshSdf, PlanarLayers, PrintMeshOptions, PrintObjective, PrintPathOptions,
     PrintProgramOptions, PrintRun, arch_mesh, bead_spacing, bent_arm_mesh, bracket_mesh, extract_print,
-    overhang_arch_mesh, overhang_misses, planar_support, print_mesh, print_program, read_beads,
+    overhang_arch_mesh, overhang_misses, planar_support, print_mesh, print_part, print_program, read_beads,
 };
 use s2g_geom::{Aabb, Mesh, Point3, Vector3};
 
@@ -395,7 +395,7 @@ fn support_free_arm_overhangs_less_than_planar() {
 /// collides, no path is left out, and the same seed gives the same program.
 #[test]
 fn support_free_overhang_arch_overhangs_less_than_planar() {
-    let run = support_free_beats_planar(&overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32).unwrap());
+    let run = support_free_beats_planar(&print_part("overhang-arch").unwrap());
     let p = &run.program;
     assert_eq!(p.unprintable_length, 0.0, "{} unclear points", p.unclear_points);
 }

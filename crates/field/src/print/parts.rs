@@ -6,6 +6,30 @@ use s2g_geom::{Mesh, Point3};
 
 use crate::error::{FieldError, Result};
 
+/// The names of the built-in printing parts ([`print_part`]).
+pub const PRINT_PARTS: [&str; 4] = ["arm", "arch", "overhang-arch", "bracket"];
+
+/// A built-in printing part by name ([`PRINT_PARTS`]), at the size `s2g field print --part`
+/// and the `print_parts` example print it: the bent arm of `support_free` (radius 6,
+/// column 12, bend 16 through 60 degrees, arm 24), the arch on two feet (centreline
+/// radius 14, band 6 wide, pillars 10 high, 10 deep), the overhanging arch on one foot
+/// (the same band turning over through 120 degrees from a pillar 10 high) and the bracket
+/// with a tip (post 6 wide and 12 high, bend 10, arm 20 tapering to 2, 10 deep).
+///
+/// Errors: [`FieldError::InvalidArgument`] for another name.
+pub fn print_part(name: &str) -> Result<Mesh> {
+    match name {
+        "arm" => crate::bent_arm_mesh(6.0, 12.0, 16.0, 60.0, 24.0, 32, 12),
+        "arch" => arch_mesh(14.0, 6.0, 10.0, 10.0, 48),
+        "overhang-arch" => overhang_arch_mesh(14.0, 6.0, 10.0, 120.0, 10.0, 32),
+        "bracket" => bracket_mesh(6.0, 12.0, 10.0, 20.0, 2.0, 10.0, 24),
+        _ => Err(FieldError::InvalidArgument(format!(
+            "unknown part {name} (the built-in parts: {})",
+            PRINT_PARTS.join(", ")
+        ))),
+    }
+}
+
 /// A closed mesh of the band between the `inner` and `outer` chains (points `(x, z)` of
 /// the XZ plane, station by station), extruded from `y = 0` to `y = depth`: both ends of
 /// the band are flat faces.
