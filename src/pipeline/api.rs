@@ -129,9 +129,9 @@ pub struct MillOptions {
     /// mill reaches wherever the surface is; a tilted setup then gives way to a principal
     /// axis that meets the coverage target, a flip first. It gives the stress bushings and
     /// example002 the -Z setups their deep holes need (at 256^3: bushings 0.961-0.968 ->
-    /// 0.988, example002 0.986 -> 0.993, example004 0.959 -> 0.968). Default false until
-    /// the other parts are swept with it. The paper preset ignores it (its tools reach
-    /// through the stock).
+    /// 0.988, example002 0.986 -> 0.993, example004 0.959 -> 0.968; 22 of the 26 swept
+    /// parts at IoU 0.98 against 19 without). Default true; the paper preset ignores it
+    /// (its tools reach through the stock).
     pub tool_aware_reach: bool,
     /// With [`tool_aware_reach`](Self::tool_aware_reach): a tool that comes within this
     /// of a surface (part units, mm in the shop preset) reaches it, as a tool no wider
@@ -331,7 +331,7 @@ impl Default for MillOptions {
             seed: 0,
             stock_margin: 0.02,
             face_grid: true,
-            tool_aware_reach: false,
+            tool_aware_reach: true,
             reach_slack: None,
             paper_scale_mm: 100.0,
             paper_space_scale: 1.0,

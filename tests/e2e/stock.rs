@@ -1003,8 +1003,7 @@ fn holes_beside_a_tall_post_are_cut_from_below_where_the_tool_that_fits_them_rea
         (7..13).contains(&i) && (7..13).contains(&j) && !((9..11).contains(&j) && (9..11).contains(&k))
     };
     let part = cells([20, 20, 18], 2.0, |i, j, k| if k < 3 { !in_hole(i, j) } else { post(i, j, k) });
-    let opts =
-        MillOptions { stock: Stock::BoxSize([40.0, 40.0, 36.0]), tool_aware_reach: true, ..rest_options() };
+    let opts = MillOptions { stock: Stock::BoxSize([40.0, 40.0, 36.0]), ..rest_options() };
     let m = fixed_run(&part, &opts);
     assert!(m.is_safe(), "gouges {}, rapids {}", m.simulation.gouge_voxels, m.rapid_collisions());
     assert!(m.simulation.holder_collisions.is_empty(), "holder {:?}", m.simulation.holder_collisions);

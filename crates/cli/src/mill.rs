@@ -91,16 +91,17 @@ pub struct Args {
     /// --no-face-grid wins.
     #[arg(long, hide = true, overrides_with = "no_face_grid")]
     face_grid: bool,
-    /// Shop preset: choose setups by what a tool that fits each surface reaches with its
-    /// holder clear of the stock, instead of by the reach of the longest flat end mill
-    /// wherever a surface is (MillOptions::tool_aware_reach). Deep holes beside tall
-    /// features get setups from the other side; a gear's tooth roots at 256^3 do not.
-    #[arg(long, overrides_with = "no_tool_aware_reach")]
-    tool_aware_reach: bool,
-    /// The default; the later of it and --tool-aware-reach wins.
-    #[arg(long, hide = true, overrides_with = "tool_aware_reach")]
+    /// Shop preset: choose setups by the reach of the longest flat end mill wherever a
+    /// surface is, instead of by what a tool that fits each surface reaches with its
+    /// holder clear of the stock (the default, MillOptions::tool_aware_reach, which gives
+    /// deep holes beside tall features setups from the other side).
+    #[arg(long, overrides_with = "tool_aware_reach")]
     no_tool_aware_reach: bool,
-    /// With --tool-aware-reach: a tool that comes within MM of a surface reaches it
+    /// The default (kept so that older command lines run); the later of it and
+    /// --no-tool-aware-reach wins.
+    #[arg(long, hide = true, overrides_with = "no_tool_aware_reach")]
+    tool_aware_reach: bool,
+    /// With the tool-aware reach: a tool that comes within MM of a surface reaches it
     /// (MillOptions::reach_slack; default 0.3, or half a simulation voxel where more).
     #[arg(long, value_name = "MM")]
     reach_slack: Option<f64>,
@@ -494,7 +495,7 @@ fn face_grid(args: &Args) -> bool {
 /// Whether the shop preset's setups are chosen for a tool-aware reach: unless
 /// `--no-tool-aware-reach` (the later of it and `--tool-aware-reach` stands).
 fn tool_aware_reach(args: &Args) -> bool {
-    args.tool_aware_reach && !args.no_tool_aware_reach
+    args.tool_aware_reach || !args.no_tool_aware_reach
 }
 
 /// The library's options from the command line.
@@ -915,9 +916,9 @@ mod tests {
     }
 
     #[test]
-    fn the_tool_aware_reach_is_off_unless_tool_aware_reach_comes_last() {
+    fn the_tool_aware_reach_is_on_unless_no_tool_aware_reach_comes_last() {
         let on = |extra: &[&str]| tool_aware_reach(&parsed(extra));
-        assert!(!on(&[]));
+        assert!(on(&[]));
         assert!(on(&["--tool-aware-reach"]));
         assert!(!on(&["--no-tool-aware-reach"]));
         assert!(on(&["--no-tool-aware-reach", "--tool-aware-reach"]));
