@@ -41,6 +41,9 @@ pub struct PrintArgs {
     /// Bead width and path spacing, mm.
     #[arg(long, default_value_t = 1.0)]
     bead_width: f64,
+    /// Voxel edge of the rebuilt print's score and of the planar support, mm.
+    #[arg(long, default_value_t = 0.5)]
+    voxel: f64,
     /// Seed of the network, the samples and the batches.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -135,6 +138,7 @@ pub fn print(args: PrintArgs) -> anyhow::Result<ExitCode> {
     options.program.mount = if args.mount == "head" { RotaryMount::Head } else { RotaryMount::Table };
     options.paths.layer_height = args.layer_height;
     options.paths.bead_width = args.bead_width;
+    options.voxel = args.voxel;
     let json = args.json;
     let mut progress = |stage: PrintStage| {
         if !json {

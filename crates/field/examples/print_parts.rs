@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,overhang-arch,bracket,bunny,arch
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --dump DIR --mount table|head]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --voxel MM --dump DIR --mount table|head]
 //! ```
 //!
 //! `--dump DIR` writes each part's program and its planar program there
@@ -65,6 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--margin" => options.optimisation.constants.overhang_margin_deg = value.parse()?,
             "--first-factor" => options.optimisation.constants.first_layers_factor = value.parse()?,
             "--lean" => options.optimisation.pretrain_lean_deg = value.parse()?,
+            "--voxel" => options.voxel = value.parse()?,
             "--first-layers" => options.optimisation.constants.first_layers = value.parse()?,
             "--mount" => {
                 options.program.mount = match value.as_str() {

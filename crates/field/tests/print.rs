@@ -76,6 +76,21 @@ fn fast_options() -> PrintMeshOptions {
     o
 }
 
+/// A score voxel no grid can have is refused before the optimisation spends its steps: at
+/// once, with the field named, and with the progress never called.
+#[test]
+fn a_bad_score_voxel_is_refused_before_optimising() {
+    for voxel in [0.0, -0.5, f64::NAN, f64::INFINITY] {
+        let options = PrintMeshOptions { voxel, ..fast_options() };
+        let mut stages = 0;
+        let Err(err) = print_mesh(&arm(), &options, &mut |_| stages += 1) else {
+            panic!("voxel {voxel} accepted")
+        };
+        assert!(err.to_string().contains("score.voxel"), "{voxel}: {err}");
+        assert_eq!(stages, 0, "{voxel}: a stage ran");
+    }
+}
+
 /// The support a planar slicer needs: none under a box on the platform, the whole gap under
 /// a box held above it, and under the arch the columns below its intrados within `90° - α`
 /// of the crown (`x0 = r_i cos α`: `depth ∫ (pillar + √(r_i² - x²)) dx` over `|x| < x0`).

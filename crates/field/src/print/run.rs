@@ -258,6 +258,8 @@ pub fn print_mesh(
     options: &PrintMeshOptions,
     progress: &mut dyn FnMut(PrintStage),
 ) -> Result<PrintRun> {
+    // Checked before the optimisation, not after it.
+    FieldError::check_positive(&[("score.voxel", options.voxel)])?;
     let part = MeshSdf::new(mesh)?;
     let mut seconds = StageSeconds::default();
     let (field, path_field): (Box<dyn LayerField>, Option<NeuralLayers>) = match options.objective {
