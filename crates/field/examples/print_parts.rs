@@ -7,7 +7,8 @@
 //!
 //! ```text
 //! cargo run --release -p s2g-field --example print_parts [-- --parts arm,overhang-arch,bracket,bunny,arch
-//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --voxel MM --dump DIR --mount table|head]
+//!     --steps N --pretrain N --seed S --layer MM --bead MM --lattice MM --margin DEG --first-layers MM --first-factor F --lean DEG --voxel MM --min-spacing W
+//!     --min-path W --overlap W --rings N --dump DIR --mount table|head]
 //! ```
 //!
 //! `--dump DIR` writes each part's program and its planar program there
@@ -66,6 +67,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--first-factor" => options.optimisation.constants.first_layers_factor = value.parse()?,
             "--lean" => options.optimisation.pretrain_lean_deg = value.parse()?,
             "--voxel" => options.voxel = value.parse()?,
+            "--min-spacing" => options.paths.min_spacing = value.parse()?,
+            "--min-path" => options.paths.min_path_widths = value.parse()?,
+            "--overlap" => options.paths.infill_overlap = value.parse()?,
+            "--rings" => options.paths.rings = value.parse()?,
             "--first-layers" => options.optimisation.constants.first_layers = value.parse()?,
             "--mount" => {
                 options.program.mount = match value.as_str() {

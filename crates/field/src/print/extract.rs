@@ -11,9 +11,11 @@
 //!   each ring but the innermost rounded at convex corners by half a width more than the
 //!   ring inside it, so that rings stay within `1.21 w` of each other across a corner.
 //! - **Infill (zig-zag)**: iso-lines of `x·u`, `u` a unit vector in the layer's mean
-//!   tangent plane (turned 90° from layer to layer), fitted to each connected region
-//!   deeper than `(rings + ½ - overlap) w`: the first and last lines one width inside the
-//!   inner ring, the lines between evenly spaced at the nearest whole number of widths;
+//!   tangent plane, turned 90° from layer to layer unless the lines would meet the inner
+//!   ring at a slant (then the direction whose lines run along the ring's stretches or
+//!   meet them square: `infill_direction`), fitted to each connected region deeper than
+//!   `(rings + ½ - overlap) w`: the first and last lines one width inside the inner
+//!   ring, the lines between evenly spaced at the nearest whole number of widths;
 //!   consecutive lines whose ends lie within `2w` are joined into one zig-zag path.
 //! - **Trimming**: every path is cut where it comes within
 //!   [`PrintPathOptions::min_spacing`] of a path before it on the layer (rings, then
@@ -57,7 +59,10 @@ pub struct PrintPathOptions {
     pub infill_overlap: f64,
     /// Paths are cut where they come closer than this many bead widths to a path printed
     /// before them on the layer (an earlier ring, or the same ring across a thin wall);
-    /// `0` keeps them whole. Default `0.8`.
+    /// `0` keeps them whole. Default `0.75`, the low end of the spacing's ±25 %: the fitted
+    /// infill's lines lie at least `0.75 w` apart (`S / n`, `n` the nearest whole number of
+    /// widths in the region's extent `S`), and at `0.8` the middle one of three lines
+    /// `0.78 w` apart was cut away whole, leaving `1.57 w` between the other two.
     pub min_spacing: f64,
     /// Where across the bead the layer's boundary is taken, as a fraction of the layer's
     /// thickness below the tip: `0` at the tip (the top of the bead), `0.5` at mid-bead,
@@ -77,7 +82,7 @@ impl Default for PrintPathOptions {
             flat_deg: 5.0,
             min_path_widths: 1.0,
             infill_overlap: 0.3,
-            min_spacing: 0.8,
+            min_spacing: 0.75,
             wall_depth: 0.5,
         }
     }
@@ -381,6 +386,74 @@ fn layer_mesh(
     Ok(Some(LayerMesh { full: mesh, surface, samples, mean_normal, flat }))
 }
 
+/// An infill line within this angle of a stretch of the innermost ring runs along it.
+const ALONG_RING_DEG: f64 = 3.0;
+
+/// The infill's direction on layer `k`, in the plane normal to the layer's mean normal
+/// `n` (the lines run across it). By default `X` on even layers and `Y` on odd ones,
+/// projected into that plane (cross hatching); but lines that meet the innermost ring at a
+/// slant end short of it, trimmed where they come within
+/// [`PrintPathOptions::min_spacing`], and leave a wedge beside each end (the overhanging
+/// arch's tilted layers cut its band as trapezoids: its rebuilt IoU went from 0.891 to
+/// 0.901 with this choice). Each direction `θ` is scored by `Σ |s| cos α` over the ring's
+/// segments `s` (`α` the angle between the lines and the segment; 0 where they run along
+/// it, within [`ALONG_RING_DEG`]), what the ends along the ring leave unfilled; the
+/// default stands unless it scores more than 5 % of the ring's length above the best
+/// direction, which then takes its place, turned 90° on odd layers where that scores as
+/// well.
+fn infill_direction(n: &Vector3, k: usize, ring: &[(PathKind, Vec<Sample>, bool)]) -> Vector3 {
+    let project = |e: Vector3| {
+        (e - n * e.dot(n))
+            .try_normalize(1e-6)
+            .or_else(|| (Vector3::z() - n * n.z).try_normalize(1e-6))
+            .unwrap_or_else(Vector3::x)
+    };
+    let (ux, uy) = (project(Vector3::x()), project(Vector3::y()));
+    let default = if k.is_multiple_of(2) { ux } else { uy };
+    let v = n.cross(&ux);
+    // The ring's segments as (direction angle in [0, π), length) in the (ux, v) basis.
+    let segments: Vec<(f64, f64)> = ring
+        .iter()
+        .flat_map(|(_, pl, _)| pl.windows(2))
+        .filter_map(|s| {
+            let d = s[1].p - s[0].p;
+            let (a, b) = (d.dot(&ux), d.dot(&v));
+            let len = a.hypot(b);
+            (len > 1e-9).then(|| (b.atan2(a).rem_euclid(std::f64::consts::PI), len))
+        })
+        .collect();
+    let total: f64 = segments.iter().map(|s| s.1).sum();
+    if total <= 0.0 {
+        return default;
+    }
+    let along = ALONG_RING_DEG.to_radians();
+    let cost = |theta: f64| -> f64 {
+        segments
+            .iter()
+            .map(|&(phi, len)| {
+                // The lines (iso-lines of x·u) run across `u`, at θ + 90°.
+                let d = (phi - theta - std::f64::consts::FRAC_PI_2).rem_euclid(std::f64::consts::PI);
+                let alpha = d.min(std::f64::consts::PI - d);
+                if alpha < along { 0.0 } else { len * alpha.cos() }
+            })
+            .sum()
+    };
+    let angle = |u: &Vector3| u.dot(&v).atan2(u.dot(&ux));
+    let slack = 0.05 * total;
+    let mine = cost(angle(&default));
+    // Whole degrees, in order, so the choice is the same on every machine.
+    let (best, lowest) = (0..180)
+        .map(|deg| (deg as f64).to_radians())
+        .map(|t| (t, cost(t)))
+        .fold((0.0, f64::INFINITY), |acc, c| if c.1 < acc.1 { c } else { acc });
+    if mine <= lowest + slack {
+        return default;
+    }
+    let turned = best + std::f64::consts::FRAC_PI_2;
+    let theta = if !k.is_multiple_of(2) && cost(turned) <= lowest + slack { turned } else { best };
+    ux * theta.cos() + v * theta.sin()
+}
+
 /// Extracts every layer and its toolpaths (unordered) of the module docs.
 pub(crate) fn extract(
     lattice: &Lattice,
@@ -402,18 +475,15 @@ pub(crate) fn extract(
         let mut polylines: Vec<(PathKind, Vec<Sample>, bool)> = Vec::new();
         match path_field {
             None => {
+                let mut innermost = 0;
                 for i in 0..opts.rings {
+                    innermost = polylines.len();
                     let ring = ring_scalar(full, &layer.samples, i, opts.rings, w);
                     for (pl, closed) in iso_lines(full, &layer.samples, &ring, 0.0, f64::INFINITY) {
                         polylines.push((PathKind::Contour, pl, closed));
                     }
                 }
-                let n = layer.mean_normal;
-                let e = if k % 2 == 0 { Vector3::x() } else { Vector3::y() };
-                let u = (e - n * e.dot(&n))
-                    .try_normalize(1e-6)
-                    .or_else(|| (Vector3::z() - n * n.z).try_normalize(1e-6))
-                    .unwrap_or_else(Vector3::x);
+                let u = infill_direction(&layer.mean_normal, k, &polylines[innermost..]);
                 let psi: Vec<f64> = layer.samples.iter().map(|s| s.p.coords.dot(&u)).collect();
                 let clip = -(opts.rings as f64 + 0.5 - opts.infill_overlap) * w;
                 let edge = -(opts.rings as f64 + 0.5) * w;
