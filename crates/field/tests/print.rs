@@ -76,17 +76,19 @@ fn fast_options() -> PrintMeshOptions {
     o
 }
 
-/// A score voxel no grid can have is refused before the optimisation spends its steps: at
-/// once, with the field named, and with the progress never called.
+/// A score voxel no grid can have (not positive, not finite, or so fine that the part's
+/// box alone needs more than 2,048 voxels a side) is refused before the optimisation
+/// spends its steps: at once, naming the voxel, with the progress never called.
 #[test]
 fn a_bad_score_voxel_is_refused_before_optimising() {
-    for voxel in [0.0, -0.5, f64::NAN, f64::INFINITY] {
+    // 0.01 mm over the arm (about 40 mm) would be some 4,000 voxels a side.
+    for voxel in [0.0, -0.5, f64::NAN, f64::INFINITY, 0.01] {
         let options = PrintMeshOptions { voxel, ..fast_options() };
         let mut stages = 0;
         let Err(err) = print_mesh(&arm(), &options, &mut |_| stages += 1) else {
             panic!("voxel {voxel} accepted")
         };
-        assert!(err.to_string().contains("score.voxel"), "{voxel}: {err}");
+        assert!(err.to_string().contains("voxel"), "{voxel}: {err}");
         assert_eq!(stages, 0, "{voxel}: a stage ran");
     }
 }

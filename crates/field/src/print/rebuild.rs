@@ -21,7 +21,7 @@
 use std::collections::HashMap;
 
 use s2g_gcode::{Motion, MotionSink, ParseDialect, ParseOptions, RotaryAxes, RotaryMount, parse_str};
-use s2g_geom::{GridSpec, Isometry3, Mesh, Point3, Vector3, VoxelGrid, occupancy_iou, voxelize};
+use s2g_geom::{Aabb, GridSpec, Isometry3, Mesh, Point3, Vector3, VoxelGrid, occupancy_iou, voxelize};
 
 use crate::error::{FieldError, Result};
 
@@ -268,6 +268,23 @@ pub fn overhang_misses(
     (total, bad)
 }
 
+/// The most voxels along the score's grid.
+pub(crate) const MAX_SCORE_VOXELS: usize = 2048;
+
+/// Voxels along the longest side of the score's grid over `bbox` (the part's and the
+/// beads' box) grown by a bead width and a voxel; an error beyond [`MAX_SCORE_VOXELS`].
+pub(crate) fn score_voxels(bbox: &Aabb, bead_width: f64, voxel: f64) -> Result<usize> {
+    let bbox = bbox.inflated(bead_width + voxel);
+    let n = ((bbox.max - bbox.min).max() / voxel).ceil();
+    // NaN (a NaN box) is refused with the rest.
+    if n.is_nan() || n > MAX_SCORE_VOXELS as f64 {
+        return Err(FieldError::InvalidArgument(format!(
+            "{n} voxels of {voxel} along the print (at most {MAX_SCORE_VOXELS})"
+        )));
+    }
+    Ok(n as usize)
+}
+
 /// Scores `beads` against `mesh`: deposit and voxelised part on one grid of cubic voxels
 /// over the union of their boxes, IoU, volume ratio and overhang fraction.
 ///
@@ -280,11 +297,7 @@ pub fn score_print(beads: &[Bead], mesh: &Mesh, opts: &ScoreOptions) -> Result<P
         bbox.grow(&b.start);
         bbox.grow(&b.end);
     }
-    let bbox = bbox.inflated(opts.bead_width + opts.voxel);
-    let n = ((bbox.max - bbox.min).max() / opts.voxel).ceil() as usize;
-    if n > 2048 {
-        return Err(FieldError::InvalidArgument(format!("{n} voxels along the print (> 2048)")));
-    }
+    let n = score_voxels(&bbox, opts.bead_width, opts.voxel)?;
     let spec = GridSpec::cubic(&bbox, n.max(1)).map_err(FieldError::geom)?;
     let printed = deposit(beads, &spec, opts.bead_width);
     let part = voxelize(mesh, &spec).map_err(FieldError::geom)?;

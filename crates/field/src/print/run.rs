@@ -258,8 +258,11 @@ pub fn print_mesh(
     options: &PrintMeshOptions,
     progress: &mut dyn FnMut(PrintStage),
 ) -> Result<PrintRun> {
-    // Checked before the optimisation, not after it.
+    // Checked before the optimisation, not after it: the score's grid over the part's
+    // box alone already too fine is refused (the beads' box only adds to it).
     FieldError::check_positive(&[("score.voxel", options.voxel)])?;
+    let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
+    super::rebuild::score_voxels(&bbox, options.paths.bead_width, options.voxel)?;
     let part = MeshSdf::new(mesh)?;
     let mut seconds = StageSeconds::default();
     let (field, path_field): (Box<dyn LayerField>, Option<NeuralLayers>) = match options.objective {
@@ -283,7 +286,6 @@ pub fn print_mesh(
     } else {
         None
     };
-    let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
     let planar_support =
         planar_support(mesh, options.optimisation.constants.max_overhang_deg, bbox.min.z, options.voxel)?;
     Ok(PrintRun { plan, program, score, spacing, planar, planar_support, seconds })
