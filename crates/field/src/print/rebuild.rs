@@ -271,9 +271,9 @@ pub fn overhang_misses(
 /// The most voxels along the score's grid.
 pub(crate) const MAX_SCORE_VOXELS: usize = 2048;
 
-/// Voxels along the longest side of the score's grid over `bbox` (the part's and the
-/// beads' box) grown by a bead width and a voxel; an error beyond [`MAX_SCORE_VOXELS`].
-pub(crate) fn score_voxels(bbox: &Aabb, bead_width: f64, voxel: f64) -> Result<usize> {
+/// The score's box, `bbox` (the part's and the beads' box) grown by a bead width and a
+/// voxel, and the voxels along its longest side; an error beyond [`MAX_SCORE_VOXELS`].
+pub(crate) fn score_box(bbox: &Aabb, bead_width: f64, voxel: f64) -> Result<(Aabb, usize)> {
     let bbox = bbox.inflated(bead_width + voxel);
     let n = ((bbox.max - bbox.min).max() / voxel).ceil();
     // NaN (a NaN box) is refused with the rest.
@@ -282,7 +282,7 @@ pub(crate) fn score_voxels(bbox: &Aabb, bead_width: f64, voxel: f64) -> Result<u
             "{n} voxels of {voxel} along the print (at most {MAX_SCORE_VOXELS})"
         )));
     }
-    Ok(n as usize)
+    Ok((bbox, n as usize))
 }
 
 /// Scores `beads` against `mesh`: deposit and voxelised part on one grid of cubic voxels
@@ -297,7 +297,7 @@ pub fn score_print(beads: &[Bead], mesh: &Mesh, opts: &ScoreOptions) -> Result<P
         bbox.grow(&b.start);
         bbox.grow(&b.end);
     }
-    let n = score_voxels(&bbox, opts.bead_width, opts.voxel)?;
+    let (bbox, n) = score_box(&bbox, opts.bead_width, opts.voxel)?;
     let spec = GridSpec::cubic(&bbox, n.max(1)).map_err(FieldError::geom)?;
     let printed = deposit(beads, &spec, opts.bead_width);
     let part = voxelize(mesh, &spec).map_err(FieldError::geom)?;

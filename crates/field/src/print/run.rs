@@ -262,7 +262,7 @@ pub fn print_mesh(
     // box alone already too fine is refused (the beads' box only adds to it).
     FieldError::check_positive(&[("score.voxel", options.voxel)])?;
     let bbox = mesh.bbox().ok_or(FieldError::EmptyMesh)?;
-    super::rebuild::score_voxels(&bbox, options.paths.bead_width, options.voxel)?;
+    super::rebuild::score_box(&bbox, options.paths.bead_width, options.voxel)?;
     let part = MeshSdf::new(mesh)?;
     let mut seconds = StageSeconds::default();
     let (field, path_field): (Box<dyn LayerField>, Option<NeuralLayers>) = match options.objective {
