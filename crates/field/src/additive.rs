@@ -166,7 +166,7 @@ pub struct PrintConstants {
     /// Intrinsic factor of the first layers' loss ([`first_layers_loss`]). Default `8`: at
     /// `25` (the support-free loss's) the bunny's first layers were held so flat that its
     /// rebuilt print overhung 0.084, 0.074 and 0.123 of planar slicing's on seeds 0-2; at
-    /// `8`, 0.037, 0.049 and 0.018, with the overhanging arch, the bracket and the arm
+    /// `8`, 0.034, 0.051 and 0.021, with the overhanging arch, the bracket and the arm
     /// still above 0.9 IoU on every seed (README, multi-axis printing).
     pub first_layers_factor: f64,
 }
