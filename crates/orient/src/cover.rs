@@ -78,7 +78,7 @@ pub fn greedy_order(m: &VisibilityMatrix, set: &[usize]) -> (Vec<usize>, Vec<f64
             *u |= r;
         }
         order.push(d);
-        curve.push(if m.points() == 0 { 0.0 } else { popcount(&covered) as f64 / m.points() as f64 });
+        curve.push(m.fraction(popcount(&covered)));
     }
     (order, curve)
 }

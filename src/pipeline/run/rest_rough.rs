@@ -41,14 +41,14 @@ impl MillRun {
         let guarded = cutter.stickout.is_finite() || cutter.holder.is_some();
         let before = (popts.fit_arcs && popts.arc_tolerance.is_some() && guarded)
             .then(|| (self.sim.borrow().clone(), self.trace.clone()));
-        let (program, remaining) = match self.machine_own_once(i, finish_if.as_deref_mut(), progress)? {
-            (program, _) if !program.holder_collision_lines.is_empty() && before.is_some() => {
-                let (sim, trace) = before.expect("checked above");
+        let first = self.machine_own_once(i, finish_if.as_deref_mut(), progress)?;
+        let (program, remaining) = match before {
+            Some((sim, trace)) if !first.0.holder_collision_lines.is_empty() => {
                 (*self.sim.get_mut(), self.trace) = (sim, trace);
                 self.jobs[n].popts.fit_arcs = false;
                 self.machine_own_once(i, finish_if, progress)?
             }
-            done => done,
+            _ => first,
         };
         self.setups.push(program);
         self.remaining = remaining;
