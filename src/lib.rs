@@ -39,8 +39,8 @@ pub use crate::feature::{
 };
 #[cfg(feature = "learn")]
 pub use crate::learn::{
-    DgcnnShape, EncoderKind, GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, SetupEncoder,
-    TrainOptions, observation, train_policy,
+    DgcnnShape, EncoderKind, GeometricEncoder, LearnedPolicy, MachiningEnv, PolicyInfo, RewardShaping,
+    SetupEncoder, TrainOptions, observation, train_policy,
 };
 pub use crate::pipeline::{
     Datum, MillError, MillOptions, MillRun, Milled, PartDeviation, Preset, ProgramLayout, SetupChoice,

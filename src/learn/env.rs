@@ -37,7 +37,8 @@ pub(super) struct Outcome {
     preservation: f64,
     /// `R_f` (Eq. 11) after the last step, 0 before.
     final_iou: f64,
-    /// `R_MRR` (Eq. 12, cm³/min) after the last step, 0 before.
+    /// `R_MRR` (Eq. 12, cm³/min) of the setups machined so far, this one included: the
+    /// removed volume over their machining time (the episode's `R_MRR` after its last).
     mrr_cm3_per_min: f64,
     /// The next setup; `None` once every setup is machined.
     next: Option<View>,
@@ -51,21 +52,68 @@ impl Outcome {
         Ok(Self {
             preservation: r.preservation,
             final_iou: if last { r.final_iou } else { 0.0 },
-            mrr_cm3_per_min: if last { run.report().mrr_mm3_per_min / 1000.0 } else { 0.0 },
+            mrr_cm3_per_min: run.report().mrr_mm3_per_min / 1000.0,
             next: (!last).then(|| View::of(run)),
         })
     }
 
-    /// The step: `λ_s R_s`, plus `λ_f R_f + λ_MRR R_MRR` on the last step (Eq. 13).
-    fn step(&self, w: &RewardWeights, encoder: &SetupEncoder, space: &ActionSpace) -> Step {
-        let reward = w.lambda_s * self.preservation
-            + w.lambda_f * self.final_iou
-            + w.lambda_mrr * self.mrr_cm3_per_min;
+    /// The step's reward, `λ_s R_s` plus, on the last step, `λ_f R_f`, and the removal
+    /// rate's share by `shaping` (`before`: the removal rate after the step before, `None`
+    /// on the first): [`RewardShaping::Terminal`] adds `λ_MRR R_MRR` on the last step (Eq. 13 as
+    /// the paper splits it), [`RewardShaping::Telescoped`] adds on every step `λ_MRR`
+    /// times the change this step made to the removal rate of the setups so far. Either
+    /// way the rewards of an episode sum to Eq. 13.
+    fn reward(&self, before: Option<f64>, w: &RewardWeights, shaping: RewardShaping) -> f64 {
+        let last = self.next.is_none();
+        let mrr = match shaping {
+            RewardShaping::Terminal if last => self.mrr_cm3_per_min,
+            RewardShaping::Terminal => 0.0,
+            RewardShaping::Telescoped => self.mrr_cm3_per_min - before.unwrap_or(0.0),
+        };
+        w.lambda_s * self.preservation + w.lambda_f * self.final_iou + w.lambda_mrr * mrr
+    }
+
+    /// The step: its [`reward`](Self::reward) and the next state.
+    fn step(&self, before: Option<f64>, env: &MachiningEnv) -> Step {
+        let reward = self.reward(before, &env.weights, env.shaping);
         let state = match &self.next {
-            Some(view) => view.state(encoder, space),
-            None => vec![0.0; encoder.dim() + 2],
+            Some(view) => view.state(&env.encoder, &env.space),
+            None => vec![0.0; env.encoder.dim() + 2],
         };
         Step { state, reward: reward as f32, done: self.next.is_none() }
+    }
+}
+
+/// How the removal rate's term of Eq. 13 is shared among an episode's steps
+/// ([`TrainOptions::shaping`]). Both give each episode the same return (undiscounted);
+/// they differ in which step is paid for the machining time a step spends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RewardShaping {
+    /// The paper's split: `λ_MRR R_MRR` of the whole part on the last step only. The
+    /// state carries no machining time, so a slow tool chosen on an early step costs that
+    /// step nothing the Q-network can trace back to it: the last step's state is the same
+    /// whichever tool came before, and its reward is not.
+    #[default]
+    Terminal,
+    /// Each step is paid `λ_MRR` times the change it made to the removal rate of the
+    /// setups machined so far (the first step, the rate of its own setup): the terms
+    /// telescope to `λ_MRR R_MRR` over the episode, and a slow tool lowers the reward of
+    /// the step that chose it.
+    Telescoped,
+}
+
+impl RewardShaping {
+    /// The name `s2g train --reward-shaping` takes: `terminal` or `telescoped`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Terminal => "terminal",
+            Self::Telescoped => "telescoped",
+        }
+    }
+
+    /// The shaping `name` names ([`name`](Self::name)); `None` for any other.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Terminal, Self::Telescoped].into_iter().find(|s| s.name() == name)
     }
 }
 
@@ -84,7 +132,7 @@ pub(super) struct OutcomeLine {
 /// The first line of an outcome file. Outcomes are what this build's pipeline gives: a
 /// change to planning, simulation or features that changes them must change this line, so
 /// that older files are refused rather than trusted.
-pub(super) const OUTCOME_MAGIC: &str = concat!("S2GOUTCOMES 1 shape2gcode ", env!("CARGO_PKG_VERSION"));
+pub(super) const OUTCOME_MAGIC: &str = concat!("S2GOUTCOMES 2 shape2gcode ", env!("CARGO_PKG_VERSION"));
 
 /// Options of [`train_policy`] and of the machining environment.
 #[derive(Debug, Clone, PartialEq)]
@@ -111,6 +159,9 @@ pub struct TrainOptions {
     /// simulated again, written as training goes ([`MachiningEnv::autosave`]) and after it.
     /// Default `None`.
     pub outcomes: Option<std::path::PathBuf>,
+    /// How the removal rate's term is shared among an episode's steps. Default
+    /// [`RewardShaping::Terminal`], the paper's.
+    pub shaping: RewardShaping,
 }
 
 impl Default for TrainOptions {
@@ -137,6 +188,7 @@ impl Default for TrainOptions {
             },
             encoder: EncoderKind::Geometric,
             outcomes: None,
+            shaping: RewardShaping::Terminal,
         }
     }
 }
@@ -151,6 +203,7 @@ pub struct MachiningEnv {
     fingerprints: Vec<String>,
     opts: MillOptions,
     weights: RewardWeights,
+    shaping: RewardShaping,
     pub(super) encoder: SetupEncoder,
     space: ActionSpace,
     /// The part of the current episode and the actions taken so far.
@@ -201,6 +254,7 @@ impl MachiningEnv {
             space,
             opts,
             weights,
+            shaping: RewardShaping::Terminal,
             part: 0,
             taken: Vec::new(),
             outcomes: HashMap::new(),
@@ -217,6 +271,12 @@ impl MachiningEnv {
     /// stopped part way keeps what it simulated.
     pub fn autosave(&mut self, path: &Path) {
         self.autosave = Some((path.to_path_buf(), 0));
+    }
+
+    /// Shares the removal rate's term among the steps by `shaping` from now on (the
+    /// environment starts with [`RewardShaping::Terminal`]).
+    pub fn set_shaping(&mut self, shaping: RewardShaping) {
+        self.shaping = shaping;
     }
 
     /// New simulated steps between two writes of [`autosave`](Self::autosave).
@@ -417,9 +477,15 @@ impl Environment for MachiningEnv {
         }
         let mut key = (self.part, self.taken.clone());
         key.1.push(action);
+        // The removal rate after the step before (every step's outcome is kept as it is
+        // taken); `None` on the first step.
+        let before = (!self.taken.is_empty())
+            .then(|| self.outcomes.get(&(self.part, self.taken.clone())).map(|o| o.mrr_cm3_per_min))
+            .flatten();
         if let Some(outcome) = self.outcomes.get(&key) {
+            let step = outcome.step(before, self);
             self.taken.push(action);
-            return Ok(outcome.step(&self.weights, &self.encoder, &self.space));
+            return Ok(step);
         }
         let mut run = self.run_at_taken()?;
         let chosen = self.space.action(action).ok_or_else(|| bad_action(action, self.space.len()))?;
@@ -428,7 +494,7 @@ impl Environment for MachiningEnv {
         let outcome = Outcome::of(&run)?;
         // The run is kept, not copied: a later step continues a copy of it.
         self.keep(self.part, self.taken.clone(), run);
-        let step = outcome.step(&self.weights, &self.encoder, &self.space);
+        let step = outcome.step(before, self);
         self.outcomes.insert(key, outcome);
         if let Some((path, new)) = self.autosave.as_mut() {
             *new += 1;

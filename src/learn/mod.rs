@@ -24,6 +24,13 @@
 //! machining time in **cm³ per minute** of the machined part (the paper preset machines the
 //! unit cube at 100 mm), so that it does not change with the grid's resolution.
 //!
+//! That split is [`RewardShaping::Terminal`]. The state carries no machining time, so the
+//! time a slow tool spends on an early setup reaches no step's reward that the Q-network
+//! can trace to it: the last step's state is the same whichever tool came before. With
+//! [`RewardShaping::Telescoped`] (`s2g train --reward-shaping telescoped`) each step is
+//! paid `λ_MRR` times the change it made to the removal rate of the setups machined so
+//! far; the terms telescope, so an episode's return is still Eq. 13.
+//!
 //! A deterministic environment repeats itself: the outcome of every action sequence tried
 //! is kept, and an episode simulates only when it leaves what was tried. It then continues
 //! a copy of the run at the longest prefix of its actions that was simulated (copies are
@@ -171,7 +178,7 @@ pub fn observation(encoder: &impl Encoder<Input = SetupFeatures>, ctx: &SetupCon
     s
 }
 
-pub use self::env::{MachiningEnv, TrainOptions};
+pub use self::env::{MachiningEnv, RewardShaping, TrainOptions};
 pub use self::policy::{DgcnnShape, LearnedPolicy, PolicyInfo, train_policy};
 
 fn rl_error(e: RlError) -> MillError {

@@ -34,6 +34,11 @@ pub struct PolicyInfo {
     /// keeps the rule. Absent (false) in files written before the option.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub double: bool,
+    /// Whether its rewards paid the removal rate step by step
+    /// ([`RewardShaping::Telescoped`]); fine-tuning keeps the rule. Absent (false: the
+    /// paper's [`RewardShaping::Terminal`]) in files written before the option.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub telescoped: bool,
 }
 
 /// The shape and seed of a policy's DGCNN encoder, as its file states them.
@@ -221,6 +226,10 @@ impl LearnedPolicy {
             opts.weights,
             &self.encoder_kind(),
         )?;
+        env.set_shaping(match self.info.telescoped {
+            true => RewardShaping::Telescoped,
+            false => RewardShaping::Terminal,
+        });
         let mut returns = Vec::with_capacity(episodes);
         agent
             .train(&mut env, episodes, |e| {
@@ -268,6 +277,7 @@ pub fn train_policy(
     on_episode: &mut dyn FnMut(EpisodeStats),
 ) -> Result<LearnedPolicy, MillError> {
     let mut env = MachiningEnv::with_encoder(parts.to_vec(), opts.mill.clone(), opts.weights, &opts.encoder)?;
+    env.set_shaping(opts.shaping);
     if let Some(path) = &opts.outcomes {
         env.load_outcomes(path)?;
         env.autosave(path);
@@ -301,6 +311,7 @@ pub fn train_policy(
         seed: opts.seed,
         resolution: opts.mill.resolution,
         double: opts.dqn.double,
+        telescoped: opts.shaping == RewardShaping::Telescoped,
     };
     Ok(LearnedPolicy { encoder: env.encoder, agent, info, deferred: 0 })
 }

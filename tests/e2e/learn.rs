@@ -88,6 +88,38 @@ fn episode_returns_are_eq13_of_the_pipeline_and_reproducible() {
     assert!(env.step(20).is_err());
 }
 
+#[test]
+fn telescoped_rewards_charge_a_slow_tool_to_its_step_and_sum_to_eq13() {
+    use shape2gcode::RewardShaping;
+    let (parts, opts) = cheap();
+    let w = RewardWeights::default();
+    let mut terminal = MachiningEnv::new(parts.clone(), opts.clone(), w).unwrap();
+    let mut telescoped = MachiningEnv::new(parts, opts, w).unwrap();
+    telescoped.set_shaping(RewardShaping::Telescoped);
+    let rewards = |env: &mut MachiningEnv, actions: [usize; 2]| -> Vec<f64> {
+        env.reset(0).unwrap();
+        actions.iter().map(|&a| f64::from(env.step(a).unwrap().reward)).collect()
+    };
+    // The first step's removal rate: what telescoping adds to that step, over lambda_MRR.
+    let mut first_rate = Vec::new();
+    for actions in [[0usize, 19], [19, 0], [19, 19], [0, 0]] {
+        let (a, b) = (rewards(&mut terminal, actions), rewards(&mut telescoped, actions));
+        let (sa, sb): (f64, f64) = (a.iter().sum(), b.iter().sum());
+        assert!((sa - sb).abs() <= 1e-5 * sa.abs(), "{actions:?}: returns {sa} and {sb} differ");
+        let rate = (b[0] - a[0]) / w.lambda_mrr;
+        assert!(rate > 0.0, "{actions:?}: the first setup removed material at {rate} cm3/min");
+        // The last step is paid the change of the rate, not the rate.
+        assert!((b[1] - a[1] + w.lambda_mrr * rate).abs() <= 1e-5, "{actions:?}: {a:?} {b:?}");
+        first_rate.push(rate);
+    }
+    // The same first action, the same first reward whatever follows (the cache's path and
+    // the simulated one agree).
+    assert!((first_rate[0] - first_rate[3]).abs() <= 1e-6 && (first_rate[1] - first_rate[2]).abs() <= 1e-6);
+    // The finest tool on the thinnest layers removes far more slowly than the coarsest: its
+    // step, not only the last, is paid less for it.
+    assert!(first_rate[0] < 0.75 * first_rate[1], "fine {} vs coarse {}", first_rate[0], first_rate[1]);
+}
+
 /// Plays back a list of actions.
 struct Replay {
     actions: Vec<shape2gcode::Action>,

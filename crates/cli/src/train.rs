@@ -10,7 +10,7 @@ use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use shape2gcode::rl::DgcnnConfig;
 use shape2gcode::voxsim::RewardWeights;
-use shape2gcode::{EncoderKind, SetupCount, TrainOptions, train_policy};
+use shape2gcode::{EncoderKind, RewardShaping, SetupCount, TrainOptions, train_policy};
 
 use crate::eval::parts;
 
@@ -54,6 +54,12 @@ pub struct Args {
     /// the paper's Table 5).
     #[arg(long, default_value = "1,1,0.1")]
     reward_weights: String,
+    /// How the removal rate's term of Eq. 13 is paid among an episode's steps: `terminal`
+    /// (the paper's: all of it on the last step) or `telescoped` (each step the change it
+    /// made to the removal rate of the setups so far, so that a slow tool costs the step
+    /// that chose it). Both sum to Eq. 13 over an episode.
+    #[arg(long, default_value = "terminal")]
+    reward_shaping: String,
     /// Gradient updates per environment step (each on its own batch): more extract more from
     /// each costly simulated setup.
     #[arg(long, default_value_t = 1)]
@@ -97,6 +103,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             format!("--reward-weights needs three weights >= 0, got {:?}", args.reward_weights)
         })?;
     let weights = RewardWeights { lambda_s: w[0], lambda_f: w[1], lambda_mrr: w[2] };
+    let Some(shaping) = RewardShaping::from_name(&args.reward_shaping) else {
+        bail!("unknown reward shaping {:?} (terminal or telescoped)", args.reward_shaping)
+    };
     let opts = TrainOptions {
         episodes: args.episodes,
         seed: args.seed,
@@ -121,6 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         encoder,
         weights,
         outcomes: args.outcomes.clone(),
+        shaping,
     };
     let bar = ProgressBar::new(args.episodes as u64);
     bar.set_style(
