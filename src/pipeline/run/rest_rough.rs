@@ -14,6 +14,7 @@ use crate::toolpath::finish::part_in_setup_frame;
 use crate::toolpath::library::Cutting;
 use crate::trace::PathTrace;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 impl MillRun {
     /// Machines the last job, setup `i`'s own (0-based): planned, written and simulated;
@@ -215,11 +216,11 @@ impl MillRun {
     /// considers there; none indexed where no rest tool is `wanted` or the part is empty in
     /// its frame (no rest pass is then worth it).
     pub(super) fn rest_scope(&self, wanted: bool) -> RestScope {
-        let none = RestScope { index: None, bottom: f64::INFINITY };
+        let none = RestScope { index: None, bottom: f64::INFINITY, cache: Default::default() };
         let Some(own) = self.own_job().filter(|_| wanted) else { return none };
         let part = part_in_setup_frame(&self.part, &own.setup);
         let bottom = part.bbox().map_or(f64::INFINITY, |b| b.min.z);
-        RestScope { index: MeshIndex::new(&part).ok(), bottom }
+        RestScope { index: MeshIndex::new(&part).ok(), bottom, cache: Default::default() }
     }
 
     /// The material left (mm³) that a rest pass with `tool` after one with `wider` in the
@@ -345,21 +346,49 @@ impl MillRun {
         // Farther from the part than the allowance and a quarter voxel: what the rest tool
         // cuts to size.
         let clear = allowance + 0.25 * h;
-        let left: Vec<[usize; 3]> = remaining.iter_set().collect();
-        let count = left
-            .into_par_iter()
-            .filter(|&[i, j, k]| {
-                let p = spec.center(i, j, k);
-                let q = setup.to_setup(&p);
-                (lo..=hi).contains(&q.z)
-                    && q.z >= scope.bottom
-                    && seen(p)
-                    && index.closest_point(&q).distance > clear
-                    && !ball.as_ref().is_some_and(|b| takes(b, &q, &coarse, 0.5 * h))
-                    && takes(&rest, &q, &corners, h)
-                    && !takes(&wide, &q, &fine, h)
+        // What does not depend on the rest tool is worked out once for the material left,
+        // the wider tool and the finisher (the rule asks for several rest tools in turn),
+        // each voxel when first in a tool's range: the same tests, in the same order.
+        let mut cache = scope.cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let key = (*wider, finisher.copied());
+        if !cache.as_ref().is_some_and(|c| c.holds(remaining, &key)) {
+            *cache = Some(RestCache::new(remaining, key));
+        }
+        let Some(cache) = cache.as_ref() else { return 0.0 };
+        let count: usize = cache
+            .bricks
+            .par_iter()
+            .map(|&(b, corner, offset)| {
+                let mut n = 0;
+                for (ordinal, [di, dj, dk]) in brick_voxels(&cache.remaining_bricks[b]).enumerate() {
+                    let [i, j, k] = [corner[0] + di, corner[1] + dj, corner[2] + dk];
+                    let p = spec.center(i, j, k);
+                    let q = setup.to_setup(&p);
+                    if !((lo..=hi).contains(&q.z) && q.z >= scope.bottom) {
+                        continue;
+                    }
+                    let state = &cache.state[offset + ordinal];
+                    let mut known = state.load(Ordering::Relaxed);
+                    if known == RestCache::UNKNOWN {
+                        let kept = seen(p)
+                            && index.closest_point(&q).distance > clear
+                            && !ball.as_ref().is_some_and(|b| takes(b, &q, &coarse, 0.5 * h));
+                        known = if kept { RestCache::KEPT } else { RestCache::OUT };
+                        state.store(known, Ordering::Relaxed);
+                    }
+                    if known == RestCache::OUT || !takes(&rest, &q, &corners, h) {
+                        continue;
+                    }
+                    if known == RestCache::KEPT {
+                        let wide_takes = takes(&wide, &q, &fine, h);
+                        known = if wide_takes { RestCache::WIDE_TAKES } else { RestCache::WIDE_LEAVES };
+                        state.store(known, Ordering::Relaxed);
+                    }
+                    n += usize::from(known == RestCache::WIDE_LEAVES);
+                }
+                n
             })
-            .count();
+            .sum();
         count as f64 * spec.voxel_volume()
     }
 
@@ -625,4 +654,61 @@ pub(super) type RestVerdict = (Option<RestTool>, usize, RestScope);
 pub(super) struct RestScope {
     index: Option<MeshIndex>,
     bottom: f64,
+    /// What the rule found of the voxels last weighed ([`RestCache`]).
+    cache: std::sync::Mutex<Option<RestCache>>,
+}
+
+/// What [`MillRun::rest_left`] found of each voxel of the material left that does not
+/// depend on the rest tool, for one wider tool and finisher: whether it is seen along the
+/// axis, clear of the part and not the finisher's, and where the rest tool takes it, whether
+/// the wider tool does. Each voxel's state is set by the one thread that weighs it, so the
+/// count is the same whatever the number of threads.
+struct RestCache {
+    key: (Tool, Option<Tool>),
+    /// The material left: its grid and bricks, and per brick with a voxel set, its index,
+    /// its lower corner's voxel and the offset of its first voxel's state in `state`.
+    spec: crate::geom::GridSpec,
+    remaining_bricks: Vec<crate::geom::Brick>,
+    bricks: Vec<(usize, [usize; 3], usize)>,
+    state: Vec<AtomicU8>,
+}
+
+impl RestCache {
+    const UNKNOWN: u8 = 0;
+    const OUT: u8 = 1;
+    const KEPT: u8 = 2;
+    const WIDE_TAKES: u8 = 3;
+    const WIDE_LEAVES: u8 = 4;
+
+    fn new(remaining: &VoxelGrid, key: (Tool, Option<Tool>)) -> Self {
+        let mut bricks = Vec::new();
+        let mut remaining_bricks = Vec::with_capacity(remaining.brick_dims().iter().product());
+        let mut total = 0;
+        for (b, (corner, brick)) in remaining.bricks().enumerate() {
+            remaining_bricks.push(*brick);
+            let n: usize = brick.iter().map(|w| w.count_ones() as usize).sum();
+            if n > 0 {
+                bricks.push((b, corner, total));
+                total += n;
+            }
+        }
+        let state = (0..total).map(|_| AtomicU8::new(Self::UNKNOWN)).collect();
+        Self { key, spec: *remaining.spec(), remaining_bricks, bricks, state }
+    }
+
+    /// Whether this is what was found of `remaining` for `key`.
+    fn holds(&self, remaining: &VoxelGrid, key: &(Tool, Option<Tool>)) -> bool {
+        self.key == *key
+            && self.spec == *remaining.spec()
+            && remaining.bricks().len() == self.remaining_bricks.len()
+            && remaining.bricks().zip(&self.remaining_bricks).all(|((_, a), b)| a == b)
+    }
+}
+
+/// The set voxels of a brick, as offsets from its lower corner, in a fixed order.
+fn brick_voxels(brick: &crate::geom::Brick) -> impl Iterator<Item = [usize; 3]> + '_ {
+    use crate::geom::BRICK;
+    brick.iter().enumerate().flat_map(|(z, &word)| {
+        (0..BRICK * BRICK).filter(move |bit| word >> bit & 1 == 1).map(move |bit| [bit % BRICK, bit / BRICK, z])
+    })
 }
