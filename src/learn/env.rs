@@ -132,7 +132,7 @@ pub(super) struct OutcomeLine {
 /// The first line of an outcome file. Outcomes are what this build's pipeline gives: a
 /// change to planning, simulation or features that changes them must change this line, so
 /// that older files are refused rather than trusted.
-pub(super) const OUTCOME_MAGIC: &str = concat!("S2GOUTCOMES 2 shape2gcode ", env!("CARGO_PKG_VERSION"));
+pub(super) const OUTCOME_MAGIC: &str = concat!("S2GOUTCOMES 3 shape2gcode ", env!("CARGO_PKG_VERSION"));
 
 /// Options of [`train_policy`] and of the machining environment.
 #[derive(Debug, Clone, PartialEq)]

@@ -120,6 +120,41 @@ fn telescoped_rewards_charge_a_slow_tool_to_its_step_and_sum_to_eq13() {
     assert!(first_rate[0] < 0.75 * first_rate[1], "fine {} vs coarse {}", first_rate[0], first_rate[1]);
 }
 
+/// A step that once ran out of memory in training (seed 2's 86th episode): a generated
+/// turned part whose third setup stands 0.3 degrees off its axis, so that the needle-thin
+/// projections of its wall facets made the keep-outs' running union grow by a slab's
+/// vertices per level (200,000 vertices, then offsets that took 24 GB). With the union's
+/// vertices bounded it mills as any other part.
+#[test]
+fn a_turned_part_on_a_slightly_tilted_setup_mills_in_bounded_memory() {
+    use s2g_gen::{GenOptions, Kind, generate};
+    let part = generate(37, 167, &GenOptions { kind: Kind::Mix, size: 100.0 }).unwrap();
+    assert_eq!(part.name, "turned_00167");
+    let opts = MillOptions {
+        resolution: 64,
+        paper_space_scale: shape2gcode::ActionSpace::paper_space_scale(64),
+        orient_points: 2048,
+        orient_candidates: 128,
+        setups: SetupCount::Exactly(3),
+        flank_walls: false,
+        seed: 2,
+        metric_samples: 2000,
+        layout: shape2gcode::ProgramLayout::PerSetup,
+        ..MillOptions::default()
+    };
+    let space = opts.action_space();
+    let actions = [22, 25, 43].map(|a| space.action(a).unwrap());
+    // The third: the coarsest tool's periphery clearing.
+    assert_eq!(actions[2].tool_radius, *space.radii.last().unwrap());
+    let mut policy = Replay { actions: actions.to_vec(), k: 0 };
+    let milled = mill(&part.mesh, &mut policy, &opts, &mut |_| {}).unwrap();
+    let axis = milled.setups[2].setup.tool_axis();
+    let off = axis.z.abs().acos().to_degrees();
+    assert!(off > 0.05 && off < 1.0, "the third setup stands {off} degrees off the part's axis");
+    assert!(milled.metrics.iou > 0.9, "IoU {}", milled.metrics.iou);
+    assert_eq!(milled.simulation.gouge_voxels, 0);
+}
+
 /// Plays back a list of actions.
 struct Replay {
     actions: Vec<shape2gcode::Action>,

@@ -89,7 +89,7 @@ pub fn slice_setup<E>(
 ) -> Result<SetupSlices, ToolpathError<E>> {
     let s = slice_levels(part, setup, tool, opts)?;
     let n = s.levels.len();
-    let keepouts = Keepouts::new(s.slabs, s.min_hole_area).advance(n);
+    let keepouts = Keepouts::new(s.slabs, s.min_hole_area, keepout_tolerance(&s.stock)).advance(n);
     Ok(SetupSlices {
         stock: s.stock,
         part_bbox: s.part_bbox,
@@ -110,6 +110,12 @@ struct Sliced {
     min_hole_area: f64,
     /// The keep-outs are exact to within this width ([`PlanOptions::sliver_width`]).
     sliver_width: f64,
+}
+
+/// The tolerance of a keep-out union simplified for its size (`Keepouts`): 1e-4 of the
+/// stock's larger horizontal side (10 µm on a 100 mm part).
+fn keepout_tolerance(stock: &Aabb) -> f64 {
+    1e-4 * stock.extent().x.max(stock.extent().y)
 }
 
 fn slice_levels<E>(
@@ -859,7 +865,7 @@ pub fn plan_setup_watched<S: MotionSink>(
     let end_level = |b: &std::ops::Range<usize>| groups[b.end - 1].rough + 1;
     // The keep-outs' running union is sequential: the next batch's keep-outs are computed
     // while this batch's layers are planned.
-    let mut chain = Keepouts::new(sliced.slabs, sliced.min_hole_area);
+    let mut chain = Keepouts::new(sliced.slabs, sliced.min_hole_area, keepout_tolerance(&sliced.stock));
     let mut window = batches.first().map(|b| chain.advance(end_level(b))).unwrap_or_default();
     // The tool-centre keep-out of the last level planned: the next batch's grow from it.
     let mut above: Option<Nest> = None;

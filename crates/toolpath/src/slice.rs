@@ -80,16 +80,36 @@ pub(crate) fn layer_levels(top: f64, bottom: f64, h: f64, flats: &[f64], tol: f6
 /// ([`Region2::with_small_holes_filled`]): with `π d²` for a keep-out grown by `d`, the
 /// grown regions are the same, and the running union of a finely sliced mesh no longer
 /// carries thousands of sliver holes from level to level.
+///
+/// The running union's vertices are bounded: where it has more than [`Keepouts::BUDGET`]
+/// times the most of any slab (and at least [`Keepouts::FLOOR`]), it is replaced by a
+/// simpler region that contains it ([`Region2::simplified_outward`] at `tolerance`,
+/// doubled up to three times while it stays above that: each lies within 2.5 times its
+/// tolerance of what it simplifies). Walls a few tenths of a degree
+/// off the tool axis (a turned part on a setup tilted by 0.3 degrees) make every slab's
+/// needle-thin wall faces cross the union's boundary, which then grows by a slab's
+/// vertices per level: 200,000 vertices after 200 levels, unions of seconds and offsets
+/// that ran out of 24 GB. A simplified keep-out lies at most `37.5 tolerance` outside the
+/// exact one, so the tool stays at most that much farther from the part; on every other
+/// part the union is exact, as before.
 pub(crate) struct Keepouts {
     slabs: Vec<Region2>,
     acc: Region2,
     done: usize,
     min_hole_area: f64,
+    tolerance: f64,
+    /// The most vertices of a slab so far.
+    widest: usize,
 }
 
 impl Keepouts {
-    pub(crate) fn new(slabs: Vec<Region2>, min_hole_area: f64) -> Self {
-        Self { slabs, acc: Region2::empty(), done: 0, min_hole_area }
+    /// Vertices of the running union allowed per vertex of the largest slab.
+    pub(crate) const BUDGET: usize = 32;
+    /// Vertices of the running union always allowed.
+    pub(crate) const FLOOR: usize = 50_000;
+
+    pub(crate) fn new(slabs: Vec<Region2>, min_hole_area: f64, tolerance: f64) -> Self {
+        Self { slabs, acc: Region2::empty(), done: 0, min_hole_area, tolerance, widest: 0 }
     }
 
     /// The keep-outs of the levels after those already returned, up to `end` (exclusive,
@@ -99,7 +119,17 @@ impl Keepouts {
         let mut out = Vec::with_capacity(end.saturating_sub(self.done));
         for s in &mut self.slabs[self.done.min(end)..end] {
             if !s.is_empty() {
+                self.widest = self.widest.max(s.vertex_count());
                 self.acc = self.acc.union(&std::mem::take(s)).with_small_holes_filled(self.min_hole_area);
+                let budget = (Self::BUDGET * self.widest).max(Self::FLOOR);
+                let mut tol = self.tolerance;
+                for _ in 0..4 {
+                    if self.acc.vertex_count() <= budget || !(tol > 0.0) {
+                        break;
+                    }
+                    self.acc = self.acc.simplified_outward(tol);
+                    tol *= 2.0;
+                }
             }
             out.push(self.acc.clone());
         }

@@ -709,6 +709,8 @@ impl RestCache {
 fn brick_voxels(brick: &crate::geom::Brick) -> impl Iterator<Item = [usize; 3]> + '_ {
     use crate::geom::BRICK;
     brick.iter().enumerate().flat_map(|(z, &word)| {
-        (0..BRICK * BRICK).filter(move |bit| word >> bit & 1 == 1).map(move |bit| [bit % BRICK, bit / BRICK, z])
+        (0..BRICK * BRICK)
+            .filter(move |bit| word >> bit & 1 == 1)
+            .map(move |bit| [bit % BRICK, bit / BRICK, z])
     })
 }
